@@ -1,0 +1,44 @@
+"""mrnea: robot dynamics with the modified recursive Newton-Euler algorithm (mRNEA).
+
+One pass returns the joint-space mass matrix H and the bias vector u'; on top of it mrnea computes
+the joint accelerations the real actuators can achieve and simulates the motion cycle by cycle.
+"""
+
+from mrnea import robots
+from mrnea.dynamics import (
+    forward_dynamics,
+    inverse_dynamics,
+    joint_reactions,
+    mass_matrix_and_bias,
+)
+from mrnea.errors import (
+    MrneaError,
+    ModelError,
+    RobotFileError,
+    SingularMassMatrixError,
+    StateError,
+)
+from mrnea.io import load_robot, load_urdf
+from mrnea.model import Joint, Link, Robot, transform
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Joint",
+    "Link",
+    "ModelError",
+    "MrneaError",
+    "Robot",
+    "RobotFileError",
+    "SingularMassMatrixError",
+    "StateError",
+    "__version__",
+    "forward_dynamics",
+    "inverse_dynamics",
+    "joint_reactions",
+    "load_robot",
+    "load_urdf",
+    "mass_matrix_and_bias",
+    "robots",
+    "transform",
+]

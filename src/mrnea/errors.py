@@ -1,0 +1,30 @@
+"""The package's error types.
+
+Every error mrnea raises on bad input is a subclass of :class:`MrneaError`, itself a
+:class:`ValueError`, and its message names the offending element (link, joint, file, argument).
+"""
+
+from __future__ import annotations
+
+
+class MrneaError(ValueError):
+    """Base class of every mrnea input error."""
+
+
+class ModelError(MrneaError):
+    """A robot description is not physical or not consistent (mass, inertia, axis, limits...)."""
+
+
+class RobotFileError(ModelError):
+    """A robot file (URDF, native TOML/YAML, DH table) cannot be read or parsed."""
+
+
+class StateError(MrneaError):
+    """A state or argument passed to the public API has the wrong shape, type or value."""
+
+
+class SingularMassMatrixError(MrneaError):
+    """The joint-space mass matrix H is singular or not positive definite at this state.
+
+    This happens, for example, when a moving link and everything it carries is massless.
+    """

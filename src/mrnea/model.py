@@ -1,0 +1,383 @@
+"""The robot description: an immutable, validated serial chain of links and joints.
+
+Conventions (the same as URDF's, so URDF files map one to one):
+
+* Frames. Each moving link ``i`` has a frame. Joint ``i`` connects the parent link ``i-1``
+  (``i = 0``: the fixed base) to link ``i``. Its ``origin`` is the fixed homogeneous transform from
+  the parent link's frame to the joint frame; link ``i``'s frame is the joint frame moved by the
+  joint: ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``, where ``motion`` is a rotation of ``q_i``
+  [rad] about ``axis_i`` (revolute, continuous) or a translation of ``q_i`` [m] along it
+  (prismatic). ``axis_i`` is a unit vector in the joint frame.
+* Inertials. Link mass [kg]; centre of mass ``com`` [m] in the link frame; inertia [kg m^2] about
+  the centre of mass, in axes parallel to the link frame.
+* Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
+* Actuator fields per joint (joint side unless said otherwise): ``gear_ratio`` G (motor turns per
+  joint turn, > 0), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
+  [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N], ``effort_limit`` [N m or N]
+  (``inf``: unlimited), ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited), ``lower``/``upper``
+  position limits [rad or m] (``-inf``/``inf``: none; always so for continuous joints).
+
+A :class:`Robot` is validated once, at construction; every error names the link or joint at fault.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea.errors import ModelError
+
+JOINT_TYPES = ("revolute", "continuous", "prismatic")
+ACTUATOR_FIELDS = (
+    "effort_limit",
+    "gear_ratio",
+    "rotor_inertia",
+    "viscous_friction",
+    "coulomb_friction",
+)
+DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
+
+
+def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    """A read-only float64 copy of ``a`` with the given shape, all entries finite."""
+    try:
+        arr = np.array(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{what}: not a numeric array ({exc})") from None
+    if arr.shape != shape:
+        raise ModelError(f"{what}: expected shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{what}: contains NaN or infinite values: {arr.tolist()}")
+    arr.setflags(write=False)
+    return arr
+
+
+def _number(x: object, what: str, *, allow_inf: bool = False) -> float:
+    try:
+        v = float(x)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}: not a number: {x!r}") from None
+    if math.isnan(v) or (math.isinf(v) and not allow_inf):
+        raise ModelError(f"{what}: must be a finite number, got {v}")
+    return v
+
+
+def rotation_from_rpy(rpy: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrix of URDF roll-pitch-yaw angles [rad]: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
+    r, p, y = (float(v) for v in np.asarray(rpy, dtype=float))
+    cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
+                              math.cos(y), math.sin(y))
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])
+
+
+def rpy_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
+    """URDF roll-pitch-yaw angles [rad] of a rotation matrix (inverse of :func:`rotation_from_rpy`)."""
+    R = np.asarray(R, dtype=float)
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    if math.isclose(abs(pitch), math.pi / 2, abs_tol=1e-12):  # gimbal lock: put it all in yaw
+        roll = 0.0
+        yaw = math.atan2(-R[0, 1], R[1, 1])
+    else:
+        roll = math.atan2(R[2, 1], R[2, 2])
+        yaw = math.atan2(R[1, 0], R[0, 0])
+    return np.array([roll, pitch, yaw])
+
+
+def transform(xyz: ArrayLike = (0.0, 0.0, 0.0), rpy: ArrayLike = (0.0, 0.0, 0.0)) -> NDArray:
+    """4x4 homogeneous transform from a translation [m] and URDF roll-pitch-yaw angles [rad]."""
+    T = np.eye(4)
+    T[:3, :3] = rotation_from_rpy(rpy)
+    T[:3, 3] = np.asarray(xyz, dtype=float)
+    return T
+
+
+def _check_inertia(inertia: NDArray, what: str) -> None:
+    scale = max(1.0, float(np.max(np.abs(inertia))))
+    if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
+        raise ModelError(f"{what}: inertia is not symmetric: {inertia.tolist()}")
+    eig = np.linalg.eigvalsh(inertia)
+    if eig[0] < -1e-9 * scale:
+        raise ModelError(
+            f"{what}: inertia is not positive semi-definite (eigenvalues {eig.tolist()})"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Link:
+    """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com]."""
+
+    name: str
+    mass: float = 0.0
+    com: ArrayLike = (0.0, 0.0, 0.0)
+    inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ModelError(f"link name must be a non-empty string, got {self.name!r}")
+        what = f"link '{self.name}'"
+        mass = _number(self.mass, f"{what}: mass")
+        if mass < 0:
+            raise ModelError(f"{what}: mass must be >= 0, got {mass}")
+        com = _frozen(self.com, (3,), f"{what}: centre of mass")
+        inertia = _frozen(self.inertia, (3, 3), f"{what}: inertia")
+        _check_inertia(inertia, what)
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "com", com)
+        object.__setattr__(self, "inertia", inertia)
+
+
+@dataclass(frozen=True, eq=False)
+class Joint:
+    """A joint moving ``child`` relative to ``parent``; see the module docstring for conventions."""
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: ArrayLike = field(default_factory=lambda: np.eye(4))
+    axis: ArrayLike = (0.0, 0.0, 1.0)
+    lower: float = -math.inf
+    upper: float = math.inf
+    velocity_limit: float = math.inf
+    effort_limit: float = math.inf
+    gear_ratio: float = 1.0
+    rotor_inertia: float = 0.0
+    viscous_friction: float = 0.0
+    coulomb_friction: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ModelError(f"joint name must be a non-empty string, got {self.name!r}")
+        what = f"joint '{self.name}'"
+        if self.type not in JOINT_TYPES:
+            raise ModelError(
+                f"{what}: unsupported joint type {self.type!r} (supported: {', '.join(JOINT_TYPES)})"
+            )
+        origin = _frozen(self.origin, (4, 4), f"{what}: origin")
+        R = origin[:3, :3]
+        if (np.max(np.abs(R @ R.T - np.eye(3))) > 1e-6 or np.linalg.det(R) < 0
+                or np.max(np.abs(origin[3] - (0, 0, 0, 1))) > 0):
+            raise ModelError(f"{what}: origin is not a rigid transform: {origin.tolist()}")
+        axis = _frozen(self.axis, (3,), f"{what}: axis")
+        norm = float(np.linalg.norm(axis))
+        if norm < 1e-12:
+            raise ModelError(f"{what}: axis is zero")
+        axis = axis / norm
+        axis.setflags(write=False)
+        lower = _number(self.lower, f"{what}: lower limit", allow_inf=True)
+        upper = _number(self.upper, f"{what}: upper limit", allow_inf=True)
+        if self.type == "continuous":
+            lower, upper = -math.inf, math.inf
+        if lower > upper:
+            raise ModelError(f"{what}: lower limit {lower} is above upper limit {upper}")
+        values = {"lower": lower, "upper": upper}
+        for name in ("velocity_limit", "effort_limit"):
+            v = _number(getattr(self, name), f"{what}: {name}", allow_inf=True)
+            if v < 0:
+                raise ModelError(f"{what}: {name} must be >= 0, got {v}")
+            values[name] = v
+        for name in ("rotor_inertia", "viscous_friction", "coulomb_friction"):
+            v = _number(getattr(self, name), f"{what}: {name}")
+            if v < 0:
+                raise ModelError(f"{what}: {name} must be >= 0, got {v}")
+            values[name] = v
+        g = _number(self.gear_ratio, f"{what}: gear_ratio")
+        if g <= 0:
+            raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
+        values["gear_ratio"] = g
+        object.__setattr__(self, "origin", origin)
+        object.__setattr__(self, "axis", axis)
+        for k, v in values.items():
+            object.__setattr__(self, k, v)
+
+    @property
+    def is_prismatic(self) -> bool:
+        return self.type == "prismatic"
+
+
+class Robot:
+    """An immutable serial chain: ``joints[i]`` moves ``links[i]`` relative to ``links[i-1]``.
+
+    Parameters
+    ----------
+    joints : sequence of Joint, root to tip; ``joints[0].parent`` is the base link.
+    links : sequence of Link, the moving links, ``links[i]`` is ``joints[i].child``.
+    gravity : (3,) gravity acceleration [m/s^2] in base coordinates.
+    name : the robot's name.
+    base : name of the fixed base link (defaults to ``joints[0].parent``).
+    """
+
+    def __init__(
+        self,
+        joints: Sequence[Joint],
+        links: Sequence[Link],
+        gravity: ArrayLike = DEFAULT_GRAVITY,
+        name: str = "robot",
+        base: str | None = None,
+    ) -> None:
+        joints, links = tuple(joints), tuple(links)
+        if not joints:
+            raise ModelError(f"robot '{name}': has no moving joint")
+        if len(joints) != len(links):
+            raise ModelError(
+                f"robot '{name}': {len(joints)} joints but {len(links)} moving links"
+            )
+        for obj, cls in [(j, Joint) for j in joints] + [(lk, Link) for lk in links]:
+            if not isinstance(obj, cls):
+                raise ModelError(f"robot '{name}': expected a {cls.__name__}, got {obj!r}")
+        base = joints[0].parent if base is None else base
+        parent = base
+        for j, lk in zip(joints, links, strict=True):
+            if j.parent != parent:
+                raise ModelError(
+                    f"joint '{j.name}': parent is '{j.parent}', but the chain continues "
+                    f"from link '{parent}'"
+                )
+            if j.child != lk.name:
+                raise ModelError(f"joint '{j.name}': child is '{j.child}', expected '{lk.name}'")
+            parent = lk.name
+        for kind, names in (("joint", [j.name for j in joints]),
+                            ("link", [base] + [lk.name for lk in links])):
+            dup = sorted({x for x in names if names.count(x) > 1})
+            if dup:
+                raise ModelError(f"robot '{name}': duplicate {kind} names: {', '.join(dup)}")
+        self._joints = joints
+        self._links = links
+        self._gravity = _frozen(gravity, (3,), f"robot '{name}': gravity")
+        self._name = str(name)
+        self._base = base
+
+    # --- read-only description ------------------------------------------------------------
+    name = property(lambda self: self._name, doc="The robot's name.")
+    base = property(lambda self: self._base, doc="Name of the fixed base link.")
+    joints = property(lambda self: self._joints, doc="The n joints, root to tip.")
+    links = property(lambda self: self._links, doc="The n moving links, root to tip.")
+    gravity = property(lambda self: self._gravity, doc="(3,) gravity [m/s^2], base frame.")
+
+    @property
+    def n(self) -> int:
+        """Number of moving joints (degrees of freedom)."""
+        return len(self._joints)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self._joints)
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(lk.name for lk in self._links)
+
+    def _per_joint(self, attr: str) -> NDArray[np.float64]:
+        a = np.array([getattr(j, attr) for j in self._joints], dtype=np.float64)
+        a.setflags(write=False)
+        return a
+
+    lower = property(lambda self: self._per_joint("lower"), doc="(n,) lower position limits.")
+    upper = property(lambda self: self._per_joint("upper"), doc="(n,) upper position limits.")
+    velocity_limit = property(lambda self: self._per_joint("velocity_limit"),
+                              doc="(n,) velocity limits [rad/s or m/s].")
+    effort_limit = property(lambda self: self._per_joint("effort_limit"),
+                            doc="(n,) joint-side effort limits [N m or N].")
+    gear_ratio = property(lambda self: self._per_joint("gear_ratio"), doc="(n,) gear ratios G.")
+    rotor_inertia = property(lambda self: self._per_joint("rotor_inertia"),
+                             doc="(n,) rotor inertias J_m [kg m^2], motor side.")
+    viscous_friction = property(lambda self: self._per_joint("viscous_friction"),
+                                doc="(n,) viscous friction F_v, joint side.")
+    coulomb_friction = property(lambda self: self._per_joint("coulomb_friction"),
+                                doc="(n,) Coulomb friction F_s, joint side.")
+
+    @property
+    def masses(self) -> NDArray[np.float64]:
+        """(n,) link masses [kg]."""
+        a = np.array([lk.mass for lk in self._links])
+        a.setflags(write=False)
+        return a
+
+    @property
+    def is_prismatic(self) -> NDArray[np.bool_]:
+        """(n,) True where the joint is prismatic."""
+        return np.array([j.is_prismatic for j in self._joints])
+
+    # --- modified copies ------------------------------------------------------------------
+    def with_actuators(self, **fields: ArrayLike) -> Robot:
+        """A copy with actuator fields replaced.
+
+        Keywords are any of ``effort_limit``, ``gear_ratio``, ``rotor_inertia``,
+        ``viscous_friction``, ``coulomb_friction``; each a scalar (all joints) or an ``(n,)``
+        sequence (per joint, root to tip).
+        """
+        unknown = set(fields) - set(ACTUATOR_FIELDS)
+        if unknown:
+            raise ModelError(
+                f"with_actuators: unknown field(s) {sorted(unknown)}; "
+                f"expected some of {list(ACTUATOR_FIELDS)}"
+            )
+        per_joint: dict[str, NDArray] = {}
+        for k, v in fields.items():
+            arr = np.asarray(v, dtype=float)
+            if arr.ndim == 0:
+                arr = np.full(self.n, float(arr))
+            if arr.shape != (self.n,):
+                raise ModelError(
+                    f"with_actuators: {k} must be a scalar or have shape ({self.n},), "
+                    f"got {arr.shape}"
+                )
+            per_joint[k] = arr
+        joints = [
+            dataclasses.replace(j, **{k: float(v[i]) for k, v in per_joint.items()})
+            for i, j in enumerate(self._joints)
+        ]
+        return self._replace(joints=joints)
+
+    def with_gravity(self, gravity: ArrayLike) -> Robot:
+        """A copy with another gravity vector [m/s^2, base frame]."""
+        return self._replace(gravity=gravity)
+
+    def _replace(self, **kw: object) -> Robot:
+        args = {"joints": self._joints, "links": self._links, "gravity": self._gravity,
+                "name": self._name, "base": self._base}
+        args.update(kw)
+        return Robot(**args)  # type: ignore[arg-type]
+
+    # --- compiled form and export ---------------------------------------------------------
+    @cached_property
+    def compiled(self) -> NDArray[np.float64]:
+        """The flat ``(n + 1, NCOL)`` float64 array the kernels read (layout in kernels/common.py)."""
+        from mrnea.kernels.common import compile_model
+
+        return compile_model(self)
+
+    def to_urdf(self, path: str | Path) -> Path:
+        """Write this robot as a URDF file (actuator fields as limit/dynamics/transmission)."""
+        from mrnea.io.urdf import write_urdf
+
+        return write_urdf(self, path)
+
+    def __repr__(self) -> str:
+        return f"Robot(name={self._name!r}, n={self.n}, joints={list(self.joint_names)})"
+
+    def describe(self) -> str:
+        """A human-readable table of joints, links, limits and actuators."""
+        rows = [f"{self._name}: {self.n} moving joints, base '{self._base}', "
+                f"gravity {self._gravity.tolist()} m/s^2",
+                f"{'joint':<16}{'type':<11}{'link':<16}{'mass kg':>10}{'lower':>9}{'upper':>9}"
+                f"{'vel lim':>9}{'effort':>11}{'G':>8}{'J_m':>9}{'F_v':>9}{'F_s':>9}"]
+        for j, lk in zip(self._joints, self._links, strict=True):
+            rows.append(
+                f"{j.name:<16.16}{j.type:<11}{lk.name:<16.16}{lk.mass:>10.4g}{j.lower:>9.3g}"
+                f"{j.upper:>9.3g}{j.velocity_limit:>9.3g}{j.effort_limit:>11.4g}"
+                f"{j.gear_ratio:>8.4g}{j.rotor_inertia:>9.3g}{j.viscous_friction:>9.3g}"
+                f"{j.coulomb_friction:>9.3g}"
+            )
+        return "\n".join(rows)
