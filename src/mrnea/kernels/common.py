@@ -35,7 +35,7 @@ PRISMATIC = 1.0
 
 # Numba options, set in one place: compiled code is cached on disk next to the sources.
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
-INLINE = {**JIT, "inline": "always"}
+INLINE = JIT
 
 
 def compile_model(robot: Robot) -> np.ndarray:

@@ -1,0 +1,224 @@
+"""Rigid-body dynamics, the public NumPy API (paper Eq. 1: no rotor inertia, no friction).
+
+Every function takes one state, arrays of shape ``(n,)``, or a batch, shape ``(B, n)``; arguments
+of both kinds broadcast against each other, and a batch runs as one compiled, parallel loop.
+Units: q [rad | m], qd [rad/s | m/s], qdd [rad/s^2 | m/s^2], tau [N m | N].
+
+External wrench. ``f_ext = [f_e; n_e]`` (6,) or (B, 6), in base coordinates [N, N m], is the wrench
+the last moving link exerts **on its environment** (the paper's k_e): the joints must supply
+``J(q)^T f_ext`` on top of the free motion. It acts at the origin of the last link's frame, or at
+``f_ext_point`` (3,) or (B, 3) [m], a point given in that link's frame (the paper's p_e). Example:
+the tool pushes down on a table with 10 N: ``f_ext = [0, 0, -10, 0, 0, 0]``. (A force the
+environment applies *to* the robot, Pinocchio's and MuJoCo's convention, is the negative.)
+
+The caller's arrays are never modified. Errors are :class:`mrnea.errors.StateError` (shapes, NaN,
+unknown method) and :class:`mrnea.errors.SingularMassMatrixError`.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea.errors import SingularMassMatrixError, StateError
+from mrnea.kernels.aba import aba, aba_batch
+from mrnea.kernels.crba import fd_crba, fd_crba_batch
+from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
+from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
+from mrnea.kernels.walker_orin import (
+    fd_walker_orin,
+    fd_walker_orin_batch,
+    walker_orin,
+    walker_orin_batch,
+)
+from mrnea.model import Robot
+
+Method = Literal["mrnea", "walker_orin", "crba", "aba"]
+_FD = {
+    "mrnea": (fd_mrnea, fd_mrnea_batch),
+    "walker_orin": (fd_walker_orin, fd_walker_orin_batch),
+    "crba": (fd_crba, fd_crba_batch),
+    "aba": (aba, aba_batch),
+}
+_HB = {"mrnea": (mrnea, mrnea_batch), "walker_orin": (walker_orin, walker_orin_batch)}
+_ZERO_WRENCH = np.zeros(6)
+_ZERO_POINT = np.zeros(3)
+
+
+def _array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
+    """``x`` as a float64 array of shape (width,) or (B, width), all finite."""
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise StateError(f"{name}: not a numeric array: {x!r}") from None
+    if a.ndim not in (1, 2) or a.shape[-1] != width or (a.ndim == 2 and a.shape[0] == 0):
+        raise StateError(f"{name}: expected shape ({width},) or (B, {width}), got {a.shape}")
+    if not np.isfinite(a).all():
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise StateError(f"{name}: contains NaN or inf (first at index {tuple(bad.tolist())})")
+    return a
+
+
+def _inputs(
+    robot: Robot,
+    states: dict[str, ArrayLike],
+    f_ext: ArrayLike | None,
+    f_ext_point: ArrayLike | None,
+) -> tuple[bool, list[NDArray], NDArray, NDArray]:
+    """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D."""
+    if not isinstance(robot, Robot):
+        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
+    n = robot.n
+    arrays = [_array(v, k, n) for k, v in states.items()]
+    fe = _ZERO_WRENCH if f_ext is None else _array(f_ext, "f_ext", 6)
+    pe = _ZERO_POINT if f_ext_point is None else _array(f_ext_point, "f_ext_point", 3)
+    all_ = [*arrays, fe, pe]
+    if all(a.ndim == 1 for a in all_):
+        return False, arrays, fe, pe
+    sizes = {a.shape[0] for a in all_ if a.ndim == 2}
+    if len(sizes) > 1:
+        names = [*states, "f_ext", "f_ext_point"]
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(names, all_, strict=True))
+        raise StateError(f"batch sizes differ: {shapes}")
+    B = sizes.pop()
+    out = [np.ascontiguousarray(np.broadcast_to(a, (B, a.shape[-1]))) for a in all_]
+    return True, out[:-2], out[-2], out[-1]
+
+
+def _method(method: str, table: dict) -> tuple:
+    try:
+        return table[method]
+    except (KeyError, TypeError):
+        raise StateError(
+            f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}"
+        ) from None
+
+
+def _raise_singular(robot: Robot, status: NDArray | int, batched: bool) -> None:
+    st = np.atleast_1d(status)
+    bad = np.flatnonzero(st >= 0)
+    if bad.size:
+        b = int(bad[0])
+        where = f"state {b}: " if batched else ""
+        joint = robot.joint_names[int(st[b])]
+        raise SingularMassMatrixError(
+            f"{where}the mass matrix H is singular or not positive definite (pivot of joint "
+            f"'{joint}'); is a moving link, with everything it carries, massless?"
+        )
+
+
+def inverse_dynamics(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Joint efforts ``tau = H(q) qdd + C(q, qd) qd + g(q) + J^T f_ext`` (Eq. 1) by the RNEA.
+
+    Returns tau, (n,) or (B, n) [N m | N]. See the module docstring for shapes and ``f_ext``.
+    """
+    batched, (q, qd, qdd), fe, pe = _inputs(robot, {"q": q, "qd": qd, "qdd": qdd},
+                                            f_ext, f_ext_point)
+    m = robot.compiled
+    if batched:
+        tau = np.empty_like(q)
+        rnea_batch(m, q, qd, qdd, fe, pe, tau)
+        return tau
+    n = robot.n
+    tau = np.empty(n)
+    rnea(m, q, qd, qdd, fe, pe, tau, np.empty((n, 3)), np.empty((n, 3)))
+    return tau
+
+
+def mass_matrix_and_bias(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    method: Literal["mrnea", "walker_orin"] = "mrnea",
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The mass matrix H and bias u' with ``tau = H qdd + u'`` (Eqs. 2-3, 34-36).
+
+    ``method="mrnea"`` (default) computes both in the paper's single modified RNEA pass;
+    ``"walker_orin"`` by Walker-Orin method 1 (n + 1 Newton-Euler passes), for comparison.
+    Returns H, (n, n) or (B, n, n), and u', (n,) or (B, n). u' includes gravity and f_ext.
+    """
+    kernel, kernel_batch = _method(method, _HB)
+    batched, (q, qd), fe, pe = _inputs(robot, {"q": q, "qd": qd}, f_ext, f_ext_point)
+    m = robot.compiled
+    n = robot.n
+    if batched:
+        H = np.empty((q.shape[0], n, n))
+        u = np.empty_like(q)
+        kernel_batch(m, q, qd, fe, pe, H, u)
+        return H, u
+    H = np.empty((n, n))
+    u = np.empty(n)
+    kernel(m, q, qd, fe, pe, H, u)
+    return H, u
+
+
+def forward_dynamics(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    tau: ArrayLike,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    method: Method = "mrnea",
+) -> NDArray[np.float64]:
+    """Joint accelerations qdd from efforts tau: solves ``H qdd = tau - u'`` (Eq. 2).
+
+    ``method``: ``"mrnea"`` (default; the paper: one mRNEA pass and a Cholesky solve),
+    ``"walker_orin"`` (method 1, n + 1 RNEA passes), ``"crba"`` (composite-rigid-body H, RNEA
+    bias), ``"aba"`` (articulated-body algorithm, O(n)). Returns qdd, (n,) or (B, n).
+    Raises SingularMassMatrixError where H is not positive definite.
+    """
+    kernel, kernel_batch = _method(method, _FD)
+    batched, (q, qd, tau), fe, pe = _inputs(robot, {"q": q, "qd": qd, "tau": tau},
+                                            f_ext, f_ext_point)
+    m = robot.compiled
+    if batched:
+        qdd = np.empty_like(q)
+        status = np.empty(q.shape[0], dtype=np.int64)
+        kernel_batch(m, q, qd, tau, fe, pe, qdd, status)
+    else:
+        qdd = np.empty(robot.n)
+        status = kernel(m, q, qd, tau, fe, pe, qdd)
+    _raise_singular(robot, status, batched)
+    return qdd
+
+
+def joint_reactions(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+) -> NDArray[np.float64]:
+    """Each joint's 6-axis reaction wrench, for bearing and link design (Eqs. 18-19, 32).
+
+    Returns (n, 6) or (B, n, 6): row i is ``[f; n]``, the force [N] and moment [N m] that link
+    i-1 (the base for i = 0) exerts on link i through joint i, expressed in joint i's frame
+    (the parent link's frame moved by the joint origin: fixed to the parent, z-free for a
+    URDF joint with axis z) with the moment taken about that frame's origin, a point of the
+    joint axis. The component along the joint axis of the moment (revolute) or force
+    (prismatic) is the joint effort tau_i; the rest is what the bearing carries.
+    """
+    batched, (q, qd, qdd), fe, pe = _inputs(robot, {"q": q, "qd": qd, "qdd": qdd},
+                                            f_ext, f_ext_point)
+    m = robot.compiled
+    n = robot.n
+    if batched:
+        out = np.empty((q.shape[0], n, 6))
+        reactions_batch(m, q, qd, qdd, fe, pe, np.empty_like(q), out)
+        return out
+    out = np.empty((n, 6))
+    reactions(m, q, qd, qdd, fe, pe, np.empty(n), out)
+    return out

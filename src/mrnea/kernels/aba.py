@@ -1,0 +1,162 @@
+"""ABA: the articulated-body algorithm, O(n) forward dynamics (Featherstone, RBDA Sec. 7.3).
+
+Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd)`` fills ``qdd`` (n,); ``status`` is -1, or
+the index of the first joint whose articulated inertia D_i is not positive (singular H).
+
+Spatial vectors in base coordinates, Plucker style about the base origin O: motion
+``[w; v_O]``, force ``[n_O; f]``. Joint i's motion subspace is S_i = [z_i; o_i x z_i] (revolute)
+or [0; z_i] (prismatic); link i's spatial inertia about O is
+``[[Ic - m [c]x [c]x, m [c]x], [-m [c]x, m 1]]``. Gravity enters as the base acceleration
+[0; -g]; the external wrench k_e as the force [n_e + p x f_e; f_e] the environment takes from
+the last link (so the last link receives its negative).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from mrnea.kernels.common import (
+    JIT,
+    MASS,
+    PRISMATIC,
+    TYPE,
+    add,
+    cross,
+    kinematics,
+    tip_point,
+    vec,
+    workspace,
+)
+
+
+@nb.njit(**JIT)
+def _motion_cross(v, m, out):
+    """out = v x m for spatial motion vectors (6,)."""
+    w, vo = (v[0], v[1], v[2]), (v[3], v[4], v[5])
+    mw, mv_ = (m[0], m[1], m[2]), (m[3], m[4], m[5])
+    a = cross(w, mw)
+    b = add(cross(w, mv_), cross(vo, mw))
+    out[0], out[1], out[2], out[3], out[4], out[5] = a[0], a[1], a[2], b[0], b[1], b[2]
+
+
+@nb.njit(**JIT)
+def _force_cross(v, f, out):
+    """out = v x* f for a motion vector v and a force vector f (6,)."""
+    w, vo = (v[0], v[1], v[2]), (v[3], v[4], v[5])
+    fn, ff = (f[0], f[1], f[2]), (f[3], f[4], f[5])
+    a = add(cross(w, fn), cross(vo, ff))
+    b = cross(w, ff)
+    out[0], out[1], out[2], out[3], out[4], out[5] = a[0], a[1], a[2], b[0], b[1], b[2]
+
+
+@nb.njit(**JIT)
+def aba(model, q, qd, tau, fext, pe, qdd):
+    """Forward dynamics of one state by the articulated-body algorithm (module docstring)."""
+    n = q.shape[0]
+    R, o, z, c, Ic = workspace(n)
+    kinematics(model, q, R, o, z, c, Ic)
+    S = np.zeros((n, 6))
+    v = np.zeros((n, 6))
+    cb = np.zeros((n, 6))  # velocity-product accelerations c_i = v_i x S_i qd_i
+    IA = np.zeros((n, 6, 6))  # articulated inertias
+    pA = np.zeros((n, 6))  # articulated bias forces
+    U = np.zeros((n, 6))
+    D = np.zeros(n)
+    u = np.zeros(n)
+    tmp = np.zeros(6)
+    Iv = np.zeros(6)
+
+    # pass 1, base to tip: velocities, bias accelerations, rigid-body inertias and bias forces
+    for i in range(n):
+        zi = vec(z, i)
+        if model[i + 1, TYPE] == PRISMATIC:
+            S[i, 3:] = zi
+        else:
+            S[i, :3] = zi
+            oz = cross(vec(o, i), zi)
+            S[i, 3:] = oz
+        if i > 0:
+            v[i] = v[i - 1]
+        for a in range(6):
+            v[i, a] += S[i, a] * qd[i]
+            tmp[a] = S[i, a] * qd[i]
+        _motion_cross(v[i], tmp, cb[i])
+        m = model[i + 1, MASS]
+        cx = np.array(((0.0, -c[i, 2], c[i, 1]), (c[i, 2], 0.0, -c[i, 0]),
+                       (-c[i, 1], c[i, 0], 0.0)))
+        for a in range(3):
+            for b in range(3):
+                cc = cx[a, 0] * cx[0, b] + cx[a, 1] * cx[1, b] + cx[a, 2] * cx[2, b]
+                IA[i, a, b] = Ic[i, a, b] - m * cc
+                IA[i, a, 3 + b] = m * cx[a, b]
+                IA[i, 3 + a, b] = -m * cx[a, b]
+            IA[i, 3 + a, 3 + a] = m
+        for a in range(6):
+            Iv[a] = 0.0
+            for b in range(6):
+                Iv[a] += IA[i, a, b] * v[i, b]
+        _force_cross(v[i], Iv, pA[i])
+    # the environment's reaction on the last link: p_n -= -[n_e + p x f_e; f_e]
+    p = tip_point(o, R, n, pe)
+    fe = (fext[0], fext[1], fext[2])
+    ne = add((fext[3], fext[4], fext[5]), cross(p, fe))
+    for a in range(3):
+        pA[n - 1, a] += ne[a]
+        pA[n - 1, 3 + a] += fe[a]
+
+    # pass 2, tip to base: articulated inertias and bias forces
+    status = -1
+    for i in range(n - 1, -1, -1):
+        scale_i = 0.0
+        for a in range(6):
+            U[i, a] = 0.0
+            for b in range(6):
+                U[i, a] += IA[i, a, b] * S[i, b]
+            scale_i = max(scale_i, abs(IA[i, a, a]))
+        D[i] = 0.0
+        sp = 0.0
+        for a in range(6):
+            D[i] += S[i, a] * U[i, a]
+            sp += S[i, a] * pA[i, a]
+        if not D[i] > 1e-13 * scale_i:
+            if status < 0:
+                status = i
+            D[i] = 1.0
+        u[i] = tau[i] - sp
+        if i > 0:
+            # Ia = IA - U U^T / D; pa = pA + Ia c + U u / D
+            for a in range(6):
+                for b in range(6):
+                    IA[i, a, b] -= U[i, a] * U[i, b] / D[i]
+            for a in range(6):
+                acc = pA[i, a] + U[i, a] * u[i] / D[i]
+                for b in range(6):
+                    acc += IA[i, a, b] * cb[i, b]
+                pA[i - 1, a] += acc
+                for b in range(6):
+                    IA[i - 1, a, b] += IA[i, a, b]
+    if status >= 0:
+        return status
+
+    # pass 3, base to tip: accelerations
+    acc_p = np.zeros(6)
+    g = (model[0, 0], model[0, 1], model[0, 2])
+    acc_p[3], acc_p[4], acc_p[5] = -g[0], -g[1], -g[2]
+    for i in range(n):
+        for a in range(6):
+            acc_p[a] += cb[i, a]
+        s = 0.0
+        for a in range(6):
+            s += U[i, a] * acc_p[a]
+        qdd[i] = (u[i] - s) / D[i]
+        for a in range(6):
+            acc_p[a] += S[i, a] * qdd[i]
+    return -1
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
+    """``aba`` over a batch; STATUS (B,) int64 receives each state's status."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])

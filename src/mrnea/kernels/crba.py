@@ -1,0 +1,103 @@
+"""CRBA: the composite-rigid-body algorithm for H (Featherstone, RBDA Sec. 6.2), base coordinates.
+
+Usage: ``crba(model, q, H)`` fills ``H`` (n, n).
+
+The composite body j is link j and everything it carries: mass M_j, centre of mass C_j, inertia
+Ic_j about C_j, accumulated tip to base. A unit acceleration of joint j, everything else at rest,
+moves the composite body rigidly: for a revolute joint it needs the force
+F = M_j z_j x (C_j - o_j) and the moment Ic_j z_j + (C_j - P) x F about a point P; for a prismatic
+joint F = M_j z_j and the moment (C_j - P) x F. Joint i <= j carries it, so
+H_ij = z_i . (moment about o_i) for revolute i and z_i . F for prismatic i.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from mrnea.kernels.common import (
+    JIT,
+    MASS,
+    PRISMATIC,
+    TYPE,
+    add,
+    cross,
+    dot,
+    kinematics,
+    mv,
+    scale,
+    sub,
+    vec,
+    workspace,
+)
+from mrnea.kernels.rnea import rnea
+from mrnea.kernels.solve import cholesky_solve
+
+
+@nb.njit(**JIT)
+def crba(model, q, H):
+    """The mass matrix H (n, n) of one state."""
+    n = q.shape[0]
+    R, o, z, c, Ic = workspace(n)
+    kinematics(model, q, R, o, z, c, Ic)
+    Mc = 0.0  # composite mass
+    hc = (0.0, 0.0, 0.0)  # composite first moment, sum m_k c_k
+    Jc = np.zeros((3, 3))  # composite inertia about the composite centre of mass
+    Cc = (0.0, 0.0, 0.0)  # composite centre of mass
+    for j in range(n - 1, -1, -1):
+        # add link j to the composite body (parallel-axis theorem about the new centre of mass)
+        m = model[j + 1, MASS]
+        cj = vec(c, j)
+        M_new = Mc + m
+        C_new = scale(add(hc, scale(cj, m)), 1.0 / M_new) if M_new > 0.0 else cj
+        d_old = sub(Cc, C_new)
+        d_j = sub(cj, C_new)
+        for a in range(3):
+            for b in range(3):
+                kron = 1.0 if a == b else 0.0
+                Jc[a, b] += (Ic[j, a, b]
+                             + Mc * (dot(d_old, d_old) * kron - d_old[a] * d_old[b])
+                             + m * (dot(d_j, d_j) * kron - d_j[a] * d_j[b]))
+        Mc, hc, Cc = M_new, add(hc, scale(cj, m)), C_new
+
+        # force and moment (about C_j) that a unit acceleration of joint j needs
+        zj = vec(z, j)
+        if model[j + 1, TYPE] == PRISMATIC:
+            F = scale(zj, Mc)
+            Nc = (0.0, 0.0, 0.0)
+        else:
+            F = scale(cross(zj, sub(Cc, vec(o, j))), Mc)
+            Nc = mv(Jc, zj)
+        for i in range(j + 1):
+            zi = vec(z, i)
+            if model[i + 1, TYPE] == PRISMATIC:
+                h = dot(zi, F)
+            else:
+                h = dot(zi, add(Nc, cross(sub(Cc, vec(o, i)), F)))
+            H[i, j] = h
+            H[j, i] = h
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def crba_batch(model, Q, H):
+    """``crba`` over a batch: Q (B, n), H (B, n, n)."""
+    for b in nb.prange(Q.shape[0]):
+        crba(model, Q[b], H[b])
+
+
+@nb.njit(**JIT)
+def fd_crba(model, q, qd, tau, fext, pe, qdd):
+    """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
+    n = q.shape[0]
+    H = np.empty((n, n))
+    u = np.empty(n)
+    crba(model, q, H)
+    rnea(model, q, qd, np.zeros(n), fext, pe, u, np.empty((n, 3)), np.empty((n, 3)))
+    return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def fd_crba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
+    """``fd_crba`` over a batch; STATUS (B,) int64."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = fd_crba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])

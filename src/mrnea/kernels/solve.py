@@ -1,0 +1,50 @@
+"""Solve H qdd = rhs by Cholesky (H symmetric positive definite), checking every pivot.
+
+Usage: ``status = cholesky_solve(H, rhs, L, x)`` fills ``x`` (n,) using ``L`` (n, n) as scratch;
+``status`` is -1, or the index of the first pivot that is not positive relative to the largest
+diagonal entry of H (a singular or indefinite H: for example a massless moving tip link).
+H and rhs are not modified.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from mrnea.kernels.common import JIT
+
+PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
+
+
+@nb.njit(**JIT)
+def cholesky_solve(H, rhs, L, x):
+    """x = H^-1 rhs via H = L L^T; returns -1 or the index of the failing pivot."""
+    n = H.shape[0]
+    dmax = 0.0
+    for i in range(n):
+        dmax = max(dmax, H[i, i])
+    tol = PIVOT_TOL * dmax
+    for j in range(n):
+        s = H[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > tol:  # also catches NaN
+            return j
+        ljj = np.sqrt(s)
+        L[j, j] = ljj
+        for i in range(j + 1, n):
+            s = H[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / ljj
+    for i in range(n):  # L y = rhs
+        s = rhs[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):  # L^T x = y
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return -1

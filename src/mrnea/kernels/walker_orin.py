@@ -1,0 +1,64 @@
+"""Walker-Orin method 1: H and u' from n + 1 RNEA passes (the paper's baseline).
+
+Usage: ``walker_orin(model, q, qd, fext, pe, H, u)``, the same contract as ``mrnea``.
+
+u' is the RNEA with zero acceleration (velocity, gravity and external wrench in); column k of H
+is the RNEA with unit acceleration of joint k, no velocity, no gravity and no external wrench.
+The link poses do not depend on the acceleration, so the kinematics pass runs once and the
+Newton-Euler recursion n + 1 times.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from mrnea.kernels.common import JIT, kinematics, workspace
+from mrnea.kernels.rnea import newton_euler
+from mrnea.kernels.solve import cholesky_solve
+
+
+@nb.njit(**JIT)
+def walker_orin(model, q, qd, fext, pe, H, u):
+    """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes."""
+    n = q.shape[0]
+    R, o, z, c, Ic = workspace(n)
+    kinematics(model, q, R, o, z, c, Ic)
+    f = np.empty((n, 3))
+    nm = np.empty((n, 3))
+    g = (model[0, 0], model[0, 1], model[0, 2])
+    newton_euler(model, R, o, z, c, Ic, qd, np.zeros(n), g, fext, pe, u, f, nm)
+    zero_n = np.zeros(n)
+    zero_w = np.zeros(6)
+    unit = np.zeros(n)
+    col = np.empty(n)
+    for k in range(n):
+        unit[k] = 1.0
+        newton_euler(model, R, o, z, c, Ic, zero_n, unit, (0.0, 0.0, 0.0), zero_w, pe,
+                     col, f, nm)
+        H[:, k] = col
+        unit[k] = 0.0
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def walker_orin_batch(model, Q, QD, FEXT, PE, H, U):
+    """``walker_orin`` over a batch (shapes as ``mrnea_batch``)."""
+    for b in nb.prange(Q.shape[0]):
+        walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
+
+
+@nb.njit(**JIT)
+def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
+    """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a pivot status."""
+    n = q.shape[0]
+    H = np.empty((n, n))
+    u = np.empty(n)
+    walker_orin(model, q, qd, fext, pe, H, u)
+    return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def fd_walker_orin_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
+    """``fd_walker_orin`` over a batch; STATUS (B,) int64."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = fd_walker_orin(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])
