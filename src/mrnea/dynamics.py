@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.kernels.aba import aba, aba_batch
+from mrnea.kernels.common import NONFINITE, OK
 from mrnea.kernels.crba import fd_crba, fd_crba_batch
 from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
@@ -67,10 +68,20 @@ def _inputs(
     f_ext: ArrayLike | None,
     f_ext_point: ArrayLike | None,
 ) -> tuple[bool, list[NDArray], NDArray, NDArray]:
-    """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D."""
+    """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D.
+
+    Fast path: one state given as float64 arrays of shape (n,) and no external wrench is passed
+    through unchecked for NaN; the kernels check finiteness and report NONFINITE, and
+    :func:`_check` then names the argument.
+    """
     if not isinstance(robot, Robot):
         raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
     n = robot.n
+    if f_ext is None and f_ext_point is None:
+        vals = list(states.values())
+        if all(type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (n,)
+               for v in vals):
+            return False, vals, _ZERO_WRENCH, _ZERO_POINT
     arrays = [_array(v, k, n) for k, v in states.items()]
     fe = _ZERO_WRENCH if f_ext is None else _array(f_ext, "f_ext", 6)
     pe = _ZERO_POINT if f_ext_point is None else _array(f_ext_point, "f_ext_point", 3)
@@ -96,17 +107,23 @@ def _method(method: str, table: dict) -> tuple:
         ) from None
 
 
-def _raise_singular(robot: Robot, status: NDArray | int, batched: bool) -> None:
+def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> None:
+    """Raise the error a kernel status reports (NONFINITE, or a failed pivot of H)."""
+    batched = not isinstance(status, int)
     st = np.atleast_1d(status)
-    bad = np.flatnonzero(st >= 0)
-    if bad.size:
-        b = int(bad[0])
-        where = f"state {b}: " if batched else ""
-        joint = robot.joint_names[int(st[b])]
-        raise SingularMassMatrixError(
-            f"{where}the mass matrix H is singular or not positive definite (pivot of joint "
-            f"'{joint}'); is a moving link, with everything it carries, massless?"
-        )
+    if batched and not (st != OK).any():
+        return
+    if np.any(st == NONFINITE):
+        for k, v in states.items():
+            width = 6 if k == "f_ext" else 3 if k == "f_ext_point" else robot.n
+            _array(v, k, width)
+    b = int(np.flatnonzero(st >= 0)[0])
+    where = f"state {b}: " if batched else ""
+    raise SingularMassMatrixError(
+        f"{where}the mass matrix H is singular or not positive definite (pivot of joint "
+        f"'{robot.joint_names[int(st[b])]}'); is a moving link, with everything it carries, "
+        f"massless?"
+    )
 
 
 def inverse_dynamics(
@@ -121,16 +138,19 @@ def inverse_dynamics(
 
     Returns tau, (n,) or (B, n) [N m | N]. See the module docstring for shapes and ``f_ext``.
     """
-    batched, (q, qd, qdd), fe, pe = _inputs(robot, {"q": q, "qd": qd, "qdd": qdd},
-                                            f_ext, f_ext_point)
+    args = {"q": q, "qd": qd, "qdd": qdd}
+    batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
+    n = robot.n
     if batched:
         tau = np.empty_like(q)
-        rnea_batch(m, q, qd, qdd, fe, pe, tau)
-        return tau
-    n = robot.n
-    tau = np.empty(n)
-    rnea(m, q, qd, qdd, fe, pe, tau, np.empty((n, 3)), np.empty((n, 3)))
+        status = np.empty(q.shape[0], dtype=np.int64)
+        rnea_batch(m, q, qd, qdd, fe, pe, tau, status)
+    else:
+        tau = np.empty(n)
+        status = rnea(m, q, qd, qdd, fe, pe, tau, np.empty((n, 3)), np.empty((n, 3)))
+    if batched or status != OK:
+        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return tau
 
 
@@ -149,17 +169,21 @@ def mass_matrix_and_bias(
     Returns H, (n, n) or (B, n, n), and u', (n,) or (B, n). u' includes gravity and f_ext.
     """
     kernel, kernel_batch = _method(method, _HB)
-    batched, (q, qd), fe, pe = _inputs(robot, {"q": q, "qd": qd}, f_ext, f_ext_point)
+    args = {"q": q, "qd": qd}
+    batched, (q, qd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
     n = robot.n
     if batched:
         H = np.empty((q.shape[0], n, n))
         u = np.empty_like(q)
-        kernel_batch(m, q, qd, fe, pe, H, u)
-        return H, u
-    H = np.empty((n, n))
-    u = np.empty(n)
-    kernel(m, q, qd, fe, pe, H, u)
+        status = np.empty(q.shape[0], dtype=np.int64)
+        kernel_batch(m, q, qd, fe, pe, H, u, status)
+    else:
+        H = np.empty((n, n))
+        u = np.empty(n)
+        status = kernel(m, q, qd, fe, pe, H, u)
+    if batched or status != OK:
+        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return H, u
 
 
@@ -180,8 +204,8 @@ def forward_dynamics(
     Raises SingularMassMatrixError where H is not positive definite.
     """
     kernel, kernel_batch = _method(method, _FD)
-    batched, (q, qd, tau), fe, pe = _inputs(robot, {"q": q, "qd": qd, "tau": tau},
-                                            f_ext, f_ext_point)
+    args = {"q": q, "qd": qd, "tau": tau}
+    batched, (q, qd, tau), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
     if batched:
         qdd = np.empty_like(q)
@@ -190,7 +214,8 @@ def forward_dynamics(
     else:
         qdd = np.empty(robot.n)
         status = kernel(m, q, qd, tau, fe, pe, qdd)
-    _raise_singular(robot, status, batched)
+    if batched or status != OK:
+        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return qdd
 
 
@@ -211,14 +236,17 @@ def joint_reactions(
     joint axis. The component along the joint axis of the moment (revolute) or force
     (prismatic) is the joint effort tau_i; the rest is what the bearing carries.
     """
-    batched, (q, qd, qdd), fe, pe = _inputs(robot, {"q": q, "qd": qd, "qdd": qdd},
-                                            f_ext, f_ext_point)
+    args = {"q": q, "qd": qd, "qdd": qdd}
+    batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
     n = robot.n
     if batched:
         out = np.empty((q.shape[0], n, 6))
-        reactions_batch(m, q, qd, qdd, fe, pe, np.empty_like(q), out)
-        return out
-    out = np.empty((n, 6))
-    reactions(m, q, qd, qdd, fe, pe, np.empty(n), out)
+        status = np.empty(q.shape[0], dtype=np.int64)
+        reactions_batch(m, q, qd, qdd, fe, pe, np.empty_like(q), out, status)
+    else:
+        out = np.empty((n, 6))
+        status = reactions(m, q, qd, qdd, fe, pe, np.empty(n), out)
+    if batched or status != OK:
+        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return out

@@ -1,7 +1,8 @@
 """ABA: the articulated-body algorithm, O(n) forward dynamics (Featherstone, RBDA Sec. 7.3).
 
-Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd)`` fills ``qdd`` (n,); ``status`` is -1, or
-the index of the first joint whose articulated inertia D_i is not positive (singular H).
+Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd)`` fills ``qdd`` (n,). ``status`` is OK,
+NONFINITE (an input holds NaN or inf), or the index of the first joint whose articulated inertia
+D_i is not positive (a singular H).
 
 Spatial vectors in base coordinates, Plucker style about the base origin O: motion
 ``[w; v_O]``, force ``[n_O; f]``. Joint i's motion subspace is S_i = [z_i; o_i x z_i] (revolute)
@@ -19,10 +20,13 @@ import numpy as np
 from mrnea.kernels.common import (
     JIT,
     MASS,
+    NONFINITE,
+    OK,
     PRISMATIC,
     TYPE,
     add,
     cross,
+    finite,
     kinematics,
     tip_point,
     vec,
@@ -53,6 +57,8 @@ def _force_cross(v, f, out):
 @nb.njit(**JIT)
 def aba(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics of one state by the articulated-body algorithm (module docstring)."""
+    if not (finite(q) and finite(qd) and finite(tau) and finite(fext) and finite(pe)):
+        return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = workspace(n)
     kinematics(model, q, R, o, z, c, Ic)
@@ -152,7 +158,7 @@ def aba(model, q, qd, tau, fext, pe, qdd):
         qdd[i] = (u[i] - s) / D[i]
         for a in range(6):
             acc_p[a] += S[i, a] * qdd[i]
-    return -1
+    return OK
 
 
 @nb.njit(**{**JIT, "parallel": True})

@@ -33,6 +33,11 @@ TYPE, ROT, POS, AXIS, MASS, COM, INER = 0, 1, 10, 13, 16, 17, 20
 NCOL = 29
 PRISMATIC = 1.0
 
+# Kernel status codes: OK, NONFINITE (an input holds NaN or inf); a value >= 0 is the index of the
+# joint whose pivot of H (or articulated inertia) is not positive.
+OK = -1
+NONFINITE = -2
+
 # Numba options, set in one place: compiled code is cached on disk next to the sources.
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 INLINE = JIT
@@ -174,3 +179,12 @@ def workspace(n):
 def tip_point(o, R, n, pe):
     """Base-frame point where the external wrench acts: o_n + R_n p_e (p_e in link-n frame)."""
     return add(vec(o, n - 1), mv(R[n - 1], pe))
+
+
+@nb.njit(**INLINE)
+def finite(a):
+    """True when every entry of the 1-D array ``a`` is finite."""
+    for x in a:
+        if not np.isfinite(x):
+            return False
+    return True

@@ -18,11 +18,14 @@ import numpy as np
 from mrnea.kernels.common import (
     JIT,
     MASS,
+    NONFINITE,
+    OK,
     PRISMATIC,
     TYPE,
     add,
     cross,
     dot,
+    finite,
     kinematics,
     mv,
     scale,
@@ -91,8 +94,10 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd):
     n = q.shape[0]
     H = np.empty((n, n))
     u = np.empty(n)
+    status = rnea(model, q, qd, np.zeros(n), fext, pe, u, np.empty((n, 3)), np.empty((n, 3)))
+    if status != OK or not finite(tau):
+        return NONFINITE
     crba(model, q, H)
-    rnea(model, q, qd, np.zeros(n), fext, pe, u, np.empty((n, 3)), np.empty((n, 3)))
     return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
 
 

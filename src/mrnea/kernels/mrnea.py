@@ -34,11 +34,14 @@ import numpy as np
 from mrnea.kernels.common import (
     JIT,
     MASS,
+    NONFINITE,
+    OK,
     PRISMATIC,
     TYPE,
     add,
     cross,
     dot,
+    finite,
     kinematics,
     mv,
     put,
@@ -53,7 +56,9 @@ from mrnea.kernels.solve import cholesky_solve
 
 @nb.njit(**JIT)
 def mrnea(model, q, qd, fext, pe, H, u):
-    """H (n, n) and u' (n,) of one state, in one pass (module docstring)."""
+    """H (n, n) and u' (n,) of one state, in one pass (module docstring); returns a status."""
+    if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
+        return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = workspace(n)
     kinematics(model, q, R, o, z, c, Ic)
@@ -127,25 +132,30 @@ def mrnea(model, q, qd, fext, pe, H, u):
                 H[i, k] = zi[0] * M[0, k] + zi[1] * M[1, k] + zi[2] * M[2, k]  # Eq. 35
             u[i] = dot(zi, n_c)  # Eq. 36
         p_next = oi
+    return OK
 
 
 @nb.njit(**{**JIT, "parallel": True})
-def mrnea_batch(model, Q, QD, FEXT, PE, H, U):
-    """``mrnea`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n)."""
+def mrnea_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
+    """``mrnea`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n); STATUS (B,)."""
     for b in nb.prange(Q.shape[0]):
-        mrnea(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
+        STATUS[b] = mrnea(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
 
 
 @nb.njit(**JIT)
 def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
     """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
 
-    Returns -1, or the index of the pivot where H is not positive definite.
+    Returns OK, NONFINITE, or the index of the pivot where H is not positive definite.
     """
+    if not finite(tau):
+        return NONFINITE
     n = q.shape[0]
     H = np.empty((n, n))
     u = np.empty(n)
-    mrnea(model, q, qd, fext, pe, H, u)
+    status = mrnea(model, q, qd, fext, pe, H, u)
+    if status != OK:
+        return status
     return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
 
 

@@ -22,6 +22,8 @@ import numpy as np
 from mrnea.kernels.common import (
     JIT,
     MASS,
+    NONFINITE,
+    OK,
     PRISMATIC,
     ROT,
     TYPE,
@@ -29,6 +31,7 @@ from mrnea.kernels.common import (
     block,
     cross,
     dot,
+    finite,
     kinematics,
     matmul,
     mv,
@@ -93,11 +96,17 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
 
 @nb.njit(**JIT)
 def rnea(model, q, qd, qdd, fext, pe, tau, f, nm):
-    """Inverse dynamics of one state; fills tau (n,), f (n, 3), nm (n, 3) (module docstring)."""
+    """Inverse dynamics of one state; fills tau (n,), f (n, 3), nm (n, 3) (module docstring).
+
+    Returns OK, or NONFINITE if an input holds NaN or inf.
+    """
+    if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
+        return NONFINITE
     R, o, z, c, Ic = workspace(q.shape[0])
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
+    return OK
 
 
 @nb.njit(**JIT)
@@ -108,6 +117,8 @@ def reactions(model, q, qd, qdd, fext, pe, tau, out):
     joint i, in the joint frame (the parent's frame moved by the joint origin, fixed to the
     parent: the bearing's housing), the moment about the joint frame's origin o_i.
     """
+    if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
+        return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = workspace(n)
     kinematics(model, q, R, o, z, c, Ic)
@@ -122,20 +133,21 @@ def reactions(model, q, qd, qdd, fext, pe, tau, out):
         for a in range(3):  # Rj^T f, Rj^T n
             out[i, a] = Rj[0, a] * f[i, 0] + Rj[1, a] * f[i, 1] + Rj[2, a] * f[i, 2]
             out[i, 3 + a] = Rj[0, a] * nm[i, 0] + Rj[1, a] * nm[i, 1] + Rj[2, a] * nm[i, 2]
+    return OK
 
 
 @nb.njit(**{**JIT, "parallel": True})
-def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU):
-    """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3)."""
+def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS):
+    """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,)."""
     n = Q.shape[1]
     for b in nb.prange(Q.shape[0]):
         f = np.empty((n, 3))
         nm = np.empty((n, 3))
-        rnea(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], f, nm)
+        STATUS[b] = rnea(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], f, nm)
 
 
 @nb.njit(**{**JIT, "parallel": True})
-def reactions_batch(model, Q, QD, QDD, FEXT, PE, TAU, OUT):
-    """``reactions`` over a batch: OUT (B, n, 6)."""
+def reactions_batch(model, Q, QD, QDD, FEXT, PE, TAU, OUT, STATUS):
+    """``reactions`` over a batch: OUT (B, n, 6), STATUS (B,)."""
     for b in nb.prange(Q.shape[0]):
-        reactions(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], OUT[b])
+        STATUS[b] = reactions(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], OUT[b])

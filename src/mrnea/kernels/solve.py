@@ -1,7 +1,7 @@
 """Solve H qdd = rhs by Cholesky (H symmetric positive definite), checking every pivot.
 
 Usage: ``status = cholesky_solve(H, rhs, L, x)`` fills ``x`` (n,) using ``L`` (n, n) as scratch;
-``status`` is -1, or the index of the first pivot that is not positive relative to the largest
+``status`` is OK (-1) or the index of the first pivot that is not positive relative to the largest
 diagonal entry of H (a singular or indefinite H: for example a massless moving tip link).
 H and rhs are not modified.
 """
@@ -11,14 +11,14 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT
+from mrnea.kernels.common import JIT, OK
 
 PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
 
 
 @nb.njit(**JIT)
 def cholesky_solve(H, rhs, L, x):
-    """x = H^-1 rhs via H = L L^T; returns -1 or the index of the failing pivot."""
+    """x = H^-1 rhs via H = L L^T; returns OK or the index of the failing pivot."""
     n = H.shape[0]
     dmax = 0.0
     for i in range(n):
@@ -47,4 +47,4 @@ def cholesky_solve(H, rhs, L, x):
         for k in range(i + 1, n):
             s -= L[k, i] * x[k]
         x[i] = s / L[i, i]
-    return -1
+    return OK

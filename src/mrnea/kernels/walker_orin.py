@@ -13,14 +13,16 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT, kinematics, workspace
+from mrnea.kernels.common import JIT, NONFINITE, OK, finite, kinematics, workspace
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
 
 @nb.njit(**JIT)
 def walker_orin(model, q, qd, fext, pe, H, u):
-    """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes."""
+    """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status."""
+    if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
+        return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = workspace(n)
     kinematics(model, q, R, o, z, c, Ic)
@@ -38,22 +40,27 @@ def walker_orin(model, q, qd, fext, pe, H, u):
                      col, f, nm)
         H[:, k] = col
         unit[k] = 0.0
+    return OK
 
 
 @nb.njit(**{**JIT, "parallel": True})
-def walker_orin_batch(model, Q, QD, FEXT, PE, H, U):
+def walker_orin_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     """``walker_orin`` over a batch (shapes as ``mrnea_batch``)."""
     for b in nb.prange(Q.shape[0]):
-        walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
+        STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
 
 
 @nb.njit(**JIT)
 def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
-    """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a pivot status."""
+    """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a status."""
+    if not finite(tau):
+        return NONFINITE
     n = q.shape[0]
     H = np.empty((n, n))
     u = np.empty(n)
-    walker_orin(model, q, qd, fext, pe, H, u)
+    status = walker_orin(model, q, qd, fext, pe, H, u)
+    if status != OK:
+        return status
     return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
 
 
