@@ -1,9 +1,9 @@
 """The ``mrnea`` command.
 
-``mrnea demo`` runs the main job on the built-in spatial disorientation trainer; ``mrnea info ROBOT``
-prints a robot's joints, masses, limits and actuators. ROBOT is a built-in name (``mrnea info
---help`` lists them), a URDF or a native ``.toml`` file. Bad input ends with one clear line on
-stderr and exit code 2 (``--debug`` shows the traceback).
+``mrnea demo`` runs the main job on the built-in spatial disorientation trainer;
+``mrnea info ROBOT`` prints a robot's joints, masses, limits and actuators. ROBOT is a built-in
+name (``mrnea info --help`` lists them), a URDF or a native ``.toml`` file. Bad input ends with
+one clear line on stderr and exit code 2 (``--debug`` shows the traceback).
 """
 
 from __future__ import annotations
