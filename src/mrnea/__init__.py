@@ -12,8 +12,8 @@ from mrnea.dynamics import (
     mass_matrix_and_bias,
 )
 from mrnea.errors import (
-    MrneaError,
     ModelError,
+    MrneaError,
     RobotFileError,
     SingularMassMatrixError,
     StateError,

@@ -1,0 +1,582 @@
+"""URDF reader and writer.
+
+:func:`load_urdf` turns a URDF file into a validated serial :class:`mrnea.Robot`;
+:func:`write_urdf` writes a :class:`mrnea.Robot` back as a URDF file that urdfdom (and so
+Pinocchio, ROS) accepts. Only the Python standard library's :mod:`xml.etree.ElementTree` is used.
+
+How a URDF tree becomes a serial chain
+--------------------------------------
+* The *root* is the one link that is no joint's child. Moving joints are ``revolute``,
+  ``continuous`` and ``prismatic``; ``fixed`` joints are merged away; ``floating`` and ``planar``
+  joints are not supported.
+* The *chain* is the path from the root to a *tip* link. Without ``tip``, the moving joints must
+  all lie on one root-to-leaf path, and the chain ends at the child of the last moving joint.
+* Each chain link carries everything rigidly attached to it: fixed-joint children (tool frames,
+  sensors, flanges), the links after the last moving joint, and, when ``tip`` is given, every
+  subtree that leaves the chain (its moving joints frozen at ``q = 0``). Masses add up; the centre
+  of mass is the mass-weighted mean; inertias are rotated into the chain link's frame and moved to
+  the combined centre of mass with the parallel-axis theorem. This is the same lumping Pinocchio
+  does for fixed joints and for :func:`pinocchio.buildReducedModel` with the locked joints at 0.
+* Links before the first moving joint are part of the fixed base: their inertia is dropped, and
+  the first moving joint's origin is expressed in the root link's frame.
+
+Actuator data: ``<limit>`` gives position, velocity and effort limits, ``<dynamics damping
+friction>`` viscous and Coulomb friction, and a ``<transmission>``'s ``<mechanicalReduction>``
+the gear ratio (its absolute value: the sign, a direction convention of the motor, is dropped).
+A rotor inertia or a torque-speed curve has no place in plain URDF: neither is read nor
+written (a curve's peak is written as the effort limit).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import uuid
+import warnings
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mrnea.errors import ModelError, RobotFileError
+from mrnea.model import (
+    DEFAULT_GRAVITY,
+    Joint,
+    Link,
+    Robot,
+    rpy_from_rotation,
+    transform,
+)
+
+__all__ = ["load_urdf", "write_urdf"]
+
+MOVING_TYPES = ("revolute", "continuous", "prismatic")
+UNSUPPORTED_TYPES = ("floating", "planar")
+
+#: Written for an unbounded limit (urdfdom rejects ``inf``) and read back as infinite. It is the
+#: largest double, the value Pinocchio itself uses for "no limit".
+UNBOUNDED = sys.float_info.max
+
+
+@dataclass
+class _UrdfLink:
+    """A link's ``<inertial>`` as written (validated only if the link ends up in the chain)."""
+
+    name: str
+    mass: float = 0.0
+    com: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))  # [m], link frame
+    # [kg m^2] about the com, in the axes of the inertial frame, rotated by R from the link frame
+    inertia: NDArray[np.float64] = field(default_factory=lambda: np.zeros((3, 3)))
+    R: NDArray[np.float64] = field(default_factory=lambda: np.eye(3))
+
+
+@dataclass
+class _UrdfJoint:
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: NDArray[np.float64]  # 4x4, parent link frame -> joint frame
+    fields: dict[str, object] = field(default_factory=dict)  # Joint keyword arguments
+    mimic: bool = False
+
+
+class _Reader:
+    """Parses one URDF document; every error names the file and the element at fault."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def error(self, message: str) -> RobotFileError:
+        return RobotFileError(f"{self.path}: {message}")
+
+    # --- attribute helpers ----------------------------------------------------------------
+    def required(self, elem: ET.Element, attr: str, what: str) -> str:
+        value = elem.get(attr)
+        if value is None:
+            raise self.error(f"{what}: <{elem.tag}> has no '{attr}' attribute")
+        return value
+
+    def floats(self, elem: ET.Element | None, attr: str, n: int, what: str,
+               default: tuple[float, ...] | None = None) -> NDArray[np.float64]:
+        """``n`` numbers from a whitespace-separated attribute (``default`` if absent)."""
+        text = None if elem is None else elem.get(attr)
+        if text is None:
+            if default is None:
+                tag = "element" if elem is None else f"<{elem.tag}>"
+                raise self.error(f"{what}: {tag} has no '{attr}' attribute")
+            return np.array(default, dtype=float)
+        assert elem is not None
+        parts = text.split()
+        if len(parts) != n:
+            raise self.error(
+                f"{what}: <{elem.tag} {attr}=\"{text}\">: expected {n} number(s), got {len(parts)}"
+            )
+        try:
+            return np.array([float(p) for p in parts])
+        except ValueError:
+            raise self.error(
+                f"{what}: <{elem.tag} {attr}=\"{text}\">: not a number"
+            ) from None
+
+    def number(self, elem: ET.Element | None, attr: str, what: str,
+               default: float | None = None) -> float:
+        return float(self.floats(elem, attr, 1, what, None if default is None else (default,))[0])
+
+    def text_number(self, elem: ET.Element, what: str) -> float:
+        """The number that is ``elem``'s text content."""
+        text = (elem.text or "").strip()
+        try:
+            return float(text)
+        except ValueError:
+            raise self.error(f"{what}: <{elem.tag}>{text}</{elem.tag}>: not a number") from None
+
+    def origin(self, elem: ET.Element, what: str) -> NDArray[np.float64]:
+        """The 4x4 transform of ``elem``'s ``<origin xyz rpy>`` child (identity if absent)."""
+        o = elem.find("origin")
+        xyz = self.floats(o, "xyz", 3, what, (0.0, 0.0, 0.0))
+        rpy = self.floats(o, "rpy", 3, what, (0.0, 0.0, 0.0))
+        if not (np.all(np.isfinite(xyz)) and np.all(np.isfinite(rpy))):
+            raise self.error(f"{what}: <origin> has non-finite values: xyz {xyz.tolist()}, "
+                             f"rpy {rpy.tolist()}")
+        return transform(xyz, rpy)
+
+    # --- document ---------------------------------------------------------------------------
+    def parse_root(self) -> ET.Element:
+        try:
+            data = self.path.read_bytes()
+        except FileNotFoundError:
+            raise self.error("file not found") from None
+        except OSError as exc:
+            raise self.error(f"cannot read file: {exc.strerror or exc}") from None
+        if not data.strip():
+            raise self.error("file is empty")
+        try:
+            root = ET.fromstring(data)
+        except ET.ParseError as exc:
+            line, col = exc.position
+            raise self.error(f"invalid XML at line {line}, column {col}: {exc}") from None
+        except (LookupError, ValueError) as exc:  # e.g. an unknown encoding in the declaration
+            raise self.error(f"invalid XML: {exc}") from None
+        if root.tag != "robot":
+            raise self.error(f"root element is <{root.tag}>, expected <robot>")
+        return root
+
+    def link(self, elem: ET.Element, index: int) -> _UrdfLink:
+        name = self.required(elem, "name", f"link #{index + 1}")
+        if not name:
+            raise self.error(f"link #{index + 1}: empty name")
+        inertial = elem.find("inertial")
+        if inertial is None:
+            return _UrdfLink(name)
+        what = f"link '{name}' <inertial>"
+        T = self.origin(inertial, what)
+        mass_el = inertial.find("mass")
+        if mass_el is None:
+            raise self.error(f"{what}: no <mass> element")
+        mass = self.number(mass_el, "value", what)
+        inertia_el = inertial.find("inertia")
+        if inertia_el is None:
+            raise self.error(f"{what}: no <inertia> element")
+        ixx, ixy, ixz, iyy, iyz, izz = (
+            self.number(inertia_el, a, what) for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        )
+        inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        return _UrdfLink(name, mass, T[:3, 3].copy(), inertia, T[:3, :3].copy())
+
+    def inertial(self, lk: _UrdfLink) -> tuple[float, NDArray, NDArray]:
+        """Validated mass [kg], com [m] and inertia about the com [kg m^2] in the link frame."""
+        try:  # mass >= 0, finite values, PSD inertia (a rotation keeps it PSD)
+            Link(lk.name, lk.mass, lk.com, lk.inertia)
+        except ModelError as exc:
+            raise self.error(str(exc)) from None
+        inertia = lk.R @ lk.inertia @ lk.R.T
+        return lk.mass, lk.com, 0.5 * (inertia + inertia.T)
+
+    def joint(self, elem: ET.Element, index: int) -> _UrdfJoint:
+        name = self.required(elem, "name", f"joint #{index + 1}")
+        if not name:
+            raise self.error(f"joint #{index + 1}: empty name")
+        what = f"joint '{name}'"
+        jtype = self.required(elem, "type", what)
+        if jtype in UNSUPPORTED_TYPES:
+            raise self.error(
+                f"{what}: joint type '{jtype}' is not supported (a serial chain has only "
+                f"{', '.join(MOVING_TYPES)} and fixed joints)"
+            )
+        if jtype not in (*MOVING_TYPES, "fixed"):
+            raise self.error(
+                f"{what}: unknown joint type '{jtype}' (known: {', '.join(MOVING_TYPES)}, fixed, "
+                f"{', '.join(UNSUPPORTED_TYPES)})"
+            )
+        ends = []
+        for tag in ("parent", "child"):
+            e = elem.find(tag)
+            if e is None:
+                raise self.error(f"{what}: no <{tag}> element")
+            ends.append(self.required(e, "link", what))
+        j = _UrdfJoint(name, jtype, ends[0], ends[1], self.origin(elem, what))
+        if jtype == "fixed":
+            return j
+        j.mimic = elem.find("mimic") is not None
+        f = j.fields
+        f["axis"] = self.floats(elem.find("axis"), "xyz", 3, what, (1.0, 0.0, 0.0))
+        limit = elem.find("limit")
+        if limit is not None:
+            for attr, key, default in (("lower", "lower", -math.inf),
+                                       ("upper", "upper", math.inf),
+                                       ("effort", "effort_limit", math.inf),
+                                       ("velocity", "velocity_limit", math.inf)):
+                v = self.number(limit, attr, f"{what} <limit>", default)
+                f[key] = math.copysign(math.inf, v) if abs(v) >= UNBOUNDED else v
+        dyn = elem.find("dynamics")
+        if dyn is not None:
+            f["viscous_friction"] = self.number(dyn, "damping", f"{what} <dynamics>", 0.0)
+            f["coulomb_friction"] = self.number(dyn, "friction", f"{what} <dynamics>", 0.0)
+        return j
+
+    def transmissions(self, root: ET.Element) -> dict[str, tuple[str, float | None]]:
+        """Joint name -> (transmission name, abs(mechanical reduction), or None if coupled).
+
+        Transmissions of joints the file does not have are ignored (cut-down robot files often
+        keep the full list).
+        """
+        out: dict[str, tuple[str, float | None]] = {}
+        for k, tr in enumerate(root.findall("transmission")):
+            tname = tr.get("name") or f"#{k + 1}"
+            what = f"transmission '{tname}'"
+            jnames = [self.required(je, "name", f"{what} <joint>") for je in tr.findall("joint")]
+            # ros_control format: <actuator><mechanicalReduction>; old format: a direct child
+            red_elems = [*tr.findall("actuator/mechanicalReduction"),
+                         *tr.findall("mechanicalReduction")]
+            reductions = [self.text_number(r, f"{what} <mechanicalReduction>") for r in red_elems]
+            for jn in jnames:
+                if jn in out:
+                    raise self.error(
+                        f"{what}: joint '{jn}' is already driven by transmission '{out[jn][0]}'"
+                    )
+            if len(jnames) == 1 and len(reductions) <= 1:
+                red = reductions[0] if reductions else 1.0
+                if red == 0 or not math.isfinite(red):
+                    raise self.error(
+                        f"{what} <mechanicalReduction>: must be finite and non-zero, got {red}"
+                    )
+                out[jnames[0]] = (tname, abs(red))
+            else:  # differential or multi-actuator: load_urdf warns if it drives the chain
+                for jn in jnames:
+                    out[jn] = (tname, None)
+        return out
+
+
+def _combine(parts: list[tuple[float, NDArray, NDArray]]) -> tuple[float, NDArray, NDArray]:
+    """Total mass, com and inertia about that com of bodies (mass, com, inertia) in one frame."""
+    mass = float(sum(m for m, _, _ in parts))
+    massive = [c for m, c, _ in parts if m > 0]
+    if len(massive) == 1:  # exact: no m * c / m rounding
+        com = massive[0]
+    elif massive:
+        com = sum(m * c for m, c, _ in parts) / mass
+    else:
+        com = np.zeros(3)
+    inertia = np.zeros((3, 3))
+    for m, c, I in parts:
+        d = c - com
+        inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return mass, np.array(com, dtype=float), 0.5 * (inertia + inertia.T)
+
+
+def load_urdf(path: str | Path, tip: str | None = None) -> Robot:
+    """Load a URDF file as a serial :class:`mrnea.Robot`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The URDF file.
+    tip : str, optional
+        Name of the link that ends the chain. Needed only when the moving joints branch (a hand
+        with moving fingers, a humanoid); the error then lists the candidate tip links. Subtrees
+        off the root-to-tip path are lumped, at ``q = 0``, into the chain link they hang from.
+
+    Returns
+    -------
+    Robot
+        ``n`` moving joints, root to tip. Link frames are the URDF link frames of the chain links
+        (the children of the moving joints); joint origins [m, rad] are expressed in the previous
+        chain link's frame (the root link's frame for the first joint), composed with any fixed
+        joints in between. Masses [kg], centres of mass [m, link frame] and inertias [kg m^2,
+        about the com, link-frame axes] include everything rigidly attached. Gravity is
+        ``(0, 0, -9.81)`` m/s^2 (URDF has no gravity). The base is the root link.
+
+    Notes
+    -----
+    Defaults follow the URDF specification where this does not contradict the model: missing
+    ``<origin>`` -> identity; missing ``<axis>`` -> ``(1, 0, 0)``; missing ``<inertial>`` ->
+    massless link; missing ``lower``/``upper`` -> unbounded (the URDF specification says 0,
+    which would lock the joint); missing ``effort``/``velocity`` -> unlimited; a limit of
+    magnitude >= ``sys.float_info.max`` (what :func:`write_urdf` writes for "none") is read as
+    infinite. Continuous joints have no position limits. The gear ratio is
+    ``abs(mechanicalReduction)`` of a single-joint, single-actuator ``<transmission>`` (1
+    without one). A chain joint in a coupled transmission (differential, several actuators)
+    gets 1 and a :class:`UserWarning`; transmissions naming joints the file does not have are
+    ignored. Masses and inertias are checked (``mass >= 0``, inertia symmetric positive
+    semi-definite) only for links that end up in the chain: the fixed base's links are dropped
+    unchecked. The robot's name is ``<robot name>`` (the file's stem if absent).
+
+    Raises
+    ------
+    RobotFileError
+        The file cannot be read, is not XML, not a URDF, not a tree, has an unsupported element
+        (``floating``/``planar`` joints, a ``<mimic>`` joint on the chain) or non-physical
+        values; the message names the file and the element.
+    """
+    path = Path(path)
+    rd = _Reader(path)
+    root = rd.parse_root()
+    robot_name = root.get("name") or path.stem
+
+    links: dict[str, _UrdfLink] = {}
+    for k, elem in enumerate(root.findall("link")):
+        lk = rd.link(elem, k)
+        if lk.name in links:
+            raise rd.error(f"duplicate link name '{lk.name}'")
+        links[lk.name] = lk
+    joints: dict[str, _UrdfJoint] = {}
+    parent_joint: dict[str, _UrdfJoint] = {}  # child link -> the joint above it
+    children: dict[str, list[_UrdfJoint]] = {name: [] for name in links}
+    for k, elem in enumerate(root.findall("joint")):
+        j = rd.joint(elem, k)
+        if j.name in joints:
+            raise rd.error(f"duplicate joint name '{j.name}'")
+        for end in (j.parent, j.child):
+            if end not in links:
+                raise rd.error(f"joint '{j.name}': refers to link '{end}', which does not exist")
+        if j.child in parent_joint:
+            raise rd.error(
+                f"joint '{j.name}': link '{j.child}' is already the child of joint "
+                f"'{parent_joint[j.child].name}' (a link can have only one parent)"
+            )
+        if j.parent == j.child:
+            raise rd.error(f"joint '{j.name}': link '{j.child}' is its own parent (cycle)")
+        joints[j.name] = j
+        parent_joint[j.child] = j
+        children[j.parent].append(j)
+    if not links:
+        raise rd.error(f"robot '{robot_name}' has no <link>")
+
+    # --- tree structure -------------------------------------------------------------------
+    roots = [name for name in links if name not in parent_joint]
+    if not roots:
+        raise rd.error("the links form a cycle: every link is some joint's child (no root link)")
+    if len(roots) > 1:
+        raise rd.error(
+            f"not a tree: several root links (links that are no joint's child): "
+            f"{', '.join(sorted(roots))}"
+        )
+    base = roots[0]
+    order: list[str] = []  # depth-first, parents before children
+    stack = [base]
+    while stack:
+        name = stack.pop()
+        order.append(name)
+        stack.extend(j.child for j in reversed(children[name]))
+    if len(order) != len(links):
+        unreached = sorted(set(links) - set(order))
+        raise rd.error(
+            f"not a tree: links {', '.join(unreached)} are not connected to root link '{base}' "
+            f"(their joints form a cycle)"
+        )
+
+    def path_to(link: str) -> list[_UrdfJoint]:
+        out = []
+        while link != base:
+            j = parent_joint[link]
+            out.append(j)
+            link = j.parent
+        return out[::-1]
+
+    # --- choose the chain --------------------------------------------------------------------
+    n_moving = sum(j.type in MOVING_TYPES for j in joints.values())
+    if n_moving == 0:
+        raise rd.error(f"robot '{robot_name}' has no moving joint")
+    if tip is None:
+        leaves = [name for name in order if not children[name]]
+        moving_on_path = {lf: [j for j in path_to(lf) if j.type in MOVING_TYPES] for lf in leaves}
+        full = [lf for lf in leaves if len(moving_on_path[lf]) == n_moving]
+        if not full:
+            candidates = sorted(lf for lf in leaves if moving_on_path[lf])
+            raise rd.error(
+                f"the moving joints branch: pass tip=<link name> to choose the chain; candidate "
+                f"tip links: {', '.join(candidates)}"
+            )
+        chain_path = moving_on_path[full[0]]
+    else:
+        if tip not in links:
+            raise rd.error(f"tip link '{tip}' does not exist")
+        chain_path = [j for j in path_to(tip) if j.type in MOVING_TYPES]
+        if not chain_path:
+            raise rd.error(f"the path from root link '{base}' to tip link '{tip}' has no moving "
+                           f"joint")
+    chain = {j.name: i + 1 for i, j in enumerate(chain_path)}  # joint -> body index (1..n)
+    for j in chain_path:
+        if j.mimic:
+            raise rd.error(f"joint '{j.name}': <mimic> joints are not supported on the chain")
+
+    # --- lump every link into its chain body ---------------------------------------------------
+    # body 0 is the fixed base; pose[name] is the link's frame in its body's frame (q = 0 for
+    # moving joints off the chain).
+    body = {base: 0}
+    pose = {base: np.eye(4)}
+    chain_origin: dict[str, NDArray] = {}
+    parts: list[list[tuple[float, NDArray, NDArray]]] = [[] for _ in range(len(chain) + 1)]
+    for name in order:
+        if name != base:
+            j = parent_joint[name]
+            if j.name in chain:
+                chain_origin[j.name] = pose[j.parent] @ j.origin
+                body[name], pose[name] = chain[j.name], np.eye(4)
+            else:
+                body[name], pose[name] = body[j.parent], pose[j.parent] @ j.origin
+        if body[name] == 0:  # part of the fixed base: dropped, hence not validated either
+            continue
+        mass, com, inertia = rd.inertial(links[name])
+        R, p = pose[name][:3, :3], pose[name][:3, 3]
+        parts[body[name]].append((mass, R @ com + p, R @ inertia @ R.T))
+
+    # --- gear ratios -----------------------------------------------------------------------------
+    trans = rd.transmissions(root)
+    robot_joints, robot_links = [], []
+    coupled: dict[str, list[str]] = {}  # coupled transmission -> its chain joints
+    prev = base
+    try:
+        for i, j in enumerate(chain_path, start=1):
+            kw = dict(j.fields)
+            if j.name in trans:
+                tname, red = trans[j.name]
+                if red is None:
+                    coupled.setdefault(tname, []).append(j.name)
+                else:
+                    kw["gear_ratio"] = red
+            robot_joints.append(Joint(j.name, j.type, prev, j.child, chain_origin[j.name], **kw))
+            mass, com, inertia = _combine(parts[i])
+            robot_links.append(Link(j.child, mass, com, inertia))
+            prev = j.child
+        robot = Robot(robot_joints, robot_links, DEFAULT_GRAVITY, name=robot_name, base=base)
+    except ModelError as exc:  # Joint/Link/Robot errors name the joint or link: add the file
+        raise rd.error(str(exc)) from None
+    for tname, jnames in coupled.items():
+        warnings.warn(
+            f"{path}: transmission '{tname}' couples joint(s) {', '.join(jnames)} with other "
+            f"joints or actuators; mrnea models one motor per joint, so they get gear ratio 1",
+            UserWarning,
+            stacklevel=2,
+        )
+    return robot
+
+
+# --- writer -----------------------------------------------------------------------------------
+def _fmt(*values: float) -> str:
+    """Shortest exact decimal form; infinities as +-UNBOUNDED (urdfdom rejects ``inf``)."""
+    out = []
+    for v in values:
+        v = float(v)
+        if math.isinf(v):
+            v = math.copysign(UNBOUNDED, v)
+        out.append(repr(v + 0.0))  # + 0.0 turns -0.0 into 0.0
+    return " ".join(out)
+
+
+def write_urdf(robot: Robot, path: str | Path) -> Path:
+    """Write ``robot`` as a URDF file, atomically, overwriting ``path`` if it exists.
+
+    The file has the base link, then per joint its ``<origin xyz rpy>`` (rpy [rad] from
+    :func:`mrnea.model.rpy_from_rotation`), ``<axis>``, ``<limit>``, ``<dynamics damping
+    friction>``, the child link's ``<inertial>`` (origin at the centre of mass, axes of the link
+    frame) and, when the gear ratio is not 1, a ``<transmission>`` with that
+    ``<mechanicalReduction>``. :func:`load_urdf` reads it back to the same robot (up to the
+    rounding of the rpy angles, ~1e-16).
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot to write.
+    path : str or Path
+        The output file; its directory must exist.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Notes
+    -----
+    * urdfdom rejects ``inf`` and requires ``lower``/``upper``/``effort``/``velocity`` on
+      revolute and prismatic joints, so unbounded limits are written as
+      ``+-1.7976931348623157e+308`` (the largest double, Pinocchio's own "no limit");
+      :func:`load_urdf` reads that value back as infinite. Continuous joints get no
+      ``lower``/``upper``.
+    * Not representable in plain URDF, hence dropped: the rotor inertia, a torque-speed curve
+      (its peak is the ``effort`` written) and a non-default gravity.
+    * Numbers are written in their shortest exact decimal form, so masses, centres of mass,
+      inertias, translations, axes and limits round-trip exactly.
+    """
+    if not isinstance(robot, Robot):
+        raise TypeError(f"write_urdf: expected a Robot, got {type(robot).__name__}")
+    path = Path(path)
+    root = ET.Element("robot", name=robot.name)
+    ET.SubElement(root, "link", name=robot.base)
+    transmissions = []
+    for j, lk in zip(robot.joints, robot.links, strict=True):
+        je = ET.SubElement(root, "joint", name=j.name, type=j.type)
+        ET.SubElement(je, "parent", link=j.parent)
+        ET.SubElement(je, "child", link=j.child)
+        origin = np.asarray(j.origin)
+        ET.SubElement(je, "origin", xyz=_fmt(*origin[:3, 3]),
+                      rpy=_fmt(*rpy_from_rotation(origin[:3, :3])))
+        ET.SubElement(je, "axis", xyz=_fmt(*j.axis))
+        limit = {"effort": _fmt(j.effort_limit), "velocity": _fmt(j.velocity_limit)}
+        if j.type != "continuous":
+            limit = {"lower": _fmt(j.lower), "upper": _fmt(j.upper), **limit}
+        ET.SubElement(je, "limit", limit)
+        ET.SubElement(je, "dynamics", damping=_fmt(j.viscous_friction),
+                      friction=_fmt(j.coulomb_friction))
+        le = ET.SubElement(root, "link", name=lk.name)
+        inertial = ET.SubElement(le, "inertial")
+        ET.SubElement(inertial, "origin", xyz=_fmt(*lk.com), rpy="0.0 0.0 0.0")
+        ET.SubElement(inertial, "mass", value=_fmt(lk.mass))
+        inertia = np.asarray(lk.inertia)
+        ET.SubElement(inertial, "inertia", {
+            key: _fmt(inertia[a, b]) for key, (a, b) in (
+                ("ixx", (0, 0)), ("ixy", (0, 1)), ("ixz", (0, 2)),
+                ("iyy", (1, 1)), ("iyz", (1, 2)), ("izz", (2, 2)))
+        })
+        if j.gear_ratio != 1.0:
+            transmissions.append(j)
+    for j in transmissions:
+        te = ET.SubElement(root, "transmission", name=f"{j.name}_transmission")
+        ET.SubElement(te, "type").text = "transmission_interface/SimpleTransmission"
+        ET.SubElement(ET.SubElement(te, "joint", name=j.name), "hardwareInterface").text = (
+            "hardware_interface/EffortJointInterface")
+        ae = ET.SubElement(te, "actuator", name=f"{j.name}_motor")
+        ET.SubElement(ae, "mechanicalReduction").text = _fmt(j.gear_ratio)
+    ET.indent(root)
+    text = ET.tostring(root, encoding="unicode")
+    data = f'<?xml version="1.0" encoding="utf-8"?>\n{text}\n'.encode()
+
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
+    except OSError as exc:
+        raise RobotFileError(f"{path}: cannot write URDF: {exc.strerror or exc}") from None
+    return path
