@@ -109,9 +109,9 @@ def _method(method: str, table: dict) -> tuple:
 
 def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> None:
     """Raise the error a kernel status reports (NONFINITE, or a failed pivot of H)."""
-    batched = not isinstance(status, int)
+    batched = isinstance(status, np.ndarray)
     st = np.atleast_1d(status)
-    if batched and not (st != OK).any():
+    if not (st != OK).any():
         return
     if np.any(st == NONFINITE):
         for k, v in states.items():

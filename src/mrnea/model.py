@@ -16,6 +16,10 @@ Conventions (the same as URDF's, so URDF files map one to one):
   [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N], ``effort_limit`` [N m or N]
   (``inf``: unlimited), ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited), ``lower``/``upper``
   position limits [rad or m] (``-inf``/``inf``: none; always so for continuous joints).
+* ``torque_speed`` (optional), joint side: ``(peak, corner_speed, no_load_speed)``. The effort
+  limit is ``peak`` up to the corner speed, then the smaller of constant power
+  ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
+  no-load speed; zero beyond it. With a curve, ``effort_limit`` equals ``peak``.
 
 A :class:`Robot` is validated once, at construction; every error names the link or joint at fault.
 """
@@ -41,6 +45,7 @@ ACTUATOR_FIELDS = (
     "rotor_inertia",
     "viscous_friction",
     "coulomb_friction",
+    "torque_speed",
 )
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 
@@ -82,7 +87,7 @@ def rotation_from_rpy(rpy: ArrayLike) -> NDArray[np.float64]:
 
 
 def rpy_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
-    """URDF roll-pitch-yaw angles [rad] of a rotation matrix (inverse of :func:`rotation_from_rpy`)."""
+    """URDF roll-pitch-yaw angles [rad] of a rotation matrix (inverse of rotation_from_rpy)."""
     R = np.asarray(R, dtype=float)
     pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
     if math.isclose(abs(pitch), math.pi / 2, abs_tol=1e-12):  # gimbal lock: put it all in yaw
@@ -155,6 +160,7 @@ class Joint:
     rotor_inertia: float = 0.0
     viscous_friction: float = 0.0
     coulomb_friction: float = 0.0
+    torque_speed: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -162,7 +168,8 @@ class Joint:
         what = f"joint '{self.name}'"
         if self.type not in JOINT_TYPES:
             raise ModelError(
-                f"{what}: unsupported joint type {self.type!r} (supported: {', '.join(JOINT_TYPES)})"
+                f"{what}: unsupported joint type {self.type!r} "
+                f"(supported: {', '.join(JOINT_TYPES)})"
             )
         origin = _frozen(self.origin, (4, 4), f"{what}: origin")
         R = origin[:3, :3]
@@ -196,6 +203,19 @@ class Joint:
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
         values["gear_ratio"] = g
+        if self.torque_speed is not None:
+            try:
+                peak, corner, no_load = (float(x) for x in self.torque_speed)
+            except (TypeError, ValueError):
+                raise ModelError(
+                    f"{what}: torque_speed must be (peak, corner_speed, no_load_speed), "
+                    f"got {self.torque_speed!r}") from None
+            if not (0 <= peak < math.inf and 0 < corner <= no_load and math.isfinite(corner)):
+                raise ModelError(
+                    f"{what}: torque_speed needs 0 <= peak < inf and "
+                    f"0 < corner_speed <= no_load_speed, got {self.torque_speed!r}")
+            values["torque_speed"] = (peak, corner, no_load)
+            values["effort_limit"] = peak
         object.__setattr__(self, "origin", origin)
         object.__setattr__(self, "axis", axis)
         for k, v in values.items():
@@ -298,6 +318,11 @@ class Robot:
                                 doc="(n,) Coulomb friction F_s, joint side.")
 
     @property
+    def torque_speed(self) -> tuple[tuple[float, float, float] | None, ...]:
+        """Per joint: ``(peak, corner_speed, no_load_speed)`` or None (constant limit)."""
+        return tuple(j.torque_speed for j in self._joints)
+
+    @property
     def masses(self) -> NDArray[np.float64]:
         """(n,) link masses [kg]."""
         a = np.array([lk.mass for lk in self._links])
@@ -315,7 +340,10 @@ class Robot:
 
         Keywords are any of ``effort_limit``, ``gear_ratio``, ``rotor_inertia``,
         ``viscous_friction``, ``coulomb_friction``; each a scalar (all joints) or an ``(n,)``
-        sequence (per joint, root to tip).
+        sequence (per joint, root to tip). ``effort_limit`` sets a constant limit at every
+        speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
+        ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
+        triples or ``None`` (no curve for that joint).
         """
         unknown = set(fields) - set(ACTUATOR_FIELDS)
         if unknown:
@@ -323,7 +351,16 @@ class Robot:
                 f"with_actuators: unknown field(s) {sorted(unknown)}; "
                 f"expected some of {list(ACTUATOR_FIELDS)}"
             )
-        per_joint: dict[str, NDArray] = {}
+        per_joint: dict[str, list] = {}
+        curves = fields.pop("torque_speed", "unset")
+        if not isinstance(curves, str):
+            if curves is None or (len(curves) == 3 and np.ndim(curves[0]) == 0 and self.n != 3):
+                curves = [curves] * self.n
+            if len(curves) != self.n:
+                raise ModelError(f"with_actuators: torque_speed needs {self.n} entries")
+            per_joint["torque_speed"] = [None if c is None else tuple(c) for c in curves]
+        if "effort_limit" in fields:
+            per_joint["torque_speed"] = [None] * self.n
         for k, v in fields.items():
             arr = np.asarray(v, dtype=float)
             if arr.ndim == 0:
@@ -333,9 +370,9 @@ class Robot:
                     f"with_actuators: {k} must be a scalar or have shape ({self.n},), "
                     f"got {arr.shape}"
                 )
-            per_joint[k] = arr
+            per_joint[k] = [float(x) for x in arr]
         joints = [
-            dataclasses.replace(j, **{k: float(v[i]) for k, v in per_joint.items()})
+            dataclasses.replace(j, **{k: v[i] for k, v in per_joint.items()})
             for i, j in enumerate(self._joints)
         ]
         return self._replace(joints=joints)
@@ -352,8 +389,15 @@ class Robot:
 
     # --- compiled form and export ---------------------------------------------------------
     @cached_property
+    def compiled_actuators(self) -> NDArray[np.float64]:
+        """The flat ``(n, 7)`` actuator array of kernels/achievable.py."""
+        from mrnea.kernels.achievable import compile_actuators
+
+        return compile_actuators(self)
+
+    @cached_property
     def compiled(self) -> NDArray[np.float64]:
-        """The flat ``(n + 1, NCOL)`` float64 array the kernels read (layout in kernels/common.py)."""
+        """The flat ``(n + 1, NCOL)`` array the kernels read (layout: kernels/common.py)."""
         from mrnea.kernels.common import compile_model
 
         return compile_model(self)

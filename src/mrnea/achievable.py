@@ -1,0 +1,190 @@
+"""Achievable joint accelerations (paper Secs. II and V, Eqs. 42-44).
+
+Each interpolation cycle the path planner commands the next positions and velocities; the
+actuators may not be able to follow. :func:`achievable_accelerations` answers, for desired
+accelerations, which ones the actuators can really achieve and with which efforts;
+:func:`achievable_step` is the whole cycle of Sec. II (clamp the command to the joint limits,
+desired acceleration, achievable acceleration, next state).
+
+Modes (docs/achievable.md explains when each models a real drive):
+
+* ``"paper"`` -- Eq. 44 literally: every required effort is clamped to +-limit and the
+  accelerations solve ``H_a qdd = tau - u'_a`` for all joints at once.
+* ``"hybrid"`` (default) -- Sec. II's speed-controlled drives: saturated joints deliver their
+  limit, every other joint keeps its desired acceleration and takes the effort that needs; a joint
+  pushed over its own limit by that saturates too (an active set, at most n rounds).
+
+Coulomb friction at rest and the actuator convention: :mod:`mrnea.kernels.achievable` and
+:mod:`mrnea.actuators`. Efforts are joint side [N m | N]; ``tau_motor = tau / G``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea.dynamics import _array, _check, _inputs
+from mrnea.errors import StateError
+from mrnea.kernels.achievable import (
+    CLAMP_POSITION,
+    CLAMP_VELOCITY,
+    HYBRID,
+    PAPER,
+    achievable,
+    achievable_batch,
+    step,
+)
+from mrnea.model import Robot
+
+Mode = Literal["hybrid", "paper"]
+_MODES = {"paper": PAPER, "hybrid": HYBRID}
+
+
+@dataclass(frozen=True)
+class AchievableResult:
+    """What the actuators can do at one state (arrays (n,), or (B, n) for a batch).
+
+    Attributes
+    ----------
+    qdd : achievable joint accelerations [rad/s^2 | m/s^2].
+    tau : joint-side efforts actually applied [N m | N].
+    tau_motor : motor torques, ``tau / G`` [N m].
+    tau_required : efforts the desired accelerations would need.
+    saturated : True where the joint's effort is at its limit (``"paper"``: where the required
+        effort exceeded it).
+    margin : ``limit - |tau|``, >= 0 up to rounding.
+    limit : effort limit at the current speed.
+    """
+
+    qdd: NDArray[np.float64]
+    tau: NDArray[np.float64]
+    tau_motor: NDArray[np.float64]
+    tau_required: NDArray[np.float64]
+    saturated: NDArray[np.bool_]
+    margin: NDArray[np.float64]
+    limit: NDArray[np.float64]
+
+    @property
+    def achievable(self) -> bool:
+        """True when no joint saturated (the desired accelerations are achievable)."""
+        return not bool(np.any(self.saturated))
+
+
+@dataclass(frozen=True)
+class StepResult(AchievableResult):
+    """One interpolation cycle (:func:`achievable_step`); adds to :class:`AchievableResult`:
+
+    Attributes
+    ----------
+    q_next, qd_next : the state after dt at the achievable accelerations.
+    qdd_des : the desired accelerations, ``(qd_next_cmd_clamped - qd) / dt``.
+    q_cmd, qd_cmd : the command after clamping to the joint limits.
+    position_clamped : True where the commanded position was outside [lower, upper].
+    velocity_clamped : True where the commanded velocity exceeded the velocity limit.
+    """
+
+    q_next: NDArray[np.float64] = None  # type: ignore[assignment]
+    qd_next: NDArray[np.float64] = None  # type: ignore[assignment]
+    qdd_des: NDArray[np.float64] = None  # type: ignore[assignment]
+    q_cmd: NDArray[np.float64] = None  # type: ignore[assignment]
+    qd_cmd: NDArray[np.float64] = None  # type: ignore[assignment]
+    position_clamped: NDArray[np.bool_] = None  # type: ignore[assignment]
+    velocity_clamped: NDArray[np.bool_] = None  # type: ignore[assignment]
+
+
+def _mode(mode: str) -> int:
+    try:
+        return _MODES[mode]
+    except (KeyError, TypeError):
+        raise StateError(f"mode: unknown {mode!r}; expected 'hybrid' or 'paper'") from None
+
+
+def achievable_accelerations(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd_des: ArrayLike,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    mode: Mode = "hybrid",
+) -> AchievableResult:
+    """The accelerations the actuators can achieve when qdd_des is asked for (Eqs. 42-44).
+
+    q, qd, qdd_des: (n,) or (B, n). f_ext, f_ext_point as in :mod:`mrnea.dynamics` (the wrench
+    the last link exerts on its environment). Effort limits are taken at the current speed qd.
+    """
+    code = _mode(mode)
+    args = {"q": q, "qd": qd, "qdd_des": qdd_des}
+    batched, (q, qd, qdd_des), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
+    m, act = robot.compiled, robot.compiled_actuators
+    qdd, tau, tau_req, limit = (np.empty_like(q) for _ in range(4))
+    sat = np.empty(q.shape, dtype=np.bool_)
+    if batched:
+        status = np.empty(q.shape[0], dtype=np.int64)
+        achievable_batch(m, act, q, qd, qdd_des, fe, pe, code, qdd, tau, tau_req, limit, sat,
+                         status)
+    else:
+        status = achievable(m, act, q, qd, qdd_des, fe, pe, code, qdd, tau, tau_req, limit, sat)
+    _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    return AchievableResult(qdd=qdd, tau=tau, tau_motor=tau / robot.gear_ratio,
+                            tau_required=tau_req, saturated=sat,
+                            margin=limit - np.abs(tau), limit=limit)
+
+
+def achievable_step(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    q_next_cmd: ArrayLike,
+    qd_next_cmd: ArrayLike,
+    dt: float,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    mode: Mode = "hybrid",
+) -> StepResult:
+    """One interpolation cycle of Sec. II for one state (n,).
+
+    Clamps the commanded next position to [lower, upper] and velocity to +-velocity limit (a
+    position clamped at a limit may not be commanded onwards past it), forms the desired
+    acceleration ``(qd_next_cmd - qd) / dt``, computes the achievable accelerations and
+    integrates over dt at constant acceleration. dt [s] > 0.
+    """
+    code = _mode(mode)
+    try:
+        dt = float(dt)
+    except (TypeError, ValueError):
+        raise StateError(f"dt: not a number: {dt!r}") from None
+    if not (np.isfinite(dt) and dt > 0):
+        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
+    n = robot.n
+    arrays = {k: _array(v, k, n) for k, v in
+              {"q": q, "qd": qd, "q_next_cmd": q_next_cmd, "qd_next_cmd": qd_next_cmd}.items()}
+    if any(a.ndim != 1 for a in arrays.values()):
+        raise StateError(f"achievable_step takes one state: arrays of shape ({n},)")
+    _, (q, qd), fe, pe = _inputs(robot, {"q": arrays["q"], "qd": arrays["qd"]}, f_ext,
+                                 f_ext_point)
+    if fe.ndim != 1 or pe.ndim != 1:
+        raise StateError("achievable_step takes one state: f_ext (6,), f_ext_point (3,)")
+    m, act = robot.compiled, robot.compiled_actuators
+    out = {k: np.empty(n) for k in ("qdd_des", "qdd", "tau", "tau_req", "limit", "q_next",
+                                    "qd_next")}
+    sat = np.empty(n, dtype=np.bool_)
+    clamp = np.empty(n, dtype=np.int64)
+    status = step(m, act, q, qd, arrays["q_next_cmd"], arrays["qd_next_cmd"], dt, fe, pe, code,
+                  out["qdd_des"], out["qdd"], out["tau"], out["tau_req"], out["limit"], sat,
+                  out["q_next"], out["qd_next"], clamp)
+    _check(robot, status, {**arrays, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    q_cmd = np.clip(arrays["q_next_cmd"], robot.lower, robot.upper)
+    qd_cmd = qd + out["qdd_des"] * dt
+    tau = out["tau"]
+    return StepResult(
+        qdd=out["qdd"], tau=tau, tau_motor=tau / robot.gear_ratio,
+        tau_required=out["tau_req"], saturated=sat, margin=out["limit"] - np.abs(tau),
+        limit=out["limit"], q_next=out["q_next"], qd_next=out["qd_next"],
+        qdd_des=out["qdd_des"], q_cmd=q_cmd, qd_cmd=qd_cmd,
+        position_clamped=(clamp & CLAMP_POSITION) != 0,
+        velocity_clamped=(clamp & CLAMP_VELOCITY) != 0,
+    )

@@ -1,0 +1,257 @@
+"""Achievable accelerations: what the actuators can really do this cycle (paper Secs. II, V).
+
+Usage: ``status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req,
+limit, sat)``; ``status = step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, qdd_des,
+qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp)``.
+
+Actuator equation (Eqs. 42-43), joint side, with the rigid-body mass matrix and bias of one
+mRNEA pass::
+
+    tau = H_a qdd + u'_a,   H_a = H + diag(G^2 J_m),   u'_a = u' + F_v qd + F_s sign(qd)
+
+Modes:
+
+* PAPER (Eq. 44): clamp every required effort to +-limit and solve H_a qdd = tau - u'_a.
+* HYBRID (Sec. II: "other joint accelerations keep their values obtained from the path
+  interpolator"): joints whose required effort exceeds the limit deliver the limit; every other
+  joint keeps qdd_des and takes the effort that needs. A joint pushed over its own limit by that
+  joins the saturated set (an active set that only grows: at most n rounds).
+
+Both are one mixed linear system: per joint either the acceleration or the effort is known.
+
+Coulomb friction at rest (qd_i = 0, F_s > 0), the model mrnea uses:
+
+* a joint whose acceleration is prescribed and non-zero breaks away: friction F_s sign(qdd_i);
+* a joint prescribed to stay at rest (qdd_i = 0) gets up to F_s of its holding effort from
+  static friction, the actuator supplies the rest;
+* a joint whose effort is prescribed (saturated, or any joint in PAPER mode) first stays at rest
+  (qdd_i = 0); if the friction that needs exceeds F_s, it slips, with friction F_s in the
+  direction of the net effort (the joint then moves that way). Slipping is final for the call.
+
+Actuator array ``act`` (n, NACT), joint side: G, J_m, F_v, F_s, peak effort, corner speed,
+no-load speed, lower, upper, velocity limit. A constant limit has corner = no-load = inf.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numba as nb
+import numpy as np
+
+from mrnea.kernels.common import JIT, NONFINITE, OK, finite
+from mrnea.kernels.mrnea import mrnea
+from mrnea.kernels.solve import cholesky_solve
+
+if TYPE_CHECKING:
+    from mrnea.model import Robot
+
+GEAR, JM, FV, FS, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(10)
+NACT = 10
+PAPER, HYBRID = 0, 1
+# clamp flags of ``step``, per joint
+CLAMP_POSITION, CLAMP_VELOCITY = 1, 2
+
+
+def compile_actuators(robot: Robot) -> np.ndarray:
+    """The ``(n, NACT)`` actuator array of a validated Robot."""
+    a = np.empty((robot.n, NACT))
+    for i, j in enumerate(robot.joints):
+        curve = j.torque_speed or (j.effort_limit, math.inf, math.inf)
+        a[i] = (j.gear_ratio, j.rotor_inertia, j.viscous_friction, j.coulomb_friction,
+                *curve, j.lower, j.upper, j.velocity_limit)
+    a.setflags(write=False)
+    return a
+
+
+@nb.njit(**JIT)
+def effort_limit(act, i, qd_i):
+    """Effort limit of joint i at speed qd_i: torque-speed curve or constant (module docstring)."""
+    peak, corner, no_load = act[i, PEAK], act[i, CORNER], act[i, NOLOAD]
+    w = abs(qd_i)
+    if w <= corner:
+        return peak
+    if w >= no_load:
+        return 0.0
+    return min(peak * corner / w, peak * (no_load - w) / (no_load - corner))
+
+
+@nb.njit(**JIT)
+def actuator_terms(model, act, q, qd, fext, pe, Ha, ua):
+    """H_a (n, n) and u'_a (n,) of Eqs. 42-43 (Coulomb term F_s sign(qd), sign(0) = 0)."""
+    status = mrnea(model, q, qd, fext, pe, Ha, ua)
+    if status != OK:
+        return status
+    for i in range(q.shape[0]):
+        Ha[i, i] += act[i, GEAR] ** 2 * act[i, JM]
+        ua[i] += act[i, FV] * qd[i] + act[i, FS] * np.sign(qd[i])
+    return OK
+
+
+@nb.njit(**JIT)
+def _mixed_solve(Ha, ua, fric, known, qdd, tau, Hs, rhs, L, x, idx):
+    """Solve ``H_a qdd + u'_a + fric = tau`` where qdd[i] is given if known[i], else tau[i].
+
+    Fills the unknown entries: qdd where not known; tau = H_a qdd + u'_a (friction excluded)
+    where known. Returns OK or the joint index of a failed pivot.
+    """
+    n = Ha.shape[0]
+    m = 0
+    for i in range(n):
+        if not known[i]:
+            idx[m] = i
+            m += 1
+    for a in range(m):
+        i = idx[a]
+        s = tau[i] - ua[i] - fric[i]
+        for j in range(n):
+            if known[j]:
+                s -= Ha[i, j] * qdd[j]
+        rhs[a] = s
+        for b in range(m):
+            Hs[a, b] = Ha[i, idx[b]]
+    if m > 0:
+        status = cholesky_solve(Hs[:m, :m], rhs[:m], L[:m, :m], x[:m])
+        if status != OK:
+            return idx[status]
+        for a in range(m):
+            qdd[idx[a]] = x[a]
+    for i in range(n):
+        if known[i]:
+            s = ua[i]
+            for j in range(n):
+                s += Ha[i, j] * qdd[j]
+            tau[i] = s
+    return OK
+
+
+@nb.njit(**JIT)
+def _with_static_friction(need, fs, moving, qdd_i):
+    """Effort of a joint with prescribed acceleration, adding Coulomb friction at rest."""
+    if moving or fs == 0.0:
+        return need
+    if qdd_i != 0.0:
+        return need + fs * np.sign(qdd_i)  # breakaway
+    return need - min(max(need, -fs), fs)  # static friction holds up to F_s
+
+
+@nb.njit(**JIT)
+def achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req, limit, sat):
+    """Achievable accelerations of one state (module docstring). Returns a status.
+
+    Fills qdd (achievable), tau (effort applied, joint side), tau_req (effort qdd_des needs),
+    limit (effort limit at the current speed) and sat (True where the joint is saturated).
+    """
+    n = q.shape[0]
+    if not finite(qdd_des):
+        return NONFINITE
+    Ha = np.empty((n, n))
+    ua = np.empty(n)
+    status = actuator_terms(model, act, q, qd, fext, pe, Ha, ua)
+    if status != OK:
+        return status
+
+    # Eq. 42 with qdd_des: the efforts the programmed motion needs, and the limits at this speed
+    for i in range(n):
+        need = ua[i]
+        for j in range(n):
+            need += Ha[i, j] * qdd_des[j]
+        tau_req[i] = _with_static_friction(need, act[i, FS], qd[i] != 0.0, qdd_des[i])
+        limit[i] = effort_limit(act, i, qd[i])
+
+    known = np.empty(n, dtype=np.bool_)  # acceleration prescribed (HYBRID, unsaturated)
+    held = np.zeros(n, dtype=np.bool_)  # effort prescribed, kept at rest by static friction
+    slip = np.zeros(n, dtype=np.bool_)
+    fric = np.zeros(n)  # Coulomb friction of slipping joints that were at rest
+    tau_cmd = np.empty(n)  # the prescribed efforts
+    for i in range(n):
+        known[i] = mode == HYBRID
+        tau_cmd[i] = min(max(tau_req[i], -limit[i]), limit[i])  # Eq. 44's clamp
+    Hs, L = np.empty((n, n)), np.empty((n, n))
+    rhs, x = np.empty(n), np.empty(n)
+    idx = np.empty(n, dtype=np.int64)
+    fixed = np.empty(n, dtype=np.bool_)
+    for _ in range(2 * n + 1):
+        for i in range(n):
+            held[i] = (not known[i]) and qd[i] == 0.0 and act[i, FS] > 0.0 and not slip[i]
+            fixed[i] = known[i] or held[i]
+            if known[i]:
+                qdd[i] = qdd_des[i]
+            elif held[i]:
+                qdd[i] = 0.0
+            else:
+                tau[i] = tau_cmd[i]
+        status = _mixed_solve(Ha, ua, fric, fixed, qdd, tau, Hs, rhs, L, x, idx)
+        if status != OK:
+            return status
+        changed = False
+        for i in range(n):
+            if held[i]:
+                d = tau_cmd[i] - tau[i]  # what static friction must absorb to hold the joint
+                if abs(d) > act[i, FS]:
+                    slip[i] = True
+                    fric[i] = act[i, FS] * np.sign(d)
+                    changed = True
+                tau[i] = tau_cmd[i]
+            elif known[i]:
+                tau[i] = _with_static_friction(tau[i], act[i, FS], qd[i] != 0.0, qdd[i])
+                if abs(tau[i]) > limit[i]:  # HYBRID: this joint saturates too
+                    known[i] = False
+                    tau_cmd[i] = limit[i] * np.sign(tau[i])
+                    changed = True
+        if not changed:
+            break
+    for i in range(n):
+        sat[i] = abs(tau_req[i]) > limit[i] if mode == PAPER else not known[i]
+    return OK
+
+
+@nb.njit(**JIT)
+def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode,
+         qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp):
+    """One interpolation cycle of Sec. II. Returns a status.
+
+    Clamps the commanded next position q_cmd to [lower, upper] and velocity qd_cmd to
+    +-velocity limit (a position clamped at a limit also stops the joint there: its commanded
+    velocity may not point past it), forms qdd_des = (qd_cmd - qd) / dt, computes the achievable
+    accelerations and integrates at constant acceleration over dt:
+    qd_next = qd + qdd dt, q_next = q + (qd + qd_next) dt / 2. ``clamp`` gets CLAMP_POSITION |
+    CLAMP_VELOCITY flags per joint; the caller's q_cmd and qd_cmd are not modified.
+    """
+    n = q.shape[0]
+    if not (finite(q_cmd) and finite(qd_cmd) and np.isfinite(dt)):
+        return NONFINITE
+    for i in range(n):
+        flags = 0
+        qc = q_cmd[i]
+        vc = qd_cmd[i]
+        if vc > act[i, VLIM] or vc < -act[i, VLIM]:
+            vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
+            flags |= CLAMP_VELOCITY
+        if qc > act[i, UPPER]:
+            qc = act[i, UPPER]
+            vc = min(vc, 0.0)
+            flags |= CLAMP_POSITION
+        elif qc < act[i, LOWER]:
+            qc = act[i, LOWER]
+            vc = max(vc, 0.0)
+            flags |= CLAMP_POSITION
+        clamp[i] = flags
+        qdd_des[i] = (vc - qd[i]) / dt
+    status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req, limit, sat)
+    if status != OK:
+        return status
+    for i in range(n):
+        qd_next[i] = qd[i] + qdd[i] * dt
+        q_next[i] = q[i] + 0.5 * (qd[i] + qd_next[i]) * dt
+    return OK
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def achievable_batch(model, act, Q, QD, QDD_DES, FEXT, PE, mode, QDD, TAU, TAU_REQ, LIMIT, SAT,
+                     STATUS):
+    """``achievable`` over a batch (B, n) (FEXT (B, 6), PE (B, 3), STATUS (B,))."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = achievable(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
+                               QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b])
