@@ -31,6 +31,7 @@ from mrnea.errors import StateError
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
     CLAMP_VELOCITY,
+    ENGINE_MRNEA,
     HYBRID,
     PAPER,
     achievable,
@@ -124,10 +125,11 @@ def achievable_accelerations(
     sat = np.empty(q.shape, dtype=np.bool_)
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
-        achievable_batch(m, act, q, qd, qdd_des, fe, pe, code, qdd, tau, tau_req, limit, sat,
-                         status)
+        achievable_batch(m, act, q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, qdd, tau, tau_req,
+                         limit, sat, status)
     else:
-        status = achievable(m, act, q, qd, qdd_des, fe, pe, code, qdd, tau, tau_req, limit, sat)
+        status = achievable(m, act, q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, qdd, tau, tau_req,
+                            limit, sat)
     _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return AchievableResult(qdd=qdd, tau=tau, tau_motor=tau / robot.gear_ratio,
                             tau_required=tau_req, saturated=sat,
@@ -147,10 +149,11 @@ def achievable_step(
 ) -> StepResult:
     """One interpolation cycle of Sec. II for one state (n,).
 
-    Clamps the commanded next position to [lower, upper] and velocity to +-velocity limit (a
-    position clamped at a limit may not be commanded onwards past it), forms the desired
-    acceleration ``(qd_next_cmd - qd) / dt``, computes the achievable accelerations and
-    integrates over dt at constant acceleration. dt [s] > 0.
+    Clamps the commanded velocity to +-velocity limit and, where the commanded next position is
+    outside [lower, upper], lowers the velocity so the joint stops at the limit; forms the desired
+    acceleration ``(qd_next_cmd - qd) / dt``, computes the achievable accelerations and advances
+    the state as the paper's speed-controlled drives do: ``qd_next = qd + qdd dt`` and
+    ``q_next = q + qd_next dt`` (the velocity is held over the cycle). dt [s] > 0.
     """
     code = _mode(mode)
     try:
@@ -174,6 +177,7 @@ def achievable_step(
     sat = np.empty(n, dtype=np.bool_)
     clamp = np.empty(n, dtype=np.int64)
     status = step(m, act, q, qd, arrays["q_next_cmd"], arrays["qd_next_cmd"], dt, fe, pe, code,
+                  ENGINE_MRNEA,
                   out["qdd_des"], out["qdd"], out["tau"], out["tau_req"], out["limit"], sat,
                   out["q_next"], out["qd_next"], clamp)
     _check(robot, status, {**arrays, "f_ext": f_ext, "f_ext_point": f_ext_point})

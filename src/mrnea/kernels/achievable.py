@@ -41,8 +41,11 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import JIT, NONFINITE, OK, finite
+from mrnea.kernels.crba import crba
 from mrnea.kernels.mrnea import mrnea
+from mrnea.kernels.rnea import rnea
 from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.walker_orin import walker_orin
 
 if TYPE_CHECKING:
     from mrnea.model import Robot
@@ -50,6 +53,8 @@ if TYPE_CHECKING:
 GEAR, JM, FV, FS, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(10)
 NACT = 10
 PAPER, HYBRID = 0, 1
+# how H and u' are formed: the paper's mRNEA, Walker-Orin method 1, or CRBA + RNEA
+ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA = 0, 1, 2
 # clamp flags of ``step``, per joint
 CLAMP_POSITION, CLAMP_VELOCITY = 1, 2
 
@@ -78,9 +83,17 @@ def effort_limit(act, i, qd_i):
 
 
 @nb.njit(**JIT)
-def actuator_terms(model, act, q, qd, fext, pe, Ha, ua):
+def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua):
     """H_a (n, n) and u'_a (n,) of Eqs. 42-43 (Coulomb term F_s sign(qd), sign(0) = 0)."""
-    status = mrnea(model, q, qd, fext, pe, Ha, ua)
+    n = q.shape[0]
+    if engine == ENGINE_WALKER_ORIN:
+        status = walker_orin(model, q, qd, fext, pe, Ha, ua)
+    elif engine == ENGINE_CRBA:
+        status = rnea(model, q, qd, np.zeros(n), fext, pe, ua, np.empty((n, 3)),
+                      np.empty((n, 3)))
+        crba(model, q, Ha)
+    else:
+        status = mrnea(model, q, qd, fext, pe, Ha, ua)
     if status != OK:
         return status
     for i in range(q.shape[0]):
@@ -137,7 +150,8 @@ def _with_static_friction(need, fs, moving, qdd_i):
 
 
 @nb.njit(**JIT)
-def achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req, limit, sat):
+def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
+               sat):
     """Achievable accelerations of one state (module docstring). Returns a status.
 
     Fills qdd (achievable), tau (effort applied, joint side), tau_req (effort qdd_des needs),
@@ -148,7 +162,7 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req, li
         return NONFINITE
     Ha = np.empty((n, n))
     ua = np.empty(n)
-    status = actuator_terms(model, act, q, qd, fext, pe, Ha, ua)
+    status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua)
     if status != OK:
         return status
 
@@ -208,15 +222,17 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req, li
 
 
 @nb.njit(**JIT)
-def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode,
+def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
          qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp):
     """One interpolation cycle of Sec. II. Returns a status.
 
-    Clamps the commanded next position q_cmd to [lower, upper] and velocity qd_cmd to
-    +-velocity limit (a position clamped at a limit also stops the joint there: its commanded
-    velocity may not point past it), forms qdd_des = (qd_cmd - qd) / dt, computes the achievable
-    accelerations and integrates at constant acceleration over dt:
-    qd_next = qd + qdd dt, q_next = q + (qd + qd_next) dt / 2. ``clamp`` gets CLAMP_POSITION |
+    Clamps the commanded velocity qd_cmd to +-velocity limit and, where the commanded next
+    position q_cmd lies outside [lower, upper], lowers it so that the joint reaches the limit at
+    the end of the cycle and goes no further; forms qdd_des = (qd_cmd - qd) / dt, computes the
+    achievable accelerations and advances the state the way Sec. II describes the drives: the
+    velocity changes to qd_next = qd + qdd dt at the start of the cycle and the speed controller holds it
+    for dt, so q_next = q + qd_next dt. A feasible command is then reproduced exactly (q_next =
+    q_cmd when qd_cmd = (q_cmd - q) / dt). ``clamp`` gets CLAMP_POSITION |
     CLAMP_VELOCITY flags per joint; the caller's q_cmd and qd_cmd are not modified.
     """
     n = q.shape[0]
@@ -224,34 +240,33 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode,
         return NONFINITE
     for i in range(n):
         flags = 0
-        qc = q_cmd[i]
+        qc = q_cmd[i]  # read only: the caller's command is never modified
         vc = qd_cmd[i]
         if vc > act[i, VLIM] or vc < -act[i, VLIM]:
             vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
             flags |= CLAMP_VELOCITY
-        if qc > act[i, UPPER]:
-            qc = act[i, UPPER]
-            vc = min(vc, 0.0)
+        if qc > act[i, UPPER]:  # approach the limit, do not pass it
+            vc = min(vc, (act[i, UPPER] - q[i]) / dt)
             flags |= CLAMP_POSITION
         elif qc < act[i, LOWER]:
-            qc = act[i, LOWER]
-            vc = max(vc, 0.0)
+            vc = max(vc, (act[i, LOWER] - q[i]) / dt)
             flags |= CLAMP_POSITION
         clamp[i] = flags
         qdd_des[i] = (vc - qd[i]) / dt
-    status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req, limit, sat)
+    status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
+                        limit, sat)
     if status != OK:
         return status
     for i in range(n):
         qd_next[i] = qd[i] + qdd[i] * dt
-        q_next[i] = q[i] + 0.5 * (qd[i] + qd_next[i]) * dt
+        q_next[i] = q[i] + qd_next[i] * dt
     return OK
 
 
 @nb.njit(**{**JIT, "parallel": True})
-def achievable_batch(model, act, Q, QD, QDD_DES, FEXT, PE, mode, QDD, TAU, TAU_REQ, LIMIT, SAT,
-                     STATUS):
+def achievable_batch(model, act, Q, QD, QDD_DES, FEXT, PE, mode, engine, QDD, TAU, TAU_REQ,
+                     LIMIT, SAT, STATUS):
     """``achievable`` over a batch (B, n) (FEXT (B, 6), PE (B, 3), STATUS (B,))."""
     for b in nb.prange(Q.shape[0]):
         STATUS[b] = achievable(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
-                               QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b])
+                               engine, QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b])

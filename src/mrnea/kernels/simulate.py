@@ -1,0 +1,57 @@
+"""The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code.
+
+Usage: ``k, status = simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
+catch_up, k0, k1, q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``.
+
+Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
+at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
+q[k], qd[k] (qd[k] is the velocity the drives held over that interval), and what cycle k does:
+qdd_des[k] = (v - qd[k]) / dt with v the velocity wanted over the next interval, the achievable
+qdd[k], the efforts, the limits, saturation and clamp flags, and each joint's reaction wrench
+(kernels/rnea.py ``reactions``) at q[k], qd[k], qdd[k]. Then q[k+1], qd[k+1] follow.
+
+v is the program's qd_cmd[k+1] (the paper's behaviour: after a saturation the robot lags its
+program and keeps the lag), or with ``catch_up`` (q_cmd[k+1] - q[k]) / dt, which steers back to
+the programmed position as fast as the limits allow. On entry q[k0], qd[k0] hold the state.
+Returns (-1, OK), or the cycle and status of a failure.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from mrnea.kernels.achievable import step
+from mrnea.kernels.common import JIT, OK
+from mrnea.kernels.rnea import reactions
+
+
+@nb.njit(**JIT)
+def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch_up, k0, k1,
+                    q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench):
+    """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
+    K, n = q_cmd.shape
+    q_next = np.empty(n)
+    qd_next = np.empty(n)
+    v = np.empty(n)
+    scratch = np.empty(n)
+    for k in range(k0, k1):
+        last = k + 1 >= K
+        for i in range(n):
+            target = q_cmd[k, i] if last else q_cmd[k + 1, i]  # the program ends at rest
+            if catch_up:
+                v[i] = (target - q[k, i]) / dt
+            else:
+                v[i] = 0.0 if last else qd_cmd[k + 1, i]
+        status = step(model, act, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt,
+                      fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], tau_req[k],
+                      limit[k], sat[k], q_next, qd_next, clamp[k])
+        if status != OK:
+            return k, status
+        status = reactions(model, q[k], qd[k], qdd[k], fext[k], pe[k], scratch, wrench[k])
+        if status != OK:
+            return k, status
+        if not last:
+            q[k + 1] = q_next
+            qd[k + 1] = qd_next
+    return -1, OK
