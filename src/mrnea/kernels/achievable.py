@@ -227,13 +227,13 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
     """One interpolation cycle of Sec. II. Returns a status.
 
     Clamps the commanded velocity qd_cmd to +-velocity limit and, where the commanded next
-    position q_cmd lies outside [lower, upper], lowers it so that the joint reaches the limit at
-    the end of the cycle and goes no further; forms qdd_des = (qd_cmd - qd) / dt, computes the
-    achievable accelerations and advances the state the way Sec. II describes the drives: the
-    velocity changes to qd_next = qd + qdd dt at the start of the cycle and the speed controller holds it
-    for dt, so q_next = q + qd_next dt. A feasible command is then reproduced exactly (q_next =
-    q_cmd when qd_cmd = (q_cmd - q) / dt). ``clamp`` gets CLAMP_POSITION |
-    CLAMP_VELOCITY flags per joint; the caller's q_cmd and qd_cmd are not modified.
+    position q_cmd lies outside [lower, upper], lowers the velocity so that the joint reaches the
+    limit at the end of the cycle and goes no further. Forms qdd_des = (qd_cmd - qd) / dt,
+    computes the achievable accelerations and advances the state the way Sec. II describes the
+    drives: the velocity changes to qd_next = qd + qdd dt and the speed controller holds it for
+    dt, so q_next = q + qd_next dt. A feasible command is reproduced exactly (q_next = q_cmd when
+    qd_cmd = (q_cmd - q) / dt). ``clamp`` gets CLAMP_POSITION | CLAMP_VELOCITY flags per joint;
+    the caller's q_cmd and qd_cmd are not modified.
     """
     n = q.shape[0]
     if not (finite(q_cmd) and finite(qd_cmd) and np.isfinite(dt)):
