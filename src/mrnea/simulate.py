@@ -1,0 +1,363 @@
+"""The simulation system (paper Secs. II and VI): will the robot really make the programmed motion?
+
+:func:`simulate` takes the commanded positions a path planner sends, one row per interpolation
+cycle dt, and runs the Sec. II cycle every cycle in compiled code (kernels/simulate.py): clamp
+the command to the joint limits, desired acceleration, required efforts, saturation, achievable
+accelerations, next state, joint reaction loads. The :class:`SimulationResult` holds every cycle
+and its :meth:`SimulationResult.summary` answers the designer's questions.
+
+Time convention (row k is the instant t_k = k dt): ``q_cmd[k]`` is the program,
+``qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt`` its velocity over the interval ending at t_k (the
+paper's desired velocity; ``qd_cmd[0]`` is the initial velocity), ``q[k], qd[k]`` the robot's
+state, and ``qdd[k], tau[k], ...`` what cycle k does on its way to t_{k+1}. The program is taken
+to end at rest: the last cycle commands zero velocity.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea.achievable import _mode
+from mrnea.dynamics import _array
+from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea.kernels.achievable import (
+    CLAMP_POSITION,
+    CLAMP_VELOCITY,
+    ENGINE_CRBA,
+    ENGINE_MRNEA,
+    ENGINE_WALKER_ORIN,
+)
+from mrnea.kernels.common import NONFINITE
+from mrnea.kernels.simulate import simulate_cycles
+from mrnea.model import Robot
+
+FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
+CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Every cycle of a simulation. Arrays are (K, n) unless said otherwise; SI units.
+
+    Attributes
+    ----------
+    robot : the simulated Robot.
+    dt : interpolation cycle [s].
+    mode : ``"hybrid"`` or ``"paper"`` (see :mod:`mrnea.achievable`).
+    t : (K,) time [s].
+    q_cmd, qd_cmd : the program: positions and velocities (see the module docstring).
+    qdd_des : accelerations each cycle asked for, after clamping to the joint limits.
+    q, qd, qdd : the motion the robot really makes.
+    tau : joint-side efforts applied [N m | N]; tau_motor = tau / G; tau_required: what qdd_des
+        needed; limit: the effort limit at the current speed; margin = limit - |tau|.
+    saturated : (K, n) bool, effort at its limit.
+    position_clamped, velocity_clamped : (K, n) bool, the command exceeded a joint limit.
+    reaction : (K, n, 6) each joint's reaction wrench [f; n] in its joint frame
+        (:func:`mrnea.joint_reactions`).
+    tracking_error : q_cmd - q.
+    completed : False if the run was interrupted; the arrays then hold the cycles done.
+    """
+
+    robot: Robot
+    dt: float
+    mode: str
+    t: NDArray
+    q_cmd: NDArray
+    qd_cmd: NDArray
+    qdd_des: NDArray
+    q: NDArray
+    qd: NDArray
+    qdd: NDArray
+    tau: NDArray
+    tau_motor: NDArray
+    tau_required: NDArray
+    limit: NDArray
+    margin: NDArray
+    saturated: NDArray
+    position_clamped: NDArray
+    velocity_clamped: NDArray
+    reaction: NDArray
+    tracking_error: NDArray
+    completed: bool = True
+    fd: str = "mrnea"
+    _summary: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def K(self) -> int:
+        """Number of cycles."""
+        return self.t.shape[0]
+
+    @property
+    def achievable(self) -> bool:
+        """True when the program ran with no saturated effort and no clamped command."""
+        return not (self.saturated.any() or self.position_clamped.any()
+                    or self.velocity_clamped.any())
+
+    def summary(self) -> dict[str, Any]:
+        """The answers a designer wants, as plain JSON-ready data (SI units).
+
+        ``achievable``; ``first_infeasible`` (time, cycle, joint, reason, required vs available
+        effort) or None; per joint: time saturated [s], peak and RMS motor torque [N m], peak
+        joint-side effort, peak reaction force [N] and moment [N m] (magnitudes; axial and radial
+        split of the force along the joint axis), worst tracking error and when.
+        """
+        if self._summary:
+            return self._summary
+        names = self.robot.joint_names
+        infeasible = self.saturated | self.position_clamped | self.velocity_clamped
+        first = None
+        if infeasible.any():
+            k, i = (int(x) for x in np.argwhere(infeasible)[0])
+            reasons = [r for r, m in (("effort saturated", self.saturated),
+                                      ("position limit", self.position_clamped),
+                                      ("velocity limit", self.velocity_clamped)) if m[k, i]]
+            first = {
+                "time": float(self.t[k]), "cycle": k, "joint": names[i],
+                "reason": ", ".join(reasons),
+                "required_effort": float(self.tau_required[k, i]),
+                "available_effort": float(self.limit[k, i]),
+            }
+        axes = np.array([j.axis for j in self.robot.joints])  # joint-frame axes
+        f = self.reaction[:, :, :3]
+        m = self.reaction[:, :, 3:]
+        f_axial = np.abs(np.einsum("kij,ij->ki", f, axes))
+        f_radial = np.linalg.norm(f - np.einsum("ki,ij->kij", np.einsum("kij,ij->ki", f, axes),
+                                                axes), axis=2)
+        m_bending = np.linalg.norm(m - np.einsum("ki,ij->kij", np.einsum("kij,ij->ki", m, axes),
+                                                 axes), axis=2)
+        err = np.abs(self.tracking_error)
+        joints = []
+        for i, name in enumerate(names):
+            ke = int(np.argmax(err[:, i]))
+            joints.append({
+                "joint": name,
+                "time_saturated": float(self.saturated[:, i].sum() * self.dt),
+                "peak_motor_torque": float(np.abs(self.tau_motor[:, i]).max()),
+                "rms_motor_torque": float(np.sqrt(np.mean(self.tau_motor[:, i] ** 2))),
+                "peak_effort": float(np.abs(self.tau[:, i]).max()),
+                "effort_limit": float(self.robot.effort_limit[i]),
+                "peak_reaction_force": float(np.linalg.norm(f[:, i], axis=1).max()),
+                "peak_axial_force": float(f_axial[:, i].max()),
+                "peak_radial_force": float(f_radial[:, i].max()),
+                "peak_reaction_moment": float(np.linalg.norm(m[:, i], axis=1).max()),
+                "peak_bending_moment": float(m_bending[:, i].max()),
+                "max_tracking_error": float(err[ke, i]),
+                "max_tracking_error_time": float(self.t[ke]),
+            })
+        out = {
+            "robot": self.robot.name, "achievable": self.achievable, "mode": self.mode,
+            "fd": self.fd, "dt": self.dt, "cycles": self.K, "duration": float(self.K * self.dt),
+            "completed": self.completed, "first_infeasible": first,
+            "max_tracking_error": float(err.max()) if err.size else 0.0,
+            "joints": joints,
+        }
+        object.__setattr__(self, "_summary", out)
+        return out
+
+    def verdict(self) -> str:
+        """One line: achievable, or where and why not."""
+        s = self.summary()
+        head = "" if self.completed else "INTERRUPTED (partial result): "
+        if s["achievable"]:
+            return (f"{head}ACHIEVABLE: {self.robot.name} follows the program "
+                    f"({self.K} cycles, {s['duration']:.3f} s) within every limit.")
+        fi = s["first_infeasible"]
+        return (f"{head}NOT ACHIEVABLE: first at t = {fi['time']:.3f} s, joint '{fi['joint']}' "
+                f"({fi['reason']}): required {fi['required_effort']:.4g}, available "
+                f"{fi['available_effort']:.4g}; worst tracking error "
+                f"{s['max_tracking_error']:.4g}.")
+
+    def columns(self) -> dict[str, NDArray]:
+        """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
+        cols: dict[str, NDArray] = {"t": self.t}
+        per_joint = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor",
+                     "tau_required", "limit", "margin", "saturated", "position_clamped",
+                     "velocity_clamped", "tracking_error")
+        for name in per_joint:
+            a = getattr(self, name)
+            for i, j in enumerate(self.robot.joint_names):
+                cols[f"{name}_{j}"] = a[:, i].astype(float) if a.dtype == bool else a[:, i]
+        for i, j in enumerate(self.robot.joint_names):
+            for c, label in enumerate(("fx", "fy", "fz", "nx", "ny", "nz")):
+                cols[f"reaction_{label}_{j}"] = self.reaction[:, i, c]
+        return cols
+
+    def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
+        """Write the per-cycle table (one row per cycle, header row; pandas reads it)."""
+        cols = self.columns()
+        with atomic_write(path, overwrite) as fh:
+            w = csv.writer(fh)
+            w.writerow(cols)
+            w.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
+        return Path(path)
+
+    def save_summary(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
+        """Write :meth:`summary` as JSON (``summary.json``)."""
+        with atomic_write(path, overwrite) as fh:
+            json.dump(self.summary(), fh, indent=2)
+            fh.write("\n")
+        return Path(path)
+
+    def plot(self, path: str | os.PathLike | None = None) -> Any:
+        """Matplotlib figures of the run (see :func:`mrnea.report.plot_result`)."""
+        from mrnea.report import plot_result
+
+        return plot_result(self, path)
+
+    def report(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
+        """One self-contained HTML report, verdict first (see :func:`mrnea.report.write_report`)."""
+        from mrnea.report import write_report
+
+        return write_report(self, path, overwrite=overwrite)
+
+
+class atomic_write:
+    """Open ``path`` for writing text so that it appears whole or not at all.
+
+    Refuses to replace an existing file unless ``overwrite``; writes to a temporary file in the
+    same folder and renames it into place on success.
+    """
+
+    def __init__(self, path: str | os.PathLike, overwrite: bool = False, newline: str = "") -> None:
+        self.path = Path(path)
+        if self.path.exists() and not overwrite:
+            raise FileExistsError(f"{self.path} exists; pass overwrite=True (CLI: --force)")
+        self.newline = newline
+
+    def __enter__(self) -> Any:
+        fd, self.tmp = tempfile.mkstemp(dir=self.path.parent or ".", prefix=f".{self.path.name}.")
+        self.fh = os.fdopen(fd, "w", newline=self.newline, encoding="utf-8")
+        return self.fh
+
+    def __exit__(self, exc_type: object, exc: object, tb: object) -> None:
+        self.fh.close()
+        if exc_type is None:
+            os.replace(self.tmp, self.path)
+        else:
+            os.unlink(self.tmp)
+
+
+def _per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray:
+    if x is None:
+        return np.zeros((K, width))
+    a = _array(x, name, width)
+    if a.ndim == 1:
+        return np.ascontiguousarray(np.broadcast_to(a, (K, width)))
+    if a.shape[0] != K:
+        raise StateError(f"{name}: expected ({width},) or ({K}, {width}) rows, got {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+def simulate(
+    robot: Robot,
+    q_cmd: ArrayLike,
+    dt: float,
+    mode: Literal["hybrid", "paper"] = "hybrid",
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    fd: Literal["mrnea", "walker_orin", "crba"] = "mrnea",
+    q0: ArrayLike | None = None,
+    qd0: ArrayLike | None = None,
+    catch_up: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+) -> SimulationResult:
+    """Simulate the programmed motion q_cmd (K, n), one row per interpolation cycle dt [s].
+
+    Parameters
+    ----------
+    mode : ``"hybrid"`` (default) or ``"paper"``: how saturation is resolved each cycle.
+    f_ext, f_ext_point : the wrench the last link exerts on its environment, (6,) constant or
+        (K, 6) per cycle, and its point in the last link's frame, (3,) or (K, 3).
+    fd : how each cycle forms H_a and u'_a: ``"mrnea"`` (the paper: one pass),
+        ``"walker_orin"`` (n + 1 RNEA passes) or ``"crba"`` (CRBA + RNEA). The results agree to
+        rounding; the choice reproduces the paper's cost comparison. (ABA gives no H, which the
+        hybrid mode needs, so it is not offered here.)
+    q0, qd0 : initial state; default the first programmed position, at rest.
+    catch_up : False (default, the paper's behaviour): every cycle asks for the program's
+        velocity, so a lag caused by saturation persists. True: every cycle asks for the
+        velocity that reaches the next programmed position from where the robot is, so the
+        robot catches up as fast as its limits allow.
+    progress : called as ``progress(cycles_done, K)`` between compiled chunks.
+
+    On KeyboardInterrupt the cycles done so far are returned with ``completed=False``.
+    """
+    code = _mode(mode)
+    try:
+        engine = FD_ENGINES[fd]
+    except (KeyError, TypeError):
+        raise StateError(f"fd: unknown {fd!r}; expected one of {', '.join(FD_ENGINES)}") from None
+    try:
+        dt = float(dt)
+    except (TypeError, ValueError):
+        raise StateError(f"dt: not a number: {dt!r}") from None
+    if not (math.isfinite(dt) and dt > 0):
+        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
+    n = robot.n
+    Qc = _array(q_cmd, "q_cmd", n)
+    if Qc.ndim != 2 or Qc.shape[0] < 2:
+        raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")
+    Qc = np.ascontiguousarray(Qc)
+    K = Qc.shape[0]
+    x0 = Qc[0] if q0 is None else _array(q0, "q0", n)
+    v0 = np.zeros(n) if qd0 is None else _array(qd0, "qd0", n)
+    if x0.ndim != 1 or v0.ndim != 1:
+        raise StateError(f"q0, qd0: expected shape ({n},)")
+    FE = _per_cycle(f_ext, K, 6, "f_ext")
+    PE = _per_cycle(f_ext_point, K, 3, "f_ext_point")
+    Vc = np.empty_like(Qc)
+    Vc[0] = v0
+    Vc[1:] = np.diff(Qc, axis=0) / dt
+
+    z = {k: np.zeros((K, n)) for k in ("q", "qd", "qdd_des", "qdd", "tau", "tau_req", "limit")}
+    sat = np.zeros((K, n), dtype=np.bool_)
+    clamp = np.zeros((K, n), dtype=np.int64)
+    wrench = np.zeros((K, n, 6))
+    z["q"][0], z["qd"][0] = x0, v0
+    done, completed = 0, True
+    m, act = robot.compiled, robot.compiled_actuators
+    try:
+        while done < K:
+            k1 = min(K, done + CHUNK)
+            k, status = simulate_cycles(m, act, Qc, Vc, dt, FE, PE, code, engine, catch_up,
+                                        done, k1, z["q"], z["qd"], z["qdd_des"], z["qdd"],
+                                        z["tau"], z["tau_req"], z["limit"], sat, clamp, wrench)
+            if status != -1:
+                _fail(robot, k, status, z["q"][k], z["qd"][k], dt)
+            done = k1
+            if progress is not None:
+                progress(done, K)
+    except KeyboardInterrupt:
+        completed = False
+    rows = slice(0, done)
+    tau = z["tau"][rows]
+    return SimulationResult(
+        robot=robot, dt=dt, mode=mode, fd=fd, t=np.arange(done) * dt, q_cmd=Qc[rows],
+        qd_cmd=Vc[rows], qdd_des=z["qdd_des"][rows], q=z["q"][rows], qd=z["qd"][rows],
+        qdd=z["qdd"][rows], tau=tau, tau_motor=tau / robot.gear_ratio,
+        tau_required=z["tau_req"][rows], limit=z["limit"][rows],
+        margin=z["limit"][rows] - np.abs(tau), saturated=sat[rows],
+        position_clamped=(clamp[rows] & CLAMP_POSITION) != 0,
+        velocity_clamped=(clamp[rows] & CLAMP_VELOCITY) != 0, reaction=wrench[rows],
+        tracking_error=Qc[rows] - z["q"][rows], completed=completed,
+    )
+
+
+def _fail(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: float) -> None:
+    if status == NONFINITE:
+        raise MrneaError(
+            f"cycle {k} (t = {k * dt:.6g} s): the state became non-finite (q = {q.tolist()}, "
+            f"qd = {qd.tolist()}); check the program and the robot's limits")
+    raise SingularMassMatrixError(
+        f"cycle {k} (t = {k * dt:.6g} s): the mass matrix is singular (pivot of joint "
+        f"'{robot.joint_names[status]}') at q = {q.tolist()}")
