@@ -89,7 +89,7 @@ def main(debug: bool) -> None:
     """
 
 
-def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: bool,
+def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
          f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool):
     from mrnea.simulate import simulate
 
@@ -140,8 +140,9 @@ _mode_opt = click.option("--mode", type=click.Choice(["hybrid", "paper"]), defau
 _fd_opt = click.option("--fd", type=click.Choice(["mrnea", "walker_orin", "crba"]),
                        default="mrnea", show_default=True,
                        help="How each cycle forms H and u' (results agree; cost differs).")
-_catch_opt = click.option("--catch-up", is_flag=True,
-                          help="After a saturation, steer back to the programmed positions.")
+_catch_opt = click.option("--catch-up", type=float, default=0.0, metavar="GAIN",
+                          help="Position-loop gain [1/s] that steers back to the program after a "
+                               "saturation (default 0: the paper's behaviour, the lag stays).")
 _quiet_opt = click.option("--quiet", "-q", is_flag=True, help="No progress bar, no verdict text.")
 _json_opt = click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 _force_opt = click.option("--force", is_flag=True, help="Overwrite existing output files.")
@@ -167,7 +168,7 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
 
     robot = robots.sdt()
     _, q_cmd = training_profile(dt)
-    res = _run(robot, q_cmd, dt, mode, "mrnea", False, None, None, quiet)
+    res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet)
     folder = Path(out) if out else fresh_dir("mrnea-demo")
     figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)}
     report = _write_outputs(res, folder, force, figs)
@@ -202,7 +203,7 @@ def _load_program(robot: Robot, program: str, dt: float | None):
 @_force_opt
 @_quiet_opt
 @_json_opt
-def simulate(robot: str, program: str, dt: float | None, mode: str, fd: str, catch_up: bool,
+def simulate(robot: str, program: str, dt: float | None, mode: str, fd: str, catch_up: float,
              out: str | None, force: bool, quiet: bool, as_json: bool) -> None:
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json."""
     rob = load_any(robot)
@@ -220,7 +221,7 @@ def simulate(robot: str, program: str, dt: float | None, mode: str, fd: str, cat
 @_catch_opt
 @_quiet_opt
 @_json_opt
-def check(robot: str, program: str, dt: float | None, mode: str, catch_up: bool, quiet: bool,
+def check(robot: str, program: str, dt: float | None, mode: str, catch_up: float, quiet: bool,
           as_json: bool) -> None:
     """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input."""
     rob = load_any(robot)

@@ -11,8 +11,10 @@ qdd[k], the efforts, the limits, saturation and clamp flags, and each joint's re
 (kernels/rnea.py ``reactions``) at q[k], qd[k], qdd[k]. Then q[k+1], qd[k+1] follow.
 
 v is the program's qd_cmd[k+1] (the paper's behaviour: after a saturation the robot lags its
-program and keeps the lag), or with ``catch_up`` (q_cmd[k+1] - q[k]) / dt, which steers back to
-the programmed position as fast as the limits allow. On entry q[k0], qd[k0] hold the state.
+program and keeps the lag), plus, with a position-loop gain ``catch_up`` > 0 [1/s],
+catch_up * (q_cmd[k] - q[k]): the velocity feed-forward and proportional position loop of a
+cascaded servo, which closes the lag exponentially (rate catch_up) once the limits allow.
+On entry q[k0], qd[k0] hold the state.
 Returns (-1, OK), or the cycle and status of a failure.
 """
 
@@ -38,11 +40,8 @@ def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch
     for k in range(k0, k1):
         last = k + 1 >= K
         for i in range(n):
-            target = q_cmd[k, i] if last else q_cmd[k + 1, i]  # the program ends at rest
-            if catch_up:
-                v[i] = (target - q[k, i]) / dt
-            else:
-                v[i] = 0.0 if last else qd_cmd[k + 1, i]
+            v[i] = 0.0 if last else qd_cmd[k + 1, i]  # the program ends at rest
+            v[i] += catch_up * (q_cmd[k, i] - q[k, i])
         status = step(model, act, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt,
                       fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], tau_req[k],
                       limit[k], sat[k], q_next, qd_next, clamp[k])
