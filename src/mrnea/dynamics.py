@@ -51,9 +51,13 @@ _ZERO_POINT = np.zeros(3)
 def _array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
     """``x`` as a float64 array of shape (width,) or (B, width), all finite."""
     try:
-        a = np.asarray(x, dtype=np.float64)
+        a = np.asarray(x)
     except (TypeError, ValueError):
         raise StateError(f"{name}: not a numeric array: {x!r}") from None
+    if a.dtype.kind not in "biuf":
+        raise StateError(f"{name}: expected real numbers, got an array of {a.dtype}")
+    # a C-contiguous, writable float64 array: the kernels are compiled for exactly that
+    a = np.require(a, dtype=np.float64, requirements=["C", "W"])
     if a.ndim not in (1, 2) or a.shape[-1] != width or (a.ndim == 2 and a.shape[0] == 0):
         raise StateError(f"{name}: expected shape ({width},) or (B, {width}), got {a.shape}")
     if not np.isfinite(a).all():
@@ -80,7 +84,7 @@ def _inputs(
     if f_ext is None and f_ext_point is None:
         vals = list(states.values())
         if all(type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (n,)
-               for v in vals):
+               and v.flags.c_contiguous and v.flags.writeable for v in vals):
             return False, vals, _ZERO_WRENCH, _ZERO_POINT
     arrays = [_array(v, k, n) for k, v in states.items()]
     fe = _ZERO_WRENCH if f_ext is None else _array(f_ext, "f_ext", 6)
@@ -94,7 +98,7 @@ def _inputs(
         shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(names, all_, strict=True))
         raise StateError(f"batch sizes differ: {shapes}")
     B = sizes.pop()
-    out = [np.ascontiguousarray(np.broadcast_to(a, (B, a.shape[-1]))) for a in all_]
+    out = [a if a.ndim == 2 else np.repeat(a[None], B, axis=0) for a in all_]
     return True, out[:-2], out[-2], out[-1]
 
 

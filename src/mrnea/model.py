@@ -354,7 +354,7 @@ class Robot:
         per_joint: dict[str, list] = {}
         curves = fields.pop("torque_speed", "unset")
         if not isinstance(curves, str):
-            if curves is None or (len(curves) == 3 and np.ndim(curves[0]) == 0 and self.n != 3):
+            if curves is None or np.ndim(curves[0]) == 0:  # one triple for every joint
                 curves = [curves] * self.n
             if len(curves) != self.n:
                 raise ModelError(f"with_actuators: torque_speed needs {self.n} entries")

@@ -24,9 +24,13 @@ Coulomb friction at rest (qd_i = 0, F_s > 0), the model mrnea uses:
 * a joint whose acceleration is prescribed and non-zero breaks away: friction F_s sign(qdd_i);
 * a joint prescribed to stay at rest (qdd_i = 0) gets up to F_s of its holding effort from
   static friction, the actuator supplies the rest;
-* a joint whose effort is prescribed (saturated, or any joint in PAPER mode) first stays at rest
-  (qdd_i = 0); if the friction that needs exceeds F_s, it slips, with friction F_s in the
-  direction of the net effort (the joint then moves that way). Slipping is final for the call.
+* a joint whose effort is prescribed (saturated, or any joint in PAPER mode) is first taken to
+  move the way the program wants (friction F_s against that direction), or to stay at rest if
+  the program wants it to. The guess is then checked and revised until consistent: a joint held
+  at rest whose holding friction would exceed F_s starts moving the way the net effort pushes;
+  a moving joint that would accelerate against its own friction stays at rest instead. With
+  several coupled joints at rest this is a small complementarity problem; the revision stops
+  after 4n + 2 rounds, which has sufficed in every case tested.
 
 Actuator array ``act`` (n, NACT), joint side: G, J_m, F_v, F_s, peak effort, corner speed,
 no-load speed, lower, upper, velocity limit. A constant limit has corner = no-load = inf.
@@ -150,6 +154,18 @@ def _with_static_friction(need, fs, moving, qdd_i):
 
 
 @nb.njit(**JIT)
+def _start_from_rest(act, qd, qdd_des, i, held, slip):
+    """First guess for a joint at rest whose effort is prescribed: it moves the way the program
+    wants (friction F_s opposing that), or, asked to stay, static friction holds it."""
+    if qd[i] != 0.0 or act[i, FS] == 0.0:
+        return
+    if qdd_des[i] != 0.0:
+        slip[i] = np.sign(qdd_des[i])
+    else:
+        held[i] = True
+
+
+@nb.njit(**JIT)
 def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
                sat):
     """Achievable accelerations of one state (module docstring). Returns a status.
@@ -176,20 +192,22 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
 
     known = np.empty(n, dtype=np.bool_)  # acceleration prescribed (HYBRID, unsaturated)
     held = np.zeros(n, dtype=np.bool_)  # effort prescribed, kept at rest by static friction
-    slip = np.zeros(n, dtype=np.bool_)
-    fric = np.zeros(n)  # Coulomb friction of slipping joints that were at rest
+    slip = np.zeros(n)  # direction (+-1) of a joint starting from rest with effort prescribed
     tau_cmd = np.empty(n)  # the prescribed efforts
     for i in range(n):
         known[i] = mode == HYBRID
         tau_cmd[i] = min(max(tau_req[i], -limit[i]), limit[i])  # Eq. 44's clamp
+        if not known[i]:
+            _start_from_rest(act, qd, qdd_des, i, held, slip)
+    fric = np.zeros(n)  # Coulomb friction of joints starting from rest
     Hs, L = np.empty((n, n)), np.empty((n, n))
     rhs, x = np.empty(n), np.empty(n)
     idx = np.empty(n, dtype=np.int64)
     fixed = np.empty(n, dtype=np.bool_)
-    for _ in range(2 * n + 1):
+    for _ in range(4 * n + 2):
         for i in range(n):
-            held[i] = (not known[i]) and qd[i] == 0.0 and act[i, FS] > 0.0 and not slip[i]
             fixed[i] = known[i] or held[i]
+            fric[i] = act[i, FS] * slip[i]
             if known[i]:
                 qdd[i] = qdd_des[i]
             elif held[i]:
@@ -203,16 +221,22 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
         for i in range(n):
             if held[i]:
                 d = tau_cmd[i] - tau[i]  # what static friction must absorb to hold the joint
-                if abs(d) > act[i, FS]:
-                    slip[i] = True
-                    fric[i] = act[i, FS] * np.sign(d)
+                if abs(d) > act[i, FS]:  # it cannot: the joint starts moving that way
+                    held[i] = False
+                    slip[i] = np.sign(d)
                     changed = True
                 tau[i] = tau_cmd[i]
+            elif slip[i] != 0.0 and qdd[i] * slip[i] < 0.0:
+                # friction cannot drive a joint backwards: it stays at rest instead
+                held[i] = True
+                slip[i] = 0.0
+                changed = True
             elif known[i]:
                 tau[i] = _with_static_friction(tau[i], act[i, FS], qd[i] != 0.0, qdd[i])
                 if abs(tau[i]) > limit[i]:  # HYBRID: this joint saturates too
                     known[i] = False
                     tau_cmd[i] = limit[i] * np.sign(tau[i])
+                    _start_from_rest(act, qd, qdd_des, i, held, slip)
                     changed = True
         if not changed:
             break
@@ -251,6 +275,9 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
         elif qc < act[i, LOWER]:
             vc = max(vc, (act[i, LOWER] - q[i]) / dt)
             flags |= CLAMP_POSITION
+        if vc > act[i, VLIM] or vc < -act[i, VLIM]:  # coming back from past a limit
+            vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
+            flags |= CLAMP_VELOCITY
         clamp[i] = flags
         qdd_des[i] = (vc - qd[i]) / dt
     status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,

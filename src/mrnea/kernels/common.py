@@ -131,30 +131,33 @@ def kinematics(model, q, R, o, z, c, Ic):
     """Link poses in base coordinates: fills R, o, z, c, Ic (shapes in the module docstring).
 
     ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``. A revolute joint turns the joint frame about its
-    base-frame axis z_i by q_i (Rodrigues: ``I + sin q [z]x + (1 - cos q) [z]x^2``); a prismatic
-    joint moves the origin by ``z_i q_i``.
+    unit axis a by q_i (Rodrigues: ``I + sin q [a]x + (1 - cos q) [a]x^2``); a prismatic joint
+    moves the origin by ``z_i q_i``, z_i the axis in base coordinates.
     """
     n = q.shape[0]
     Rp = np.eye(3)  # orientation of the parent link (the base for joint 0)
     op = (0.0, 0.0, 0.0)
     Rj = np.empty((3, 3))  # joint-frame orientation Rp @ origin rotation (then scratch)
-    Rz = np.empty((3, 3))  # rotation of a revolute joint, base frame
+    Rz = np.empty((3, 3))  # rotation of a revolute joint, joint frame
     for i in range(n):
         r = i + 1
         matmul(Rp, block(model, r, ROT), Rj)
-        zi = mv(Rj, triple(model, r, AXIS))
+        ax = triple(model, r, AXIS)
+        zi = mv(Rj, ax)
         oi = add(op, mv(Rp, triple(model, r, POS)))
         if model[r, TYPE] == PRISMATIC:
             oi = add(oi, scale(zi, q[i]))
             R[i] = Rj
         else:
+            # R_i = Rj @ Rot(axis, q), the rotation about the unit axis in the joint frame: a
+            # product of exact rotations, so rounding does not compound along the chain
             s, cq = np.sin(q[i]), np.cos(q[i])
             v = 1.0 - cq
-            x, y, w = zi
+            x, y, w = ax
             Rz[0, 0], Rz[0, 1], Rz[0, 2] = cq + x * x * v, x * y * v - w * s, x * w * v + y * s
             Rz[1, 0], Rz[1, 1], Rz[1, 2] = y * x * v + w * s, cq + y * y * v, y * w * v - x * s
             Rz[2, 0], Rz[2, 1], Rz[2, 2] = w * x * v - y * s, w * y * v + x * s, cq + w * w * v
-            matmul(Rz, Rj, R[i])
+            matmul(Rj, Rz, R[i])
         put(o, i, oi)
         put(z, i, zi)
         # centre of mass and inertia in base coordinates: c = o + R com, Ic = R I R^T

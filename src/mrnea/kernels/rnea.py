@@ -130,6 +130,11 @@ def reactions(model, q, qd, qdd, fext, pe, tau, out):
     for i in range(n):
         # joint frame: the parent's orientation times the origin rotation, D_{i-1} in Eq. 32
         matmul(R[i - 1] if i > 0 else np.eye(3), block(model, i + 1, ROT), Rj)
+        if model[i + 1, TYPE] == PRISMATIC:
+            # moment about the joint frame's origin, o_i - z_i q_i: add (z_i q_i) x f_i
+            t = cross(scale(vec(z, i), q[i]), vec(f, i))
+            for a in range(3):
+                nm[i, a] += t[a]
         for a in range(3):  # Rj^T f, Rj^T n
             out[i, a] = Rj[0, a] * f[i, 0] + Rj[1, a] * f[i, 1] + Rj[2, a] * f[i, 2]
             out[i, 3 + a] = Rj[0, a] * nm[i, 0] + Rj[1, a] * nm[i, 1] + Rj[2, a] * nm[i, 2]

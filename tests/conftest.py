@@ -1,0 +1,300 @@
+"""Shared test helpers: random chains, the Pinocchio twin of a Robot, example-robot-data files.
+
+* :func:`random_chain` builds a random, physically consistent serial :class:`mrnea.Robot`.
+* :func:`random_states` draws random (q, qd, qdd/tau, f_ext, f_ext_point) batches.
+* :func:`to_pinocchio` builds the same chain as a ``pinocchio.Model``; :class:`PinChain` wraps a
+  Pinocchio model (built by :func:`to_pinocchio` or from a URDF) with our joint order and
+  conventions, so that tests compare like with like; :func:`pin_fext` converts our external wrench.
+* :func:`erd_path` locates an example-robot-data file (skipping the test if it is missing).
+* :func:`rel_err` is the error measure every comparison uses.
+
+Hypothesis runs derandomized (profile ``mrnea``, selected unless ``HYPOTHESIS_PROFILE`` is set),
+so the suite is deterministic in CI.
+"""
+
+from __future__ import annotations
+
+import os
+import site
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mrnea.model import Joint, Link, Robot
+
+try:
+    from hypothesis import HealthCheck, settings
+
+    settings.register_profile(
+        "mrnea",
+        derandomize=True,
+        deadline=None,
+        print_blob=True,
+        suppress_health_check=[HealthCheck.too_slow],
+    )
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "mrnea"))
+except ImportError:  # pragma: no cover - hypothesis is a test dependency
+    pass
+
+
+# --- error measure --------------------------------------------------------------------------------
+def rel_err(a, b) -> float:
+    """``max|a - b| / max(1, max|b|)``: the largest absolute deviation of ``a`` from the reference
+    ``b``, relative to the largest entry of ``b`` when that exceeds 1 and absolute below (so that
+    entries near zero, e.g. a torque of 1e-17 N m, are not judged relatively)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    assert a.shape == b.shape, f"shapes differ: {a.shape} vs {b.shape}"
+    if a.size == 0:
+        return 0.0
+    return float(np.max(np.abs(a - b)) / max(1.0, float(np.max(np.abs(b)))))
+
+
+# --- random robots and states ---------------------------------------------------------------------
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
+    """A uniformly random rotation matrix (QR of a Gaussian matrix, sign-fixed)."""
+    Q, R = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q = Q * np.sign(np.diag(R))
+    if np.linalg.det(Q) < 0:
+        Q[:, 0] = -Q[:, 0]
+    return Q
+
+
+def random_inertia(rng: np.random.Generator, mass: float) -> np.ndarray:
+    """Inertia about the centre of mass of a solid ellipsoid (semi-axes 0.05-0.4 m) of ``mass``,
+    randomly oriented: symmetric positive definite and physically consistent."""
+    a, b, c = rng.uniform(0.05, 0.4, size=3)
+    principal = mass / 5.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+    R = random_rotation(rng)
+    Iner = R @ np.diag(principal) @ R.T
+    return 0.5 * (Iner + Iner.T)
+
+
+def random_chain(
+    rng: np.random.Generator,
+    n: int,
+    prismatic_fraction: float = 0.3,
+    gravity=(0.0, 0.0, -9.81),
+) -> Robot:
+    """A random serial chain of ``n`` joints: random joint origins (translation up to 0.5 m per
+    axis, random rotation), random unit axes, each joint prismatic with probability
+    ``prismatic_fraction``, masses 0.5-5 kg, centres of mass within ~0.2 m of the link frame, and
+    positive-definite, physically consistent inertias."""
+    joints, links = [], []
+    parent = "base"
+    for i in range(n):
+        typ = "prismatic" if rng.random() < prismatic_fraction else "revolute"
+        origin = np.eye(4)
+        origin[:3, :3] = random_rotation(rng)
+        origin[:3, 3] = rng.uniform(-0.5, 0.5, size=3)
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        mass = float(rng.uniform(0.5, 5.0))
+        joints.append(Joint(f"j{i}", typ, parent, f"l{i}", origin=origin, axis=axis))
+        links.append(Link(f"l{i}", mass=mass, com=rng.uniform(-0.2, 0.2, size=3),
+                          inertia=random_inertia(rng, mass)))
+        parent = f"l{i}"
+    return Robot(joints, links, gravity=gravity, name=f"random{n}")
+
+
+def random_states(rng: np.random.Generator, robot: Robot, B: int | None = None) -> dict:
+    """Random q (revolute: [-pi, pi] rad, prismatic: [-0.5, 0.5] m), qd, qdd, tau, f_ext [N, N m]
+    and f_ext_point [m]; each (n,) / (6,) / (3,) if ``B`` is None, else with a leading B axis."""
+    shape = () if B is None else (B,)
+    n = robot.n
+    pris = robot.is_prismatic
+    q = np.where(pris, rng.uniform(-0.5, 0.5, size=(*shape, n)),
+                 rng.uniform(-np.pi, np.pi, size=(*shape, n)))
+    return {
+        "q": q,
+        "qd": rng.normal(0.0, 2.0, size=(*shape, n)),
+        "qdd": rng.normal(0.0, 3.0, size=(*shape, n)),
+        "tau": rng.normal(0.0, 20.0, size=(*shape, n)),
+        "f_ext": rng.normal(0.0, 10.0, size=(*shape, 6)),
+        "f_ext_point": rng.normal(0.0, 0.2, size=(*shape, 3)),
+    }
+
+
+# --- example-robot-data ---------------------------------------------------------------------------
+def robots_dir() -> Path | None:
+    """example-robot-data's ``robots`` directory (installed by the ``example-robot-data`` wheel)."""
+    for sp in [*site.getsitepackages(), site.getusersitepackages()]:
+        d = Path(sp) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+        if d.is_dir():
+            return d
+    return None
+
+
+def erd_path(rel: str) -> Path:
+    """Path of an example-robot-data file, e.g. ``ur_description/urdf/ur5_robot.urdf``; skips the
+    calling test if the package or the file is not installed."""
+    d = robots_dir()
+    if d is None or not (d / rel).is_file():
+        pytest.skip(f"example-robot-data file {rel} is not installed")
+    return d / rel
+
+
+# --- Pinocchio ------------------------------------------------------------------------------------
+def to_pinocchio(robot: Robot):
+    """The Pinocchio model of ``robot``: joint i+1 is our joint i (RevoluteUnaligned or
+    PrismaticUnaligned about our axis), placed at our joint origin; the body of joint i+1 is our
+    link i (its frame is the joint frame moved by the joint); same gravity."""
+    import pinocchio as pin
+
+    model = pin.Model()
+    model.name = robot.name
+    parent = 0
+    for j, lk in zip(robot.joints, robot.links, strict=True):
+        axis = np.array(j.axis, dtype=float)
+        jm = (pin.JointModelPrismaticUnaligned(axis) if j.is_prismatic
+              else pin.JointModelRevoluteUnaligned(axis))
+        origin = np.asarray(j.origin)
+        parent = model.addJoint(parent, jm, pin.SE3(origin[:3, :3].copy(), origin[:3, 3].copy()),
+                                j.name)
+        model.appendBodyToJoint(
+            parent,
+            pin.Inertia(float(lk.mass), np.array(lk.com, dtype=float),
+                        np.array(lk.inertia, dtype=float)),
+            pin.SE3.Identity(),
+        )
+    model.gravity = pin.Motion(np.concatenate([np.asarray(robot.gravity, dtype=float),
+                                               np.zeros(3)]))
+    return model
+
+
+def _link_rotation(robot: Robot, q) -> np.ndarray:
+    """Orientation of the last link in the base frame (plain 4x4 composition, tests/naive.py)."""
+    from naive import forward_kinematics
+
+    return forward_kinematics(robot, q)[0][-1][:3, :3]
+
+
+def pin_fext(robot: Robot, model, q, f_ext, f_ext_point=None) -> list:
+    """Our external wrench as Pinocchio's ``fext`` list (one ``pin.Force`` per joint of ``model``).
+
+    Ours: ``f_ext = [f_e; n_e]``, base coordinates, the wrench the last link exerts ON the
+    environment, at ``f_ext_point`` (last link's frame). Pinocchio's: the force applied TO each
+    body, in its joint's local frame (the frame after the joint motion: our link frame), about
+    the joint origin. So the last joint receives ``-[R^T f_e; R^T n_e + p_e x R^T f_e]``.
+    ``model`` is needed for the number of joints and the id of our last joint.
+    """
+    import pinocchio as pin
+
+    out = [pin.Force.Zero() for _ in range(model.njoints)]
+    if f_ext is None:
+        return out
+    fe = np.asarray(f_ext, dtype=float)
+    pe = np.zeros(3) if f_ext_point is None else np.asarray(f_ext_point, dtype=float)
+    R = _link_rotation(robot, q)
+    f_loc, n_loc = R.T @ fe[:3], R.T @ fe[3:]
+    out[model.getJointId(robot.joint_names[-1])] = pin.Force(-f_loc, -(n_loc + np.cross(pe, f_loc)))
+    return out
+
+
+class PinChain:
+    """A Pinocchio model seen through our joint order and conventions.
+
+    ``model``'s joints must be exactly ours (matched by name; ``nv == robot.n``), possibly in
+    another order, continuous joints possibly stored as (cos, sin) (``nq != nv``). Methods take
+    and return our quantities, in our joint order: q, qd, qdd, tau (n,), H (n, n).
+    """
+
+    def __init__(self, robot: Robot, model) -> None:
+        import pinocchio as pin
+
+        self.pin = pin
+        self.robot, self.model, self.data = robot, model, model.createData()
+        assert model.nv == robot.n, f"Pinocchio nv={model.nv}, robot n={robot.n}"
+        self.ids = [model.getJointId(name) for name in robot.joint_names]
+        assert all(0 < i < model.njoints for i in self.ids), "joint names differ"
+        self.joints = [model.joints[i] for i in self.ids]
+        self.iv = np.array([jm.idx_v for jm in self.joints])
+
+    def config(self, q) -> np.ndarray:
+        """Pinocchio's configuration vector of our q: (cos, sin) for an unbounded joint."""
+        conf = self.pin.neutral(self.model)
+        for jm, qi in zip(self.joints, np.asarray(q, dtype=float), strict=True):
+            if jm.nq == 2:
+                conf[jm.idx_q:jm.idx_q + 2] = (np.cos(qi), np.sin(qi))
+            else:
+                assert jm.nq == 1
+                conf[jm.idx_q] = qi
+        return conf
+
+    def vel(self, x) -> np.ndarray:
+        """Our (n,) joint-rate-like vector in Pinocchio's velocity order."""
+        out = np.zeros(self.model.nv)
+        out[self.iv] = x
+        return out
+
+    def ours(self, y) -> np.ndarray:
+        """Pinocchio's velocity-ordered vector in our joint order."""
+        return np.asarray(y)[self.iv].copy()
+
+    def fext(self, q, f_ext, f_ext_point):
+        return pin_fext(self.robot, self.model, q, f_ext, f_ext_point)
+
+    def rnea(self, q, qd, qdd, f_ext=None, f_ext_point=None) -> np.ndarray:
+        args = [self.model, self.data, self.config(q), self.vel(qd), self.vel(qdd)]
+        if f_ext is not None:
+            args.append(self.fext(q, f_ext, f_ext_point))
+        return self.ours(self.pin.rnea(*args))
+
+    def mass_matrix(self, q) -> np.ndarray:
+        """pin.crba (which fills the upper triangle), symmetrized, in our order."""
+        M = np.array(self.pin.crba(self.model, self.data, self.config(q)))
+        M = np.triu(M) + np.triu(M, 1).T
+        return M[np.ix_(self.iv, self.iv)]
+
+    def bias(self, q, qd, f_ext=None, f_ext_point=None) -> np.ndarray:
+        """pin.nonLinearEffects without an external wrench, else rnea(q, qd, 0, fext)."""
+        if f_ext is None:
+            return self.ours(self.pin.nonLinearEffects(self.model, self.data, self.config(q),
+                                                       self.vel(qd)))
+        return self.rnea(q, qd, np.zeros(self.robot.n), f_ext, f_ext_point)
+
+    def aba(self, q, qd, tau, f_ext=None, f_ext_point=None) -> np.ndarray:
+        args = [self.model, self.data, self.config(q), self.vel(qd), self.vel(tau)]
+        if f_ext is not None:
+            args.append(self.fext(q, f_ext, f_ext_point))
+        return self.ours(self.pin.aba(*args))
+
+    def reactions(self, q, qd, qdd, f_ext=None, f_ext_point=None) -> np.ndarray:
+        """(n, 6) joint reactions in our convention, from Pinocchio's ``data.f`` after rnea.
+
+        ``data.f[i]`` is the spatial force [f; n] the parent exerts on the subtree of joint i,
+        in joint i's local frame (after the joint motion: our link frame), the moment about its
+        origin. Ours is in the joint frame before the motion, about that frame's origin:
+        revolute: rotate by the joint rotation ``Rot(axis, q)`` (the origins coincide);
+        prismatic: same orientation, origin shifted back by ``q axis``, so the moment about our
+        origin is ``n + (q axis) x f``.
+        """
+        from naive import axis_angle
+
+        self.rnea(q, qd, qdd, f_ext, f_ext_point)
+        out = np.zeros((self.robot.n, 6))
+        for k, (j, jid, qk) in enumerate(zip(self.robot.joints, self.ids,
+                                             np.asarray(q, dtype=float), strict=True)):
+            F = self.data.f[jid]
+            f, m = np.array(F.linear), np.array(F.angular)
+            axis = np.asarray(j.axis, dtype=float)
+            if j.is_prismatic:
+                out[k] = np.concatenate([f, m + np.cross(qk * axis, f)])
+            else:
+                Rq = axis_angle(axis, qk)
+                out[k] = np.concatenate([Rq @ f, Rq @ m])
+        return out
+
+
+def pin_from_urdf(path: Path, robot: Robot):
+    """Pinocchio's model of a URDF, reduced to ``robot``'s joints: every other moving joint is
+    locked at its neutral position (q = 0), as :func:`mrnea.load_urdf` freezes it."""
+    import pinocchio as pin
+
+    full = pin.buildModelFromUrdf(str(path))
+    keep = set(robot.joint_names)
+    locked = [i for i in range(1, full.njoints) if full.names[i] not in keep]
+    model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+    model.gravity = pin.Motion(np.concatenate([np.asarray(robot.gravity, dtype=float),
+                                               np.zeros(3)]))
+    return model
