@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -354,7 +355,7 @@ class Robot:
         per_joint: dict[str, list] = {}
         curves = fields.pop("torque_speed", "unset")
         if not isinstance(curves, str):
-            if curves is None or np.ndim(curves[0]) == 0:  # one triple for every joint
+            if curves is None or all(isinstance(c, numbers.Real) for c in curves):  # one triple
                 curves = [curves] * self.n
             if len(curves) != self.n:
                 raise ModelError(f"with_actuators: torque_speed needs {self.n} entries")

@@ -30,6 +30,7 @@ unknown keys (typos), missing required keys, wrong types and shapes, unphysical 
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import tomllib
@@ -43,7 +44,7 @@ from mrnea.errors import ModelError, RobotFileError
 from mrnea.io.dh import CONVENTIONS, DHRow, dh_joint_chain
 from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot, transform
 
-__all__ = ["load_native", "loads_native"]
+__all__ = ["apply_actuator_file", "load_native", "loads_native"]
 
 _TOP_KEYS = ("robot", "joint")
 _ROBOT_KEYS = ("name", "gravity", "dh", "base")
@@ -266,7 +267,7 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
         raise ctx.error("", str(exc)) from None
 
 
-def load_native(path: str | Path) -> Robot:
+def load_native(path: str | Path, actuators: str | Path | None = None) -> Robot:
     """Load a robot from a native TOML file.
 
     Parameters
@@ -285,9 +286,69 @@ def load_native(path: str | Path) -> Robot:
         If the file cannot be read or is malformed; the message names the file and the joint or
         link at fault (TOML syntax errors give line and column).
     """
+    robot = loads_native(_read(path, "robot file"), source=str(path))
+    return robot if actuators is None else apply_actuator_file(robot, actuators)
+
+
+def _read(path: str | Path, what: str) -> str:
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise RobotFileError(f"{p}: cannot read robot file: {exc}") from None
-    return loads_native(text, source=str(p))
+        raise RobotFileError(f"{p}: cannot read {what}: {exc}") from None
+
+
+_SIDECAR_KEYS = (*_LIMIT_KEYS, *_ACTUATOR_KEYS)
+
+
+def apply_actuator_file(robot: Robot, path: str | Path) -> Robot:
+    """A copy of ``robot`` with the joint fields a sidecar actuator file sets.
+
+    The sidecar says what URDF cannot (rotor inertia, a torque-speed curve) or overrides what it
+    says. One TOML table per joint, named like the joint; keys (joint side, SI units)
+    ``gear_ratio``, ``rotor_inertia`` [kg m^2, motor side], ``viscous_friction``,
+    ``coulomb_friction``, ``effort_limit``, ``torque_speed = [peak, corner_speed,
+    no_load_speed]``, ``velocity_limit``, ``lower``, ``upper``::
+
+        [shoulder_pan_joint]
+        rotor_inertia = 3.3e-5
+        gear_ratio = 101
+        torque_speed = [150.0, 2.0, 3.5]
+
+    Joints the file does not name keep their values. ``effort_limit`` sets a constant limit and
+    removes a curve; giving both for one joint is an error unless they agree.
+    """
+    source = str(path)
+    ctx = _Context(source)
+    try:
+        data = tomllib.loads(_read(path, "actuator file"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ctx.error("", f"invalid TOML: {exc}") from None
+    names = robot.joint_names
+    joints = list(robot.joints)
+    for jname, table in data.items():
+        if jname not in names:
+            close = difflib.get_close_matches(jname, names, n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise ctx.error("", f"no joint named '{jname}' in robot '{robot.name}'{hint}; "
+                                f"its joints: {', '.join(names)}")
+        where = f"joint '{jname}'"
+        table = _table(ctx, table, "", jname)
+        _check_keys(ctx, table, _SIDECAR_KEYS, where)
+        fields: dict[str, Any] = {}
+        for key, value in table.items():
+            if key == "torque_speed":
+                fields[key] = tuple(_vector(ctx, value, 3, where, key))
+            else:
+                fields[key] = _number(ctx, value, where, key)
+        if "effort_limit" in fields and "torque_speed" not in fields:
+            fields["torque_speed"] = None
+        elif "effort_limit" in fields and fields["effort_limit"] != fields["torque_speed"][0]:
+            raise ctx.error(where, "'effort_limit' and the peak of 'torque_speed' differ; "
+                                   "give one of them")
+        i = names.index(jname)
+        try:
+            joints[i] = dataclasses.replace(joints[i], **fields)
+        except ModelError as exc:
+            raise ctx.error("", str(exc)) from None
+    return robot._replace(joints=joints)

@@ -288,7 +288,9 @@ def _combine(parts: list[tuple[float, NDArray, NDArray]]) -> tuple[float, NDArra
     return mass, np.array(com, dtype=float), 0.5 * (inertia + inertia.T)
 
 
-def load_urdf(path: str | Path, tip: str | None = None) -> Robot:
+def load_urdf(
+    path: str | Path, tip: str | None = None, actuators: str | Path | None = None
+) -> Robot:
     """Load a URDF file as a serial :class:`mrnea.Robot`.
 
     Parameters
@@ -299,6 +301,9 @@ def load_urdf(path: str | Path, tip: str | None = None) -> Robot:
         Name of the link that ends the chain. Needed only when the moving joints branch (a hand
         with moving fingers, a humanoid); the error then lists the candidate tip links. Subtrees
         off the root-to-tip path are lumped, at ``q = 0``, into the chain link they hang from.
+    actuators : str or Path, optional
+        A sidecar actuator file (TOML) for what URDF cannot say: rotor inertias, torque-speed
+        curves, or overrides (:func:`mrnea.io.native.apply_actuator_file`).
 
     Returns
     -------
@@ -473,6 +478,10 @@ def load_urdf(path: str | Path, tip: str | None = None) -> Robot:
             UserWarning,
             stacklevel=2,
         )
+    if actuators is not None:
+        from mrnea.io.native import apply_actuator_file
+
+        robot = apply_actuator_file(robot, actuators)
     return robot
 
 
