@@ -100,30 +100,79 @@ def cross(a, b):
 
 
 @nb.njit(**INLINE)
-def mv(M, v):
-    """``M @ v`` for a 3x3 array ``M`` and a 3-tuple ``v``."""
-    return (M[0, 0] * v[0] + M[0, 1] * v[1] + M[0, 2] * v[2],
-            M[1, 0] * v[0] + M[1, 1] * v[1] + M[1, 2] * v[2],
-            M[2, 0] * v[0] + M[2, 1] * v[1] + M[2, 2] * v[2])
-
-
-@nb.njit(**INLINE)
-def matmul(A, B, out):
-    """``out = A @ B`` for 3x3 arrays (explicit loops: no BLAS call for a 3x3 product)."""
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = A[a, 0] * B[0, b] + A[a, 1] * B[1, b] + A[a, 2] * B[2, b]
-
-
-@nb.njit(**INLINE)
-def block(model, r, col):
-    """The row-major 3x3 block ``model[r, col:col+9]`` as a (3, 3) view."""
-    return model[r, col:col + 9].reshape((3, 3))
+def mv(M, k, v):
+    """``M[k] @ v`` for a stack of 3x3 matrices M (m, 3, 3), read entry by entry (no view)."""
+    return (M[k, 0, 0] * v[0] + M[k, 0, 1] * v[1] + M[k, 0, 2] * v[2],
+            M[k, 1, 0] * v[0] + M[k, 1, 1] * v[1] + M[k, 1, 2] * v[2],
+            M[k, 2, 0] * v[0] + M[k, 2, 1] * v[1] + M[k, 2, 2] * v[2])
 
 
 @nb.njit(**INLINE)
 def triple(model, r, col):
+    """``model[r, col:col+3]`` as a 3-tuple."""
     return (model[r, col], model[r, col + 1], model[r, col + 2])
+
+
+# 3x3 matrices inside kernels are row-major 9-tuples, like 3-vectors kept in registers
+
+@nb.njit(**INLINE)
+def mat(model, r, col):
+    """The row-major 3x3 block ``model[r, col:col+9]`` as a 9-tuple."""
+    return (model[r, col], model[r, col + 1], model[r, col + 2],
+            model[r, col + 3], model[r, col + 4], model[r, col + 5],
+            model[r, col + 6], model[r, col + 7], model[r, col + 8])
+
+
+@nb.njit(**INLINE)
+def mm(A, B):
+    """``A @ B`` for 9-tuples."""
+    return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+            A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
+            A[3] * B[0] + A[4] * B[3] + A[5] * B[6], A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
+            A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+            A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+            A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
+
+
+@nb.njit(**INLINE)
+def mvt(A, v):
+    """``A @ v`` for a 9-tuple A and a 3-tuple v."""
+    return (A[0] * v[0] + A[1] * v[1] + A[2] * v[2],
+            A[3] * v[0] + A[4] * v[1] + A[5] * v[2],
+            A[6] * v[0] + A[7] * v[1] + A[8] * v[2])
+
+
+@nb.njit(**INLINE)
+def mtv(A, v):
+    """``A.T @ v`` for a 9-tuple A and a 3-tuple v."""
+    return (A[0] * v[0] + A[3] * v[1] + A[6] * v[2],
+            A[1] * v[0] + A[4] * v[1] + A[7] * v[2],
+            A[2] * v[0] + A[5] * v[1] + A[8] * v[2])
+
+
+@nb.njit(**INLINE)
+def rot(R, k):
+    """``R[k]`` of an (m, 3, 3) array as a 9-tuple."""
+    return (R[k, 0, 0], R[k, 0, 1], R[k, 0, 2], R[k, 1, 0], R[k, 1, 1], R[k, 1, 2],
+            R[k, 2, 0], R[k, 2, 1], R[k, 2, 2])
+
+
+@nb.njit(**INLINE)
+def put_mat(M, k, A):
+    for a in range(3):
+        for b in range(3):
+            M[k, a, b] = A[3 * a + b]
+
+
+@nb.njit(**INLINE)
+def rotation(ax, angle):
+    """Rodrigues: rotation by ``angle`` about the unit axis ``ax``, as a 9-tuple."""
+    s, c = np.sin(angle), np.cos(angle)
+    v = 1.0 - c
+    x, y, w = ax
+    return (c + x * x * v, x * y * v - w * s, x * w * v + y * s,
+            y * x * v + w * s, c + y * y * v, y * w * v - x * s,
+            w * x * v - y * s, w * y * v + x * s, c + w * w * v)
 
 
 @nb.njit(**JIT)
@@ -131,44 +180,35 @@ def kinematics(model, q, R, o, z, c, Ic):
     """Link poses in base coordinates: fills R, o, z, c, Ic (shapes in the module docstring).
 
     ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``. A revolute joint turns the joint frame about its
-    unit axis a by q_i (Rodrigues: ``I + sin q [a]x + (1 - cos q) [a]x^2``); a prismatic joint
-    moves the origin by ``z_i q_i``, z_i the axis in base coordinates.
+    unit axis a by q_i, ``R_i = R_joint @ Rot(a, q_i)``: a product of exact rotations, so rounding
+    does not compound along the chain. A prismatic joint moves the origin by ``z_i q_i``, z_i the
+    axis in base coordinates.
     """
-    n = q.shape[0]
-    Rp = np.eye(3)  # orientation of the parent link (the base for joint 0)
+    Rp = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # orientation of the parent (the base)
     op = (0.0, 0.0, 0.0)
-    Rj = np.empty((3, 3))  # joint-frame orientation Rp @ origin rotation (then scratch)
-    Rz = np.empty((3, 3))  # rotation of a revolute joint, joint frame
-    for i in range(n):
+    for i in range(q.shape[0]):
         r = i + 1
-        matmul(Rp, block(model, r, ROT), Rj)
+        Rj = mm(Rp, mat(model, r, ROT))  # joint frame
         ax = triple(model, r, AXIS)
-        zi = mv(Rj, ax)
-        oi = add(op, mv(Rp, triple(model, r, POS)))
+        zi = mvt(Rj, ax)
+        oi = add(op, mvt(Rp, triple(model, r, POS)))
         if model[r, TYPE] == PRISMATIC:
             oi = add(oi, scale(zi, q[i]))
-            R[i] = Rj
+            Ri = Rj
         else:
-            # R_i = Rj @ Rot(axis, q), the rotation about the unit axis in the joint frame: a
-            # product of exact rotations, so rounding does not compound along the chain
-            s, cq = np.sin(q[i]), np.cos(q[i])
-            v = 1.0 - cq
-            x, y, w = ax
-            Rz[0, 0], Rz[0, 1], Rz[0, 2] = cq + x * x * v, x * y * v - w * s, x * w * v + y * s
-            Rz[1, 0], Rz[1, 1], Rz[1, 2] = y * x * v + w * s, cq + y * y * v, y * w * v - x * s
-            Rz[2, 0], Rz[2, 1], Rz[2, 2] = w * x * v - y * s, w * y * v + x * s, cq + w * w * v
-            matmul(Rj, Rz, R[i])
+            Ri = mm(Rj, rotation(ax, q[i]))
+        put_mat(R, i, Ri)
         put(o, i, oi)
         put(z, i, zi)
         # centre of mass and inertia in base coordinates: c = o + R com, Ic = R I R^T
-        put(c, i, add(oi, mv(R[i], triple(model, r, COM))))
-        matmul(R[i], block(model, r, INER), Rj)
+        put(c, i, add(oi, mvt(Ri, triple(model, r, COM))))
+        RI = mm(Ri, mat(model, r, INER))
         for a in range(3):
             for b in range(3):
-                Ic[i, a, b] = Rj[a, 0] * R[i, b, 0] + Rj[a, 1] * R[i, b, 1] + Rj[a, 2] * R[i, b, 2]
-        Rp = R[i]
+                Ic[i, a, b] = (RI[3 * a] * Ri[3 * b] + RI[3 * a + 1] * Ri[3 * b + 1]
+                               + RI[3 * a + 2] * Ri[3 * b + 2])
+        Rp = Ri
         op = oi
-    return
 
 
 @nb.njit(**JIT)
@@ -181,7 +221,7 @@ def workspace(n):
 @nb.njit(**INLINE)
 def tip_point(o, R, n, pe):
     """Base-frame point where the external wrench acts: o_n + R_n p_e (p_e in link-n frame)."""
-    return add(vec(o, n - 1), mv(R[n - 1], pe))
+    return add(vec(o, n - 1), mv(R, n - 1, (pe[0], pe[1], pe[2])))
 
 
 @nb.njit(**INLINE)

@@ -45,7 +45,7 @@ def crba(model, q, H):
     kinematics(model, q, R, o, z, c, Ic)
     Mc = 0.0  # composite mass
     hc = (0.0, 0.0, 0.0)  # composite first moment, sum m_k c_k
-    Jc = np.zeros((3, 3))  # composite inertia about the composite centre of mass
+    Jc = np.zeros((1, 3, 3))  # composite inertia about the composite centre of mass
     Cc = (0.0, 0.0, 0.0)  # composite centre of mass
     for j in range(n - 1, -1, -1):
         # add link j to the composite body (parallel-axis theorem about the new centre of mass)
@@ -58,7 +58,7 @@ def crba(model, q, H):
         for a in range(3):
             for b in range(3):
                 kron = 1.0 if a == b else 0.0
-                Jc[a, b] += (Ic[j, a, b]
+                Jc[0, a, b] += (Ic[j, a, b]
                              + Mc * (dot(d_old, d_old) * kron - d_old[a] * d_old[b])
                              + m * (dot(d_j, d_j) * kron - d_j[a] * d_j[b]))
         Mc, hc, Cc = M_new, add(hc, scale(cj, m)), C_new
@@ -70,7 +70,7 @@ def crba(model, q, H):
             Nc = (0.0, 0.0, 0.0)
         else:
             F = scale(cross(zj, sub(Cc, vec(o, j))), Mc)
-            Nc = mv(Jc, zj)
+            Nc = mv(Jc, 0, zj)
         for i in range(j + 1):
             zi = vec(z, i)
             if model[i + 1, TYPE] == PRISMATIC:

@@ -83,7 +83,7 @@ def mrnea(model, q, qd, fext, pe, H, u):
         r_cm = sub(vec(c, i), oi)
         a_cm = add(a_o, add(cross(wd, r_cm), cross(w, cross(w, r_cm))))  # Eq. 5, qdd = 0
         put(e, i, scale(sub(a_cm, g), model[i + 1, MASS]))  # Eq. 13
-        put(d, i, add(mv(Ic[i], wd), cross(w, mv(Ic[i], w))))  # Eq. 17
+        put(d, i, add(mv(Ic, i, wd), cross(w, mv(Ic, i, w))))  # Eq. 17
         a_p, o_p = a_o, oi
 
     # backward pass: E sums and n' coefficients, tip to base
@@ -112,7 +112,7 @@ def mrnea(model, q, qd, fext, pe, H, u):
                 t = cross(l_i, e_ik)
             else:
                 e_ik = scale(cross(zk, sub(ci, vec(o, k))), m_i)  # Eqs. 5, 15
-                t = add(mv(Ic[i], zk), cross(l_i, e_ik))  # d_ik + l_i x e_ik (Eq. 16)
+                t = add(mv(Ic, i, zk), cross(l_i, e_ik))  # d_ik + l_i x e_ik (Eq. 16)
             M[0, k] += t[0]
             M[1, k] += t[1]
             M[2, k] += t[2]

@@ -28,14 +28,16 @@ from mrnea.kernels.common import (
     ROT,
     TYPE,
     add,
-    block,
     cross,
     dot,
     finite,
     kinematics,
-    matmul,
+    mat,
+    mm,
+    mtv,
     mv,
     put,
+    rot,
     scale,
     sub,
     tip_point,
@@ -73,7 +75,7 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
         # Eq. 4: acceleration of the centre of mass
         a_cm = add(a_o, add(cross(wd, r_cm), cross(w, cross(w, r_cm))))
         put(F, i, scale(sub(a_cm, g), model[i + 1, MASS]))  # Eq. 6
-        put(N, i, add(mv(Ic[i], wd), cross(w, mv(Ic[i], w))))  # Eq. 7
+        put(N, i, add(mv(Ic, i, wd), cross(w, mv(Ic, i, w))))  # Eq. 7
         a_p, o_p = a_o, oi
 
     # backward pass: forces and moments, tip to base
@@ -126,18 +128,20 @@ def reactions(model, q, qd, qdd, fext, pe, tau, out):
     f = np.empty((n, 3))
     nm = np.empty((n, 3))
     newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
-    Rj = np.empty((3, 3))
     for i in range(n):
         # joint frame: the parent's orientation times the origin rotation, D_{i-1} in Eq. 32
-        matmul(R[i - 1] if i > 0 else np.eye(3), block(model, i + 1, ROT), Rj)
+        Rp = rot(R, i - 1) if i > 0 else (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+        Rj = mm(Rp, mat(model, i + 1, ROT))
         if model[i + 1, TYPE] == PRISMATIC:
             # moment about the joint frame's origin, o_i - z_i q_i: add (z_i q_i) x f_i
             t = cross(scale(vec(z, i), q[i]), vec(f, i))
             for a in range(3):
                 nm[i, a] += t[a]
-        for a in range(3):  # Rj^T f, Rj^T n
-            out[i, a] = Rj[0, a] * f[i, 0] + Rj[1, a] * f[i, 1] + Rj[2, a] * f[i, 2]
-            out[i, 3 + a] = Rj[0, a] * nm[i, 0] + Rj[1, a] * nm[i, 1] + Rj[2, a] * nm[i, 2]
+        fj = mtv(Rj, vec(f, i))  # Rj^T f, Rj^T n
+        nj = mtv(Rj, vec(nm, i))
+        for a in range(3):
+            out[i, a] = fj[a]
+            out[i, 3 + a] = nj[a]
     return OK
 
 
