@@ -44,6 +44,7 @@ _FD = {
     "aba": (aba, aba_batch),
 }
 _HB = {"mrnea": (mrnea, mrnea_batch), "walker_orin": (walker_orin, walker_orin_batch)}
+_F64 = np.dtype(np.float64)
 _ZERO_WRENCH = np.zeros(6)
 _ZERO_POINT = np.zeros(3)
 
@@ -66,26 +67,28 @@ def _array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
     return a
 
 
+def _single(n: int, *arrays: object) -> bool:
+    """True when every array is already a float64 ndarray of shape (n,): the fast path.
+
+    Such a state goes straight to the kernels, which check finiteness themselves (status
+    NONFINITE, then :func:`_check` names the argument); anything else is validated here.
+    """
+    for a in arrays:
+        if type(a) is not np.ndarray or a.shape != (n,) or a.dtype is not _F64:
+            return False
+    return True
+
+
 def _inputs(
     robot: Robot,
     states: dict[str, ArrayLike],
     f_ext: ArrayLike | None,
     f_ext_point: ArrayLike | None,
 ) -> tuple[bool, list[NDArray], NDArray, NDArray]:
-    """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D.
-
-    Fast path: one state given as float64 arrays of shape (n,) and no external wrench is passed
-    through unchecked for NaN; the kernels check finiteness and report NONFINITE, and
-    :func:`_check` then names the argument.
-    """
+    """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D."""
     if not isinstance(robot, Robot):
         raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
     n = robot.n
-    if f_ext is None and f_ext_point is None:
-        vals = list(states.values())
-        if all(type(v) is np.ndarray and v.dtype == np.float64 and v.shape == (n,)
-               and v.flags.c_contiguous and v.flags.writeable for v in vals):
-            return False, vals, _ZERO_WRENCH, _ZERO_POINT
     arrays = [_array(v, k, n) for k, v in states.items()]
     fe = _ZERO_WRENCH if f_ext is None else _array(f_ext, "f_ext", 6)
     pe = _ZERO_POINT if f_ext_point is None else _array(f_ext_point, "f_ext_point", 3)
@@ -142,6 +145,13 @@ def inverse_dynamics(
 
     Returns tau, (n,) or (B, n) [N m | N]. See the module docstring for shapes and ``f_ext``.
     """
+    if f_ext is None and f_ext_point is None and type(robot) is Robot \
+            and _single(robot.n, q, qd, qdd):
+        n = robot.n
+        tau = np.empty(n)
+        if rnea(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, tau, np.empty((n, 3)),
+                np.empty((n, 3))) == OK:
+            return tau
     args = {"q": q, "qd": qd, "qdd": qdd}
     batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
@@ -207,7 +217,12 @@ def forward_dynamics(
     bias), ``"aba"`` (articulated-body algorithm, O(n)). Returns qdd, (n,) or (B, n).
     Raises SingularMassMatrixError where H is not positive definite.
     """
-    kernel, kernel_batch = _method(method, _FD)
+    kernel, kernel_batch = _FD[method] if method in _FD else _method(method, _FD)
+    if f_ext is None and f_ext_point is None and type(robot) is Robot \
+            and _single(robot.n, q, qd, tau):
+        qdd = np.empty(robot.n)
+        if kernel(robot.compiled, q, qd, tau, _ZERO_WRENCH, _ZERO_POINT, qdd) == OK:
+            return qdd
     args = {"q": q, "qd": qd, "tau": tau}
     batched, (q, qd, tau), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
