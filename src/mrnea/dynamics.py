@@ -108,7 +108,7 @@ def _inputs(
 def _method(method: str, table: dict) -> tuple:
     try:
         return table[method]
-    except (KeyError, TypeError):
+    except (KeyError, TypeError):  # TypeError: an unhashable value
         raise StateError(
             f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}"
         ) from None
@@ -217,7 +217,7 @@ def forward_dynamics(
     bias), ``"aba"`` (articulated-body algorithm, O(n)). Returns qdd, (n,) or (B, n).
     Raises SingularMassMatrixError where H is not positive definite.
     """
-    kernel, kernel_batch = _FD[method] if method in _FD else _method(method, _FD)
+    kernel, kernel_batch = _method(method, _FD)
     if f_ext is None and f_ext_point is None and type(robot) is Robot \
             and _single(robot.n, q, qd, tau):
         qdd = np.empty(robot.n)
