@@ -11,8 +11,8 @@ Modes (docs/achievable.md explains when each models a real drive):
 * ``"paper"`` -- Eq. 44 literally: every required effort is clamped to +-limit and the
   accelerations solve ``H_a qdd = tau - u'_a`` for all joints at once.
 * ``"hybrid"`` (default) -- Sec. II's speed-controlled drives: saturated joints deliver their
-  limit, every other joint keeps its desired acceleration and takes the effort that needs; a joint
-  pushed over its own limit by that saturates too (an active set, at most n rounds).
+  limit, every other joint keeps its desired acceleration and takes the effort that needs; the
+  saturated set grows one joint at a time, worst first (an active set, at most n rounds).
 
 Coulomb friction at rest and the actuator convention: :mod:`mrnea.kernels.achievable` and
 :mod:`mrnea.actuators`. Efforts are joint side [N m | N]; ``tau_motor = tau / G``.

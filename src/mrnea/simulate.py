@@ -122,11 +122,16 @@ class SimulationResult:
             reasons = [r for r, m in (("effort saturated", self.saturated),
                                       ("position limit", self.position_clamped),
                                       ("velocity limit", self.velocity_clamped)) if m[k, i]]
+            nxt = min(k + 1, self.K - 1)
             first = {
                 "time": float(self.t[k]), "cycle": k, "joint": names[i],
                 "reason": ", ".join(reasons),
                 "required_effort": float(self.tau_required[k, i]),
                 "available_effort": float(self.limit[k, i]),
+                "commanded_velocity": float(self.qd_cmd[nxt, i]),
+                "velocity_limit": float(self.robot.velocity_limit[i]),
+                "commanded_position": float(self.q_cmd[nxt, i]),
+                "position_limits": [float(self.robot.lower[i]), float(self.robot.upper[i])],
             }
         axes = np.array([j.axis for j in self.robot.joints])  # joint-frame axes
         f = self.reaction[:, :, :3]
@@ -173,10 +178,17 @@ class SimulationResult:
             return (f"{head}ACHIEVABLE: {self.robot.name} follows the program "
                     f"({self.K} cycles, {s['duration']:.3f} s) within every limit.")
         fi = s["first_infeasible"]
+        if fi["reason"].startswith("effort"):
+            what = (f"effort required {fi['required_effort']:.4g}, available "
+                    f"{fi['available_effort']:.4g}")
+        elif fi["reason"].startswith("position"):
+            lo, hi = fi["position_limits"]
+            what = f"position commanded {fi['commanded_position']:.4g}, range [{lo:.4g}, {hi:.4g}]"
+        else:
+            what = (f"velocity commanded {fi['commanded_velocity']:.4g}, limit "
+                    f"{fi['velocity_limit']:.4g}")
         return (f"{head}NOT ACHIEVABLE: first at t = {fi['time']:.3f} s, joint '{fi['joint']}' "
-                f"({fi['reason']}): required {fi['required_effort']:.4g}, available "
-                f"{fi['available_effort']:.4g}; worst tracking error "
-                f"{s['max_tracking_error']:.4g}.")
+                f"({fi['reason']}): {what}; worst tracking error {s['max_tracking_error']:.4g}.")
 
     def columns(self) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
@@ -237,6 +249,9 @@ class atomic_write:
 
     def __enter__(self) -> Any:
         fd, self.tmp = tempfile.mkstemp(dir=self.path.parent or ".", prefix=f".{self.path.name}.")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self.tmp, 0o666 & ~umask)  # as open() would create it, not mkstemp's 0600
         self.fh = os.fdopen(fd, "w", newline=self.newline, encoding="utf-8")
         return self.fh
 

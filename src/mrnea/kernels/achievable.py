@@ -14,8 +14,10 @@ Modes:
 * PAPER (Eq. 44): clamp every required effort to +-limit and solve H_a qdd = tau - u'_a.
 * HYBRID (Sec. II: "other joint accelerations keep their values obtained from the path
   interpolator"): joints whose required effort exceeds the limit deliver the limit; every other
-  joint keeps qdd_des and takes the effort that needs. A joint pushed over its own limit by that
-  joins the saturated set (an active set that only grows: at most n rounds).
+  joint keeps qdd_des and takes the effort that needs. The saturated set is found one joint at a
+  time: the joint furthest over its limit (|tau| / limit) saturates, the rest are solved again,
+  and so on (an active set that only grows: at most n rounds). One at a time, because another
+  joint's excess may come only from its coupling to the first one's unachievable acceleration.
 
 Both are one mixed linear system: per joint either the acceleration or the effort is known.
 
@@ -218,6 +220,7 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
         if status != OK:
             return status
         changed = False
+        worst, worst_ratio = -1, 1.0  # HYBRID: the joint furthest over its limit
         for i in range(n):
             if held[i]:
                 d = tau_cmd[i] - tau[i]  # what static friction must absorb to hold the joint
@@ -233,11 +236,16 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
                 changed = True
             elif known[i]:
                 tau[i] = _with_static_friction(tau[i], act[i, FS], qd[i] != 0.0, qdd[i])
-                if abs(tau[i]) > limit[i]:  # HYBRID: this joint saturates too
-                    known[i] = False
-                    tau_cmd[i] = limit[i] * np.sign(tau[i])
-                    _start_from_rest(act, qd, qdd_des, i, held, slip)
-                    changed = True
+                ratio = abs(tau[i]) / limit[i] if limit[i] > 0.0 else np.inf
+                if abs(tau[i]) > limit[i] and ratio > worst_ratio:
+                    worst, worst_ratio = i, ratio
+        if worst >= 0 and not changed:
+            # saturate one joint per round: another joint's excess may only come from its
+            # coupling to this one's unachievable acceleration
+            known[worst] = False
+            tau_cmd[worst] = limit[worst] * np.sign(tau[worst])
+            _start_from_rest(act, qd, qdd_des, worst, held, slip)
+            changed = True
         if not changed:
             break
     for i in range(n):
