@@ -45,6 +45,7 @@ _FD = {
 }
 _HB = {"mrnea": (mrnea, mrnea_batch), "walker_orin": (walker_orin, walker_orin_batch)}
 _F64 = np.dtype(np.float64)
+_ND = np.ndarray
 _ZERO_WRENCH = np.zeros(6)
 _ZERO_POINT = np.zeros(3)
 
@@ -67,16 +68,15 @@ def _array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
     return a
 
 
-def _single(n: int, *arrays: object) -> bool:
-    """True when every array is already a float64 ndarray of shape (n,): the fast path.
+def _single(robot: object, a: object, b: object, c: object) -> bool:
+    """True for the fast path: a Robot and three float64 ndarrays of shape (n,), no wrench.
 
     Such a state goes straight to the kernels, which check finiteness themselves (status
     NONFINITE, then :func:`_check` names the argument); anything else is validated here.
     """
-    for a in arrays:
-        if type(a) is not np.ndarray or a.shape != (n,) or a.dtype is not _F64:
-            return False
-    return True
+    return (type(robot) is Robot and type(a) is _ND and type(b) is _ND and type(c) is _ND
+            and a.shape == b.shape == c.shape == robot._shape
+            and a.dtype is _F64 and b.dtype is _F64 and c.dtype is _F64)
 
 
 def _inputs(
@@ -145,8 +145,7 @@ def inverse_dynamics(
 
     Returns tau, (n,) or (B, n) [N m | N]. See the module docstring for shapes and ``f_ext``.
     """
-    if f_ext is None and f_ext_point is None and type(robot) is Robot \
-            and _single(robot.n, q, qd, qdd):
+    if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
         n = robot.n
         tau = np.empty(n)
         if rnea(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, tau, np.empty((n, 3)),
@@ -218,9 +217,8 @@ def forward_dynamics(
     Raises SingularMassMatrixError where H is not positive definite.
     """
     kernel, kernel_batch = _method(method, _FD)
-    if f_ext is None and f_ext_point is None and type(robot) is Robot \
-            and _single(robot.n, q, qd, tau):
-        qdd = np.empty(robot.n)
+    if f_ext is None and f_ext_point is None and _single(robot, q, qd, tau):
+        qdd = np.empty(robot._shape)
         if kernel(robot.compiled, q, qd, tau, _ZERO_WRENCH, _ZERO_POINT, qdd) == OK:
             return qdd
     args = {"q": q, "qd": qd, "tau": tau}

@@ -278,6 +278,7 @@ class Robot:
         self._gravity = _frozen(gravity, (3,), f"robot '{name}': gravity")
         self._name = str(name)
         self._base = base
+        self._shape = (len(joints),)  # (n,): one state (q, qd, qdd or tau), for the API fast path
 
     # --- read-only description ------------------------------------------------------------
     name = property(lambda self: self._name, doc="The robot's name.")

@@ -213,9 +213,11 @@ def kinematics(model, q, R, o, z, c, Ic):
 
 @nb.njit(**JIT)
 def workspace(n):
-    """Per-call buffers of the kinematics pass: R, o, z, c, Ic."""
-    return (np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)),
-            np.empty((n, 3, 3)))
+    """Per-call buffers of the kinematics pass, R, o, z, c, Ic, carved from one allocation."""
+    buf = np.empty(27 * n)
+    return (buf[:9 * n].reshape((n, 3, 3)), buf[9 * n:12 * n].reshape((n, 3)),
+            buf[12 * n:15 * n].reshape((n, 3)), buf[15 * n:18 * n].reshape((n, 3)),
+            buf[18 * n:].reshape((n, 3, 3)))
 
 
 @nb.njit(**INLINE)

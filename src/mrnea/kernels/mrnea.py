@@ -64,9 +64,13 @@ def mrnea(model, q, qd, fext, pe, H, u):
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
 
+    buf = np.zeros(12 * n)  # e, d (n, 3); E, M (3, n), the last two starting at zero
+    e = buf[:3 * n].reshape((n, 3))
+    d = buf[3 * n:6 * n].reshape((n, 3))
+    E = buf[6 * n:9 * n].reshape((3, n))  # column k: E_{(i+1)k} (Eqs. 25-26)
+    M = buf[9 * n:].reshape((3, n))  # n'_ia1 + n'_ia2 + n'_ia3 (Eqs. 29-31)
+
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17)
-    e = np.empty((n, 3))
-    d = np.empty((n, 3))
     w = (0.0, 0.0, 0.0)
     wd = (0.0, 0.0, 0.0)
     a_p = (0.0, 0.0, 0.0)
@@ -87,8 +91,6 @@ def mrnea(model, q, qd, fext, pe, H, u):
         a_p, o_p = a_o, oi
 
     # backward pass: E sums and n' coefficients, tip to base
-    E = np.zeros((3, n))  # column k: E_{(i+1)k} (Eqs. 25-26)
-    M = np.zeros((3, n))  # n'_ia1 + n'_ia2 + n'_ia3 (Eqs. 29-31)
     E_c = (fext[0], fext[1], fext[2])  # E_{i+1}: starts as f_{n+1} = f_e
     n_c = (fext[3], fext[4], fext[5])  # n'_{(i+1)c}: starts as n_e
     p_next = tip_point(o, R, n, pe)
@@ -151,12 +153,17 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
     if not finite(tau):
         return NONFINITE
     n = q.shape[0]
-    H = np.empty((n, n))
-    u = np.empty(n)
+    buf = np.empty(2 * n * n + 2 * n)  # H, L (n, n); u', tau - u' (n,)
+    H = buf[:n * n].reshape((n, n))
+    L = buf[n * n:2 * n * n].reshape((n, n))
+    u = buf[2 * n * n:2 * n * n + n]
+    rhs = buf[2 * n * n + n:]
     status = mrnea(model, q, qd, fext, pe, H, u)
     if status != OK:
         return status
-    return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+    for i in range(n):
+        rhs[i] = tau[i] - u[i]
+    return cholesky_solve(H, rhs, L, qdd)
 
 
 @nb.njit(**{**JIT, "parallel": True})
