@@ -13,6 +13,7 @@ from mrnea.dynamics import (
 )
 from mrnea.errors import (
     ModelError,
+    ModelWarning,
     MrneaError,
     RobotFileError,
     SingularMassMatrixError,
@@ -27,6 +28,7 @@ __all__ = [
     "Joint",
     "Link",
     "ModelError",
+    "ModelWarning",
     "MrneaError",
     "Robot",
     "RobotFileError",

@@ -28,3 +28,8 @@ class SingularMassMatrixError(MrneaError):
 
     This happens, for example, when a moving link and everything it carries is massless.
     """
+
+
+class ModelWarning(UserWarning):
+    """A robot description is valid but physically doubtful (an inertia that violates the
+    triangle inequality, a massless moving link); mrnea goes on and says so."""

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -37,7 +38,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError
+from mrnea.errors import ModelError, ModelWarning
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
 ACTUATOR_FIELDS = (
@@ -117,6 +118,13 @@ def _check_inertia(inertia: NDArray, what: str) -> None:
         raise ModelError(
             f"{what}: inertia is not positive semi-definite (eigenvalues {eig.tolist()})"
         )
+    # a rigid body's principal moments satisfy I1 + I2 >= I3; CAD exports break it by rounding
+    excess = eig[2] - eig[0] - eig[1]
+    if excess > 1e-9 * max(float(eig[2]), 1e-300):
+        warnings.warn(
+            f"{what}: inertia violates the triangle inequality (principal moments "
+            f"{eig.tolist()}: {eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g}); physically doubtful, "
+            f"used as given", ModelWarning, stacklevel=4)
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,6 +281,14 @@ class Robot:
             dup = sorted({x for x in names if names.count(x) > 1})
             if dup:
                 raise ModelError(f"robot '{name}': duplicate {kind} names: {', '.join(dup)}")
+        for i, lk in enumerate(links):
+            if lk.mass == 0.0 and not np.any(lk.inertia):
+                carried = [x.name for x in links[i + 1:] if x.mass > 0 or np.any(x.inertia)]
+                tail = (f"well-posed: it carries {', '.join(carried)}" if carried else
+                        "nothing it carries has mass either, so H is singular and forward "
+                        "dynamics will fail")
+                warnings.warn(f"link '{lk.name}' is massless ({tail})", ModelWarning,
+                              stacklevel=2)
         self._joints = joints
         self._links = links
         self._gravity = _frozen(gravity, (3,), f"robot '{name}': gravity")
