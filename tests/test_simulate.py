@@ -227,3 +227,52 @@ def test_bad_program_shapes():
     bad[3, 1] = np.nan
     with pytest.raises(StateError, match="q_cmd"):
         simulate(robot, bad, 0.01)
+
+
+def test_streaming_writes_the_same_table_while_running(tmp_path):
+    robot = two_link(limit1=2.0)
+    dt = 0.001
+    q_cmd = smooth_move([0.0, 0.0], [1.0, -1.0], 2.5 * CHUNK * dt, dt)
+    seen = []
+
+    def progress(done, total):  # the rows done so far are already on disk
+        with open(tmp_path / "run.csv.partial", newline="") as fh:
+            seen.append(sum(1 for _ in fh) - 1)
+
+    res = simulate(robot, q_cmd, dt, stream=tmp_path / "run.csv", progress=progress)
+    assert seen[:2] == [CHUNK, 2 * CHUNK]
+    assert (tmp_path / "run.csv").read_text() == res.to_csv(tmp_path / "after.csv").read_text()
+    assert not (tmp_path / "run.csv.partial").exists()
+    with pytest.raises(FileExistsError):
+        simulate(robot, q_cmd, dt, stream=tmp_path / "run.csv")
+
+
+def test_interrupted_stream_keeps_the_cycles_done(tmp_path):
+    robot = two_link()
+    dt = 0.001
+    q_cmd = smooth_move([0.0, 0.0], [1.0, -1.0], 3 * CHUNK * dt, dt)
+
+    def stop(done, total):
+        if done >= 2 * CHUNK:
+            raise KeyboardInterrupt
+
+    res = simulate(robot, q_cmd, dt, progress=stop, stream=tmp_path / "run.csv")
+    assert not res.completed and res.K == 2 * CHUNK
+    with open(tmp_path / "run.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 2 * CHUNK
+    assert float(rows[-1]["q_j1"]) == res.q[-1, 0]
+
+
+def test_interrupted_before_any_cycle():
+    robot = two_link()
+
+    def stop(done, total):
+        raise KeyboardInterrupt
+
+    res = simulate(robot, smooth_move([0.0, 0.0], [1.0, -1.0], 0.5, 0.01), 0.01,
+                   progress=lambda d, t: None)
+    assert res.completed
+    # a run interrupted in its first chunk returns no cycle, and says so
+    empty = res._first(0)
+    assert empty.K == 0 and "no cycle" in empty.verdict() and empty.summary()["cycles"] == 0

@@ -90,7 +90,9 @@ def main(debug: bool) -> None:
 
 
 def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
-         f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool):
+         f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool,
+         out: Path | None = None, force: bool = False):
+    """Simulate with a progress bar; with ``out``, stream the per-cycle table to cycles.csv."""
     from mrnea.simulate import simulate
 
     K = q_cmd.shape[0]
@@ -103,8 +105,11 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
             bar.update(done - last[0])
             last[0] = done
 
+        if out is not None:
+            out.mkdir(parents=True, exist_ok=True)
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
-                       f_ext_point=f_ext_point, progress=progress)
+                       f_ext_point=f_ext_point, progress=progress,
+                       stream=None if out is None else out / "cycles.csv", overwrite=force)
     if not res.completed:
         click.echo("mrnea: interrupted; writing the partial result.", err=True)
     return res
@@ -113,9 +118,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
 def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None) -> Path:
     from mrnea.report import plot_result, write_report
 
-    out.mkdir(parents=True, exist_ok=True)
-    res.to_csv(out / "cycles.csv", overwrite=force)
-    res.save_summary(out / "summary.json", overwrite=force)
+    res.save_summary(out / "summary.json", overwrite=force)  # cycles.csv: streamed by _run
     plot_result(res, out)
     for name, fig in (extra_figures or {}).items():
         fig.savefig(out / f"{name}.png", dpi=110)
@@ -168,8 +171,8 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
 
     robot = robots.sdt()
     _, q_cmd = training_profile(dt)
-    res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet)
     folder = Path(out) if out else fresh_dir("mrnea-demo")
+    res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
     figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)}
     report = _write_outputs(res, folder, force, figs)
     _print_result(res, report, as_json, quiet)
@@ -208,8 +211,9 @@ def simulate(robot: str, program: str, dt: float | None, mode: str, fd: str, cat
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json."""
     rob = load_any(robot)
     q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
-    res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet)
-    report = _write_outputs(res, Path(out) if out else fresh_dir("mrnea-out"), force)
+    folder = Path(out) if out else fresh_dir("mrnea-out")
+    res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder, force)
+    report = _write_outputs(res, folder, force)
     _print_result(res, report, as_json, quiet)
 
 

@@ -15,12 +15,14 @@ to end at rest: the last cycle commands zero velocity.
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import dataclasses
 import json
 import math
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -42,6 +44,9 @@ from mrnea.kernels.common import NONFINITE
 from mrnea.kernels.simulate import simulate_cycles
 from mrnea.model import Robot
 
+_PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor", "tau_required",
+              "limit", "margin", "saturated", "position_clamped", "velocity_clamped",
+              "tracking_error")
 FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
 CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
 
@@ -114,6 +119,11 @@ class SimulationResult:
         """
         if self._summary:
             return self._summary
+        if self.K == 0:  # interrupted before the first chunk ended
+            return {"robot": self.robot.name, "achievable": False, "mode": self.mode,
+                    "fd": self.fd, "dt": self.dt, "cycles": 0, "duration": 0.0,
+                    "completed": self.completed, "first_infeasible": None,
+                    "max_tracking_error": 0.0, "joints": []}
         names = self.robot.joint_names
         infeasible = self.saturated | self.position_clamped | self.velocity_clamped
         first = None
@@ -174,6 +184,8 @@ class SimulationResult:
         """One line: achievable, or where and why not."""
         s = self.summary()
         head = "" if self.completed else "INTERRUPTED (partial result): "
+        if self.K == 0:
+            return f"{head}no cycle was completed."
         if s["achievable"]:
             return (f"{head}ACHIEVABLE: {self.robot.name} follows the program "
                     f"({self.K} cycles, {s['duration']:.3f} s) within every limit.")
@@ -190,29 +202,43 @@ class SimulationResult:
         return (f"{head}NOT ACHIEVABLE: first at t = {fi['time']:.3f} s, joint '{fi['joint']}' "
                 f"({fi['reason']}): {what}; worst tracking error {s['max_tracking_error']:.4g}.")
 
-    def columns(self) -> dict[str, NDArray]:
+    def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
-        cols: dict[str, NDArray] = {"t": self.t}
-        per_joint = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor",
-                     "tau_required", "limit", "margin", "saturated", "position_clamped",
-                     "velocity_clamped", "tracking_error")
-        for name in per_joint:
-            a = getattr(self, name)
+        cols: dict[str, NDArray] = {"t": self.t[rows]}
+        for name in _PER_JOINT:
+            a = getattr(self, name)[rows]
             for i, j in enumerate(self.robot.joint_names):
                 cols[f"{name}_{j}"] = a[:, i].astype(float) if a.dtype == bool else a[:, i]
         for i, j in enumerate(self.robot.joint_names):
             for c, label in enumerate(("fx", "fy", "fz", "nx", "ny", "nz")):
-                cols[f"reaction_{label}_{j}"] = self.reaction[:, i, c]
+                cols[f"reaction_{label}_{j}"] = self.reaction[rows, i, c]
         return cols
 
     def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
         """Write the per-cycle table (one row per cycle, header row; pandas reads it)."""
-        cols = self.columns()
         with atomic_write(path, overwrite) as fh:
-            w = csv.writer(fh)
-            w.writerow(cols)
-            w.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
+            self._write_rows(csv.writer(fh), slice(None), header=True)
         return Path(path)
+
+    def _write_rows(self, writer: Any, rows: slice, header: bool = False) -> None:
+        cols = self.columns(rows)
+        if header:
+            writer.writerow(cols)
+        writer.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
+
+    def _derive(self, rows: slice, clamp: NDArray) -> None:
+        """Fill the derived per-cycle arrays of the rows the kernel has just computed."""
+        self.tau_motor[rows] = self.tau[rows] / self.robot.gear_ratio
+        self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
+        self.tracking_error[rows] = self.q_cmd[rows] - self.q[rows]
+        self.position_clamped[rows] = (clamp[rows] & CLAMP_POSITION) != 0
+        self.velocity_clamped[rows] = (clamp[rows] & CLAMP_VELOCITY) != 0
+
+    def _first(self, k: int) -> SimulationResult:
+        """The first k cycles (an interrupted run), as views."""
+        arrays = {f.name: getattr(self, f.name)[:k] for f in dataclasses.fields(self)
+                  if isinstance(getattr(self, f.name), np.ndarray)}
+        return dataclasses.replace(self, **arrays, completed=False, _summary={})
 
     def save_summary(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
         """Write :meth:`summary` as JSON (``summary.json``)."""
@@ -286,6 +312,8 @@ def simulate(
     qd0: ArrayLike | None = None,
     catch_up: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
+    stream: str | os.PathLike | None = None,
+    overwrite: bool = False,
 ) -> SimulationResult:
     """Simulate the programmed motion q_cmd (K, n), one row per interpolation cycle dt [s].
 
@@ -305,6 +333,9 @@ def simulate(
         position loop does, so the lag closes at that rate once the limits allow; keep
         ``catch_up * dt`` well below 1 (e.g. 10-50 1/s at dt = 5 ms).
     progress : called as ``progress(cycles_done, K)`` between compiled chunks.
+    stream : a CSV path: the per-cycle table is written while the simulation runs, chunk by
+        chunk (the same table as :meth:`SimulationResult.to_csv`), for long runs; it is named
+        ``<stream>.partial`` until the run ends. ``overwrite`` allows replacing an existing file.
 
     On KeyboardInterrupt the cycles done so far are returned with ``completed=False``.
     """
@@ -341,38 +372,56 @@ def simulate(
     Vc[0] = v0
     Vc[1:] = np.diff(Qc, axis=0) / dt
 
-    z = {k: np.zeros((K, n)) for k in ("q", "qd", "qdd_des", "qdd", "tau", "tau_req", "limit")}
-    sat = np.zeros((K, n), dtype=np.bool_)
-    clamp = np.zeros((K, n), dtype=np.int64)
-    wrench = np.zeros((K, n, 6))
-    z["q"][0], z["qd"][0] = x0, v0
-    done, completed = 0, True
+    def zeros(dtype: type = float) -> NDArray:
+        return np.zeros((K, n), dtype=dtype)
+
+    res = SimulationResult(
+        robot=robot, dt=dt, mode=mode, fd=fd, t=np.arange(K) * dt, q_cmd=Qc, qd_cmd=Vc,
+        qdd_des=zeros(), q=zeros(), qd=zeros(), qdd=zeros(), tau=zeros(), tau_motor=zeros(),
+        tau_required=zeros(), limit=zeros(), margin=zeros(), saturated=zeros(np.bool_),
+        position_clamped=zeros(np.bool_), velocity_clamped=zeros(np.bool_),
+        reaction=np.zeros((K, n, 6)), tracking_error=zeros())
+    clamp = zeros(np.int64)
+    res.q[0], res.qd[0] = x0, v0
     m, act = robot.compiled, robot.compiled_actuators
-    try:
-        while done < K:
-            k1 = min(K, done + CHUNK)
-            k, status = simulate_cycles(m, act, Qc, Vc, dt, FE, PE, code, engine, catch_up,
-                                        done, k1, z["q"], z["qd"], z["qdd_des"], z["qdd"],
-                                        z["tau"], z["tau_req"], z["limit"], sat, clamp, wrench)
-            if status != -1:
-                _fail(robot, k, status, z["q"][k], z["qd"][k], dt)
-            done = k1
-            if progress is not None:
-                progress(done, K)
-    except KeyboardInterrupt:
-        completed = False
-    rows = slice(0, done)
-    tau = z["tau"][rows]
-    return SimulationResult(
-        robot=robot, dt=dt, mode=mode, fd=fd, t=np.arange(done) * dt, q_cmd=Qc[rows],
-        qd_cmd=Vc[rows], qdd_des=z["qdd_des"][rows], q=z["q"][rows], qd=z["qd"][rows],
-        qdd=z["qdd"][rows], tau=tau, tau_motor=tau / robot.gear_ratio,
-        tau_required=z["tau_req"][rows], limit=z["limit"][rows],
-        margin=z["limit"][rows] - np.abs(tau), saturated=sat[rows],
-        position_clamped=(clamp[rows] & CLAMP_POSITION) != 0,
-        velocity_clamped=(clamp[rows] & CLAMP_VELOCITY) != 0, reaction=wrench[rows],
-        tracking_error=Qc[rows] - z["q"][rows], completed=completed,
-    )
+    done = 0
+    with _stream(stream, overwrite) as fh:
+        try:
+            while done < K:
+                k1 = min(K, done + CHUNK)
+                k, status = simulate_cycles(
+                    m, act, Qc, Vc, dt, FE, PE, code, engine, catch_up, done, k1, res.q, res.qd,
+                    res.qdd_des, res.qdd, res.tau, res.tau_required, res.limit, res.saturated,
+                    clamp, res.reaction)
+                if status != -1:
+                    _fail(robot, k, status, res.q[k], res.qd[k], dt)
+                rows = slice(done, k1)
+                res._derive(rows, clamp)
+                if fh is not None:  # on disk at once: a crash keeps the cycles done
+                    res._write_rows(csv.writer(fh), rows, header=done == 0)
+                    fh.flush()
+                done = k1
+                if progress is not None:
+                    progress(done, K)
+        except KeyboardInterrupt:
+            pass
+    return res if done == K else res._first(done)
+
+
+@contextlib.contextmanager
+def _stream(path: str | os.PathLike | None, overwrite: bool) -> Iterator[Any]:
+    """A text file ``<path>.partial`` for the streamed table, renamed to ``path`` when the run
+    ends or is interrupted; after a crash the ``.partial`` file keeps the cycles done."""
+    if path is None:
+        yield None
+        return
+    final = Path(path)
+    if final.exists() and not overwrite:
+        raise FileExistsError(f"{final} exists; pass overwrite=True (CLI: --force)")
+    partial = final.with_name(final.name + ".partial")
+    with open(partial, "w", newline="", encoding="utf-8") as fh:
+        yield fh
+    os.replace(partial, final)
 
 
 def _fail(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: float) -> None:
