@@ -14,10 +14,14 @@ the backward pass is a 3 x n coefficient matrix times qdd plus a 3-vector (Eqs. 
   velocity-product sums of Eqs. 5 and 9 are evaluated by the usual recursion with qdd = 0.
 * E_{(i+1)k} = sum_{j >= max(i+1, k)} e_jk: column k of the force link i+1 passes to link i
   (Eqs. 25-26: for k >= i+2 it is E_kk); E_{i+1} = sum_{j > i} e_j its velocity part (Eq. 23).
-* n'_ia1 + n'_ia2 + n'_ia3 (Eqs. 29-31), accumulated tip to base into one 3 x n matrix ``M``:
-  a1 adds d_ik + l_i x e_ik for k <= i (Eq. 24), a2 adds p*_i x E_{(i+1)k} for k <= i+1 (Eq. 25),
-  a3 adds p*_i x E_kk for k >= i+2 (Eq. 26). n'_ic = n'_{(i+1)c} + n_ic (Eqs. 23, 28).
-* h_ik = z_i . M[:, k] (Eq. 35), u'_i = z_i . n'_ic (Eq. 36).
+* n'_ia1 + n'_ia2 + n'_ia3 (Eqs. 29-31), accumulated tip to base into one matrix ``M`` (row k
+  for column k): a1 adds d_ik + l_i x e_ik for k <= i (Eq. 24), a2 adds p*_i x E_{(i+1)k} for
+  k <= i+1 (Eq. 25), a3 adds p*_i x E_kk for k >= i+2 (Eq. 26). n'_ic = n'_{(i+1)c} + n_ic
+  (Eqs. 23, 28).
+* h_ik = z_i . M[k] (Eq. 35), u'_i = z_i . n'_ic (Eq. 36).
+* a3 only feeds h_ik with k >= i+2, the upper triangle, which equals h_ki because H is
+  symmetric; ``mrnea`` fills it so and skips a3 (half the cross products), ``mrnea_full``
+  computes every h_ik the paper's way, and the tests check that the two agree.
 
 Beyond the paper (which treats revolute joints): for a prismatic joint i the effort is the force
 along its axis, so h_ik = z_i . E_ik and u'_i = z_i . E_i. Eq. 14 folds the external force f_e
@@ -56,7 +60,25 @@ from mrnea.kernels.solve import cholesky_solve
 
 @nb.njit(**JIT)
 def mrnea(model, q, qd, fext, pe, H, u):
-    """H (n, n) and u' (n,) of one state, in one pass (module docstring); returns a status."""
+    """H (n, n) and u' (n,) of one state, in one pass (module docstring); returns a status.
+
+    Rows are formed tip to base with n'_ia1 and n'_ia2 (h_ik, k <= i); the upper triangle is
+    h_ik = h_ki (H is symmetric), so n'_ia3 is not formed: :func:`mrnea_full` forms it.
+    """
+    return _mrnea(model, q, qd, fext, pe, H, u, False)
+
+
+@nb.njit(**JIT)
+def mrnea_full(model, q, qd, fext, pe, H, u):
+    """As :func:`mrnea`, every h_ik from Eq. 35 with all three of n'_ia1, n'_ia2, n'_ia3.
+
+    The paper's form, kept to test that it equals the symmetric fill (tests/).
+    """
+    return _mrnea(model, q, qd, fext, pe, H, u, True)
+
+
+@nb.njit(**JIT)
+def _mrnea(model, q, qd, fext, pe, H, u, full):
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
@@ -64,11 +86,11 @@ def mrnea(model, q, qd, fext, pe, H, u):
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
 
-    buf = np.zeros(12 * n)  # e, d (n, 3); E, M (3, n), the last two starting at zero
+    buf = np.zeros(12 * n)  # e, d, E, M, each (n, 3); E and M start at zero
     e = buf[:3 * n].reshape((n, 3))
     d = buf[3 * n:6 * n].reshape((n, 3))
-    E = buf[6 * n:9 * n].reshape((3, n))  # column k: E_{(i+1)k} (Eqs. 25-26)
-    M = buf[9 * n:].reshape((3, n))  # n'_ia1 + n'_ia2 + n'_ia3 (Eqs. 29-31)
+    E = buf[6 * n:9 * n].reshape((n, 3))  # row k: E_{(i+1)k} (Eqs. 25-26)
+    M = buf[9 * n:].reshape((n, 3))  # row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17)
     w = (0.0, 0.0, 0.0)
@@ -99,13 +121,12 @@ def mrnea(model, q, qd, fext, pe, H, u):
         m_i = model[i + 1, MASS]
         l_i = sub(ci, oi)
         p_star = sub(p_next, oi)  # p*_i
-        # a2 (k <= i+1, Eq. 25) and a3 (k >= i+2, Eq. 26): p*_i x E_{(i+1)k}
-        for k in range(n):
-            Ek = (E[0, k], E[1, k], E[2, k])
-            t = cross(p_star, Ek)
-            M[0, k] += t[0]
-            M[1, k] += t[1]
-            M[2, k] += t[2]
+        # a2 (Eq. 25): p*_i x E_{(i+1)k}, k <= i+1
+        for k in range(min(i + 2, n)):
+            put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
+        if full:  # a3 (Eq. 26): p*_i x E_kk, k >= i+2
+            for k in range(i + 2, n):
+                put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
         # a1 (Eq. 24): d_ik + l_i x e_ik, k <= i; and E_{ik} = E_{(i+1)k} + e_ik
         for k in range(i + 1):
             zk = vec(z, k)
@@ -115,24 +136,20 @@ def mrnea(model, q, qd, fext, pe, H, u):
             else:
                 e_ik = scale(cross(zk, sub(ci, vec(o, k))), m_i)  # Eqs. 5, 15
                 t = add(mv(Ic, i, zk), cross(l_i, e_ik))  # d_ik + l_i x e_ik (Eq. 16)
-            M[0, k] += t[0]
-            M[1, k] += t[1]
-            M[2, k] += t[2]
-            E[0, k] += e_ik[0]
-            E[1, k] += e_ik[1]
-            E[2, k] += e_ik[2]
+            put(M, k, add(vec(M, k), t))
+            put(E, k, add(vec(E, k), e_ik))
         e_i = vec(e, i)
         # n_ic = d_i + l_i x e_i + p*_i x E_{i+1} (Eq. 23); n'_ic = n'_{(i+1)c} + n_ic (Eq. 28)
         n_c = add(n_c, add(add(vec(d, i), cross(l_i, e_i)), cross(p_star, E_c)))
         E_c = add(E_c, e_i)  # E_i
-        if model[i + 1, TYPE] == PRISMATIC:
-            for k in range(n):
-                H[i, k] = zi[0] * E[0, k] + zi[1] * E[1, k] + zi[2] * E[2, k]
-            u[i] = dot(zi, E_c)
-        else:
-            for k in range(n):
-                H[i, k] = zi[0] * M[0, k] + zi[1] * M[1, k] + zi[2] * M[2, k]  # Eq. 35
-            u[i] = dot(zi, n_c)  # Eq. 36
+        # Eqs. 35-36: moments projected on the axis; forces for a prismatic joint
+        prismatic = model[i + 1, TYPE] == PRISMATIC
+        C = E if prismatic else M
+        for k in range(n if full else i + 1):
+            H[i, k] = dot(zi, vec(C, k))
+            if not full:
+                H[k, i] = H[i, k]
+        u[i] = dot(zi, E_c if prismatic else n_c)
         p_next = oi
     return OK
 
