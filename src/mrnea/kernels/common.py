@@ -214,10 +214,9 @@ def kinematics(model, q, R, o, z, c, Ic):
 @nb.njit(**JIT)
 def workspace(n):
     """Per-call buffers of the kinematics pass, R, o, z, c, Ic, carved from one allocation."""
-    buf = np.empty(27 * n)
-    return (buf[:9 * n].reshape((n, 3, 3)), buf[9 * n:12 * n].reshape((n, 3)),
-            buf[12 * n:15 * n].reshape((n, 3)), buf[15 * n:18 * n].reshape((n, 3)),
-            buf[18 * n:].reshape((n, 3, 3)))
+    mats = np.empty((2 * n, 3, 3))  # row slices of C arrays are views without a reshape
+    vecs = np.empty((3 * n, 3))
+    return mats[:n], vecs[:n], vecs[n:2 * n], vecs[2 * n:], mats[n:]
 
 
 @nb.njit(**INLINE)

@@ -86,11 +86,11 @@ def _mrnea(model, q, qd, fext, pe, H, u, full):
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
 
-    buf = np.zeros(12 * n)  # e, d, E, M, each (n, 3); E and M start at zero
-    e = buf[:3 * n].reshape((n, 3))
-    d = buf[3 * n:6 * n].reshape((n, 3))
-    E = buf[6 * n:9 * n].reshape((n, 3))  # row k: E_{(i+1)k} (Eqs. 25-26)
-    M = buf[9 * n:].reshape((n, 3))  # row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
+    buf = np.zeros((4 * n, 3))  # e, d, E, M, each (n, 3); E and M start at zero
+    e = buf[:n]
+    d = buf[n:2 * n]
+    E = buf[2 * n:3 * n]  # row k: E_{(i+1)k} (Eqs. 25-26)
+    M = buf[3 * n:]  # row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17)
     w = (0.0, 0.0, 0.0)
@@ -170,11 +170,9 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
     if not finite(tau):
         return NONFINITE
     n = q.shape[0]
-    buf = np.empty(2 * n * n + 2 * n)  # H, L (n, n); u', tau - u' (n,)
-    H = buf[:n * n].reshape((n, n))
-    L = buf[n * n:2 * n * n].reshape((n, n))
-    u = buf[2 * n * n:2 * n * n + n]
-    rhs = buf[2 * n * n + n:]
+    HL = np.empty((2 * n, n))  # H and its Cholesky factor L
+    ur = np.empty((2, n))  # u' and tau - u'
+    H, L, u, rhs = HL[:n], HL[n:], ur[0], ur[1]
     status = mrnea(model, q, qd, fext, pe, H, u)
     if status != OK:
         return status

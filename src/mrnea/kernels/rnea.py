@@ -53,9 +53,9 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
     ``g`` is the gravity 3-tuple (Walker-Orin's columns pass zero). Fills tau, f, nm.
     """
     n = qd.shape[0]
-    buf = np.empty(6 * n)
-    F = buf[:3 * n].reshape((n, 3))  # total force on link i, Eq. 6
-    N = buf[3 * n:].reshape((n, 3))  # total moment on link i about its centre of mass, Eq. 7
+    buf = np.empty((2 * n, 3))
+    F = buf[:n]  # total force on link i, Eq. 6
+    N = buf[n:]  # total moment on link i about its centre of mass, Eq. 7
 
     # forward pass: velocities and accelerations, base to tip
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
