@@ -26,7 +26,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import _array, _check, _inputs
+from mrnea.dynamics import _array, _check, _inputs, _require_robot
 from mrnea.errors import StateError
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
@@ -96,6 +96,19 @@ class StepResult(AchievableResult):
     velocity_clamped: NDArray[np.bool_] = None  # type: ignore[assignment]
 
 
+def _time_step(dt: object) -> float:
+    """dt [s] as a float: a finite number > 0 (a bool is not a time step)."""
+    if isinstance(dt, bool):
+        raise StateError(f"dt: not a number: {dt!r}")
+    try:
+        dt = float(dt)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise StateError(f"dt: not a number: {dt!r}") from None
+    if not (np.isfinite(dt) and dt > 0):
+        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
+    return dt
+
+
 def _mode(mode: str) -> int:
     try:
         return _MODES[mode]
@@ -156,12 +169,8 @@ def achievable_step(
     ``q_next = q + qd_next dt`` (the velocity is held over the cycle). dt [s] > 0.
     """
     code = _mode(mode)
-    try:
-        dt = float(dt)
-    except (TypeError, ValueError):
-        raise StateError(f"dt: not a number: {dt!r}") from None
-    if not (np.isfinite(dt) and dt > 0):
-        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
+    _require_robot(robot)
+    dt = _time_step(dt)
     n = robot.n
     arrays = {k: _array(v, k, n) for k, v in
               {"q": q, "qd": qd, "q_next_cmd": q_next_cmd, "qd_next_cmd": qd_next_cmd}.items()}

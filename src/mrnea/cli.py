@@ -115,11 +115,21 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
     return res
 
 
+OUTPUTS = ("cycles.csv", "summary.json", "report.html", "fig3.png")
+
+
+def _refuse_existing(out: Path, force: bool) -> None:
+    """Before any work: no output file may replace an existing one without --force."""
+    from mrnea.report import FIGURES, refuse_existing
+
+    refuse_existing([out / f for f in (*OUTPUTS, *(f"{n}.png" for n in FIGURES))], force)
+
+
 def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None) -> Path:
     from mrnea.report import plot_result, write_report
 
     res.save_summary(out / "summary.json", overwrite=force)  # cycles.csv: streamed by _run
-    plot_result(res, out)
+    plot_result(res, out, overwrite=force)
     for name, fig in (extra_figures or {}).items():
         fig.savefig(out / f"{name}.png", dpi=110)
     return write_report(res, out / "report.html", overwrite=force, extra_figures=extra_figures)
@@ -172,6 +182,7 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
     robot = robots.sdt()
     _, q_cmd = training_profile(dt)
     folder = Path(out) if out else fresh_dir("mrnea-demo")
+    _refuse_existing(folder, force)
     res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
     figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)}
     report = _write_outputs(res, folder, force, figs)
@@ -212,6 +223,7 @@ def simulate(robot: str, program: str, dt: float | None, mode: str, fd: str, cat
     rob = load_any(robot)
     q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
     folder = Path(out) if out else fresh_dir("mrnea-out")
+    _refuse_existing(folder, force)
     res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder, force)
     report = _write_outputs(res, folder, force)
     _print_result(res, report, as_json, quiet)

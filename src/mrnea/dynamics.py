@@ -22,9 +22,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import SingularMassMatrixError, StateError
+from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
 from mrnea.kernels.aba import aba, aba_batch
-from mrnea.kernels.common import NONFINITE, OK
+from mrnea.kernels.common import NONFINITE, OK, OVERFLOW
 from mrnea.kernels.crba import fd_crba, fd_crba_batch
 from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
@@ -79,6 +79,11 @@ def _single(robot: object, a: object, b: object, c: object) -> bool:
             and a.dtype is _F64 and b.dtype is _F64 and c.dtype is _F64)
 
 
+def _require_robot(robot: object) -> None:
+    if not isinstance(robot, Robot):
+        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
+
+
 def _inputs(
     robot: Robot,
     states: dict[str, ArrayLike],
@@ -86,8 +91,7 @@ def _inputs(
     f_ext_point: ArrayLike | None,
 ) -> tuple[bool, list[NDArray], NDArray, NDArray]:
     """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D."""
-    if not isinstance(robot, Robot):
-        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
+    _require_robot(robot)
     n = robot.n
     arrays = [_array(v, k, n) for k, v in states.items()]
     fe = _ZERO_WRENCH if f_ext is None else _array(f_ext, "f_ext", 6)
@@ -124,6 +128,12 @@ def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> N
         for k, v in states.items():
             width = 6 if k == "f_ext" else 3 if k == "f_ext_point" else robot.n
             _array(v, k, width)
+    if np.any(st == OVERFLOW):
+        b = int(np.flatnonzero(st == OVERFLOW)[0])
+        where = f"state {b}: " if batched else ""
+        raise MrneaError(
+            f"{where}the result is not finite although every input is: the state or the "
+            f"robot '{robot.name}' holds values too large for float64 arithmetic")
     b = int(np.flatnonzero(st >= 0)[0])
     where = f"state {b}: " if batched else ""
     raise SingularMassMatrixError(

@@ -12,7 +12,7 @@ Conventions (the same as URDF's, so URDF files map one to one):
   the centre of mass, in axes parallel to the link frame.
 * Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
 * Actuator fields per joint (joint side unless said otherwise): ``gear_ratio`` G (motor turns per
-  joint turn, > 0), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
+  joint turn, in [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
   [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N], ``effort_limit`` [N m or N]
   (``inf``: unlimited), ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited), ``lower``/``upper``
   position limits [rad or m] (``-inf``/``inf``: none; always so for continuous joints).
@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -50,6 +51,19 @@ ACTUATOR_FIELDS = (
     "torque_speed",
 )
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
+GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
+
+
+_NOT_IN_XML = re.compile("[\x00-\x1f\x7f\ufffe\uffff\ud800-\udfff]")
+
+
+def _check_name(name: object, kind: str) -> None:
+    """A non-empty string without control characters (URDF/XML cannot hold them)."""
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"{kind} name must be a non-empty string, got {name!r}")
+    if _NOT_IN_XML.search(name):
+        raise ModelError(f"{kind} name {name!r} contains control characters (or other "
+                         f"characters a URDF file cannot hold)")
 
 
 def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
@@ -103,6 +117,8 @@ def rpy_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
 
 def transform(xyz: ArrayLike = (0.0, 0.0, 0.0), rpy: ArrayLike = (0.0, 0.0, 0.0)) -> NDArray:
     """4x4 homogeneous transform from a translation [m] and URDF roll-pitch-yaw angles [rad]."""
+    _frozen(xyz, (3,), "origin")
+    _frozen(rpy, (3,), "origin")
     T = np.eye(4)
     T[:3, :3] = rotation_from_rpy(rpy)
     T[:3, 3] = np.asarray(xyz, dtype=float)
@@ -137,8 +153,7 @@ class Link:
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise ModelError(f"link name must be a non-empty string, got {self.name!r}")
+        _check_name(self.name, "link")
         what = f"link '{self.name}'"
         mass = _number(self.mass, f"{what}: mass")
         if mass < 0:
@@ -172,8 +187,7 @@ class Joint:
     torque_speed: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise ModelError(f"joint name must be a non-empty string, got {self.name!r}")
+        _check_name(self.name, "joint")
         what = f"joint '{self.name}'"
         if self.type not in JOINT_TYPES:
             raise ModelError(
@@ -186,10 +200,11 @@ class Joint:
                 or np.max(np.abs(origin[3] - (0, 0, 0, 1))) > 0):
             raise ModelError(f"{what}: origin is not a rigid transform: {origin.tolist()}")
         axis = _frozen(self.axis, (3,), f"{what}: axis")
-        norm = float(np.linalg.norm(axis))
-        if norm < 1e-12:
+        big = float(np.max(np.abs(axis)))
+        if big < 1e-12:
             raise ModelError(f"{what}: axis is zero")
-        axis = axis / norm
+        axis = axis / big  # first to a max-norm of 1: the 2-norm cannot overflow
+        axis = axis / np.linalg.norm(axis)
         axis.setflags(write=False)
         lower = _number(self.lower, f"{what}: lower limit", allow_inf=True)
         upper = _number(self.upper, f"{what}: upper limit", allow_inf=True)
@@ -211,6 +226,9 @@ class Joint:
         g = _number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
+        if not GEAR_RANGE[0] <= g <= GEAR_RANGE[1]:
+            raise ModelError(f"{what}: gear_ratio {g} is outside {list(GEAR_RANGE)}, the range "
+                             f"of real drive trains mrnea accepts")
         values["gear_ratio"] = g
         if self.torque_speed is not None:
             try:
@@ -255,6 +273,7 @@ class Robot:
         name: str = "robot",
         base: str | None = None,
     ) -> None:
+        _check_name(name, "robot")
         joints, links = tuple(joints), tuple(links)
         if not joints:
             raise ModelError(f"robot '{name}': has no moving joint")

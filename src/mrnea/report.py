@@ -36,7 +36,7 @@ import math
 import os
 import re
 import secrets
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -418,8 +418,11 @@ def _tracking_figure(r: SimulationResult) -> Figure:
     return fig
 
 
-def plot_result(result: SimulationResult,
-                path: str | os.PathLike[str] | None = None) -> dict[str, Figure]:
+FIGURES = ("motion", "efforts", "reactions", "tracking")
+
+
+def plot_result(result: SimulationResult, path: str | os.PathLike[str] | None = None,
+                overwrite: bool = False) -> dict[str, Figure]:
     """The figures of a simulation run, optionally saved as PNG files.
 
     Parameters
@@ -428,8 +431,10 @@ def plot_result(result: SimulationResult,
         A run of :func:`mrnea.simulate.simulate` (possibly interrupted).
     path : str or path-like, optional
         A directory (created if missing). Each figure is written there as ``<name>.png``,
-        atomically (temporary file, then :func:`os.replace`); existing files of these names are
-        replaced.
+        atomically (temporary file, then :func:`os.replace`).
+    overwrite : bool, default False
+        Replace existing files of these names; otherwise FileExistsError, raised before any
+        file is written.
 
     Returns
     -------
@@ -450,6 +455,8 @@ def plot_result(result: SimulationResult,
     effort or programmed acceleration (a velocity step in the program) is clipped so that it
     does not flatten the rest; its peak is then written in the corner of the axes.
     """
+    if path is not None:
+        refuse_existing([Path(path) / f"{name}.png" for name in FIGURES], overwrite)
     figs = {
         "motion": _motion_figure(result),
         "efforts": _efforts_figure(result),
@@ -462,6 +469,15 @@ def plot_result(result: SimulationResult,
         for name, fig in figs.items():
             _save_png(fig, folder / f"{name}.png")
     return figs
+
+
+def refuse_existing(paths: Iterable[str | os.PathLike[str]], overwrite: bool) -> None:
+    """FileExistsError naming the first of ``paths`` that exists, unless ``overwrite``."""
+    if overwrite:
+        return
+    for p in map(Path, paths):
+        if p.exists():
+            raise FileExistsError(f"{p} exists; pass overwrite=True (CLI: --force)")
 
 
 # --- Fig. 3 --------------------------------------------------------------------------------------

@@ -19,7 +19,6 @@ import contextlib
 import csv
 import dataclasses
 import json
-import math
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -30,8 +29,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.achievable import _mode
-from mrnea.dynamics import _array
+from mrnea.achievable import _mode, _time_step
+from mrnea.dynamics import _array, _require_robot
 from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
@@ -40,7 +39,7 @@ from mrnea.kernels.achievable import (
     ENGINE_MRNEA,
     ENGINE_WALKER_ORIN,
 )
-from mrnea.kernels.common import NONFINITE
+from mrnea.kernels.common import NONFINITE, OVERFLOW
 from mrnea.kernels.simulate import simulate_cycles
 from mrnea.model import Robot
 
@@ -247,11 +246,11 @@ class SimulationResult:
             fh.write("\n")
         return Path(path)
 
-    def plot(self, path: str | os.PathLike | None = None) -> Any:
+    def plot(self, path: str | os.PathLike | None = None, overwrite: bool = False) -> Any:
         """Matplotlib figures of the run (see :func:`mrnea.report.plot_result`)."""
         from mrnea.report import plot_result
 
-        return plot_result(self, path)
+        return plot_result(self, path, overwrite=overwrite)
 
     def report(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
         """One self-contained HTML report, verdict first (see :func:`mrnea.report.write_report`)."""
@@ -340,16 +339,14 @@ def simulate(
     On KeyboardInterrupt the cycles done so far are returned with ``completed=False``.
     """
     code = _mode(mode)
+    _require_robot(robot)
     try:
         engine = FD_ENGINES[fd]
     except (KeyError, TypeError):
         raise StateError(f"fd: unknown {fd!r}; expected one of {', '.join(FD_ENGINES)}") from None
-    try:
-        dt = float(dt)
-    except (TypeError, ValueError):
-        raise StateError(f"dt: not a number: {dt!r}") from None
-    if not (math.isfinite(dt) and dt > 0):
-        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
+    dt = _time_step(dt)
+    if progress is not None and not callable(progress):
+        raise StateError(f"progress: expected a callable or None, got {progress!r}")
     try:
         catch_up = float(catch_up)
     except (TypeError, ValueError):
@@ -425,7 +422,7 @@ def _stream(path: str | os.PathLike | None, overwrite: bool) -> Iterator[Any]:
 
 
 def _fail(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: float) -> None:
-    if status == NONFINITE:
+    if status in (NONFINITE, OVERFLOW):
         raise MrneaError(
             f"cycle {k} (t = {k * dt:.6g} s): the state became non-finite (q = {q.tolist()}, "
             f"qd = {qd.tolist()}); check the program and the robot's limits")

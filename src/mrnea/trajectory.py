@@ -56,6 +56,7 @@ __all__ = [
 #: A duration within this fraction of a cycle above a whole number of cycles is rounded down to
 #: it (guards against ``2.0 / 0.01 = 200.00000000000003``-style rounding adding a cycle).
 CYCLE_TOL = 1e-9
+MAX_CYCLES = 1e9  # cycles in one program (at 1 ms, 11.6 days)
 
 # Quintic rest-to-rest s(u) = 10u³ - 15u⁴ + 6u⁵: peak ds/du at u = 1/2 and peak |d²s/du²| at
 # u = 1/2 ± √3/6.
@@ -149,8 +150,16 @@ def _dwell(dwell: ArrayLike, W: int) -> NDArray[np.float64]:
 
 
 def _cycles(duration: float | NDArray, dt: float) -> NDArray[np.int64]:
-    """Whole cycles covering ``duration`` [s]: ceil(duration / dt), to within CYCLE_TOL."""
-    return np.ceil(np.asarray(duration, dtype=float) / dt - CYCLE_TOL).clip(0).astype(np.int64)
+    """Whole cycles covering ``duration`` [s]: ceil(duration / dt), to within CYCLE_TOL.
+
+    Raises StateError beyond MAX_CYCLES (a program that long is a mistake: a tiny dt or limit).
+    """
+    cycles = np.ceil(np.asarray(duration, dtype=float) / dt - CYCLE_TOL).clip(0)
+    if not (np.all(np.isfinite(cycles)) and np.all(cycles <= MAX_CYCLES)):
+        raise StateError(
+            f"the program would take {np.max(cycles):.3g} cycles of dt = {dt:g} s "
+            f"(more than {MAX_CYCLES:.0e}): check dt and the velocity and acceleration limits")
+    return cycles.astype(np.int64)
 
 
 # --- normalised profiles s(u), u = time / segment duration in [0, 1] -------------------------

@@ -293,7 +293,7 @@ def load_native(path: str | Path, actuators: str | Path | None = None) -> Robot:
 def _read(path: str | Path, what: str) -> str:
     p = Path(path)
     try:
-        return p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8-sig")  # a byte-order mark is not an error
     except (OSError, UnicodeDecodeError) as exc:
         raise RobotFileError(f"{p}: cannot read {what}: {exc}") from None
 

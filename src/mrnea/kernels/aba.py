@@ -22,6 +22,7 @@ from mrnea.kernels.common import (
     MASS,
     NONFINITE,
     OK,
+    OVERFLOW,
     PRISMATIC,
     TYPE,
     add,
@@ -158,7 +159,7 @@ def aba(model, q, qd, tau, fext, pe, qdd):
         qdd[i] = (u[i] - s) / D[i]
         for a in range(6):
             acc_p[a] += S[i, a] * qdd[i]
-    return OK
+    return OK if finite(qdd) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT, NONFINITE, OK, finite
+from mrnea.kernels.common import JIT, NONFINITE, OK, OVERFLOW, finite
 from mrnea.kernels.crba import crba
 from mrnea.kernels.mrnea import mrnea
 from mrnea.kernels.rnea import rnea
@@ -250,7 +250,7 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
             break
     for i in range(n):
         sat[i] = abs(tau_req[i]) > limit[i] if mode == PAPER else not known[i]
-    return OK
+    return OK if finite(qdd) and finite(tau) and finite(tau_req) else OVERFLOW
 
 
 @nb.njit(**JIT)

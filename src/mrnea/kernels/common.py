@@ -33,10 +33,12 @@ TYPE, ROT, POS, AXIS, MASS, COM, INER = 0, 1, 10, 13, 16, 17, 20
 NCOL = 29
 PRISMATIC = 1.0
 
-# Kernel status codes: OK, NONFINITE (an input holds NaN or inf); a value >= 0 is the index of the
+# Kernel status codes: OK, NONFINITE (an input holds NaN or inf), OVERFLOW (finite inputs gave a
+# result that is not finite: values too large for float64); a value >= 0 is the index of the
 # joint whose pivot of H (or articulated inertia) is not positive.
 OK = -1
 NONFINITE = -2
+OVERFLOW = -3
 
 # Numba options, set in one place: compiled code is cached on disk next to the sources.
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
@@ -227,8 +229,8 @@ def tip_point(o, R, n, pe):
 
 @nb.njit(**INLINE)
 def finite(a):
-    """True when every entry of the 1-D array ``a`` is finite."""
-    for x in a:
+    """True when every entry of the array ``a`` is finite."""
+    for x in a.flat:
         if not np.isfinite(x):
             return False
     return True

@@ -20,6 +20,7 @@ from mrnea.kernels.common import (
     MASS,
     NONFINITE,
     OK,
+    OVERFLOW,
     PRISMATIC,
     TYPE,
     add,
@@ -95,10 +96,15 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd):
     H = np.empty((n, n))
     u = np.empty(n)
     status = rnea(model, q, qd, np.zeros(n), fext, pe, u, np.empty((n, 3)), np.empty((n, 3)))
-    if status != OK or not finite(tau):
+    if status != OK:
+        return status
+    if not finite(tau):
         return NONFINITE
     crba(model, q, H)
-    return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+    if not finite(H):
+        return OVERFLOW
+    status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+    return status if status != OK or finite(qdd) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})

@@ -40,6 +40,7 @@ from mrnea.kernels.common import (
     MASS,
     NONFINITE,
     OK,
+    OVERFLOW,
     PRISMATIC,
     TYPE,
     add,
@@ -151,7 +152,7 @@ def _mrnea(model, q, qd, fext, pe, H, u, full):
                 H[k, i] = H[i, k]
         u[i] = dot(zi, E_c if prismatic else n_c)
         p_next = oi
-    return OK
+    return OK if finite(H) and finite(u) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})
@@ -178,7 +179,8 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
         return status
     for i in range(n):
         rhs[i] = tau[i] - u[i]
-    return cholesky_solve(H, rhs, L, qdd)
+    status = cholesky_solve(H, rhs, L, qdd)
+    return status if status != OK or finite(qdd) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})

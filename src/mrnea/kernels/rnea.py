@@ -24,6 +24,7 @@ from mrnea.kernels.common import (
     MASS,
     NONFINITE,
     OK,
+    OVERFLOW,
     PRISMATIC,
     ROT,
     TYPE,
@@ -109,7 +110,7 @@ def rnea(model, q, qd, qdd, fext, pe, tau, f, nm):
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
-    return OK
+    return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 
 @nb.njit(**JIT)
@@ -143,7 +144,7 @@ def reactions(model, q, qd, qdd, fext, pe, tau, out):
         for a in range(3):
             out[i, a] = fj[a]
             out[i, 3 + a] = nj[a]
-    return OK
+    return OK if finite(out) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})

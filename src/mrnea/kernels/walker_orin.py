@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT, NONFINITE, OK, finite, kinematics, workspace
+from mrnea.kernels.common import JIT, NONFINITE, OK, OVERFLOW, finite, kinematics, workspace
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
@@ -40,7 +40,7 @@ def walker_orin(model, q, qd, fext, pe, H, u):
                      col, f, nm)
         H[:, k] = col
         unit[k] = 0.0
-    return OK
+    return OK if finite(H) and finite(u) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})
@@ -61,7 +61,8 @@ def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
     status = walker_orin(model, q, qd, fext, pe, H, u)
     if status != OK:
         return status
-    return cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+    status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
+    return status if status != OK or finite(qdd) else OVERFLOW
 
 
 @nb.njit(**{**JIT, "parallel": True})

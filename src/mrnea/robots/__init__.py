@@ -45,7 +45,11 @@ def load(name: str) -> Robot:
     from mrnea.io.native import load_native
 
     resource = resources.files(__name__).joinpath("data", f"{name}.toml")
-    with resources.as_file(resource) as path:
+    # Built-ins are curated, not the user's input: no ModelWarning. (The published Puma 560's
+    # link 1 is a lumped inertia about its axis only, Izz = 0.35 with no mass, and its link 3's
+    # principal moments 0.0125 + 0.066 < 0.086: both break the triangle inequality as published.)
+    with resources.as_file(resource) as path, warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
         return load_native(path)
 
 
@@ -67,8 +71,4 @@ def puma560() -> Robot:
     ``viscous_friction = B G^2``, ``coulomb_friction = |G| (|Tc+| + |Tc-|) / 2``;
     effort limits from Armstrong, Khatib & Burdick (1986). Details in ``puma560.toml``.
     """
-    # The published link 1 is a lumped inertia about the joint axis only (Izz = 0.35, no mass),
-    # which breaks the triangle inequality on purpose: no ModelWarning for the built-in.
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ModelWarning)
-        return load("puma560")
+    return load("puma560")
