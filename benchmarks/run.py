@@ -181,15 +181,20 @@ def mujoco_twin(robot: mrnea.Robot):
 
 
 def per_call(cases: list[models.Case], cfg: Config) -> dict:
-    """Times per call of every contender on every robot, and the checks."""
-    results, checks = {}, {}
+    """Times per call of every contender on every robot (all in one comparison: the rounds
+    interleave the robots too), and the checks."""
+    contenders, checks = {}, {}
     for case in cases:
-        results[case.label], checks[case.label] = _per_call_case(case, cfg)
-        print(f"  per call: {case.label} done", file=sys.stderr)
-    return {"times": results, "checks": checks}
+        c, checks[case.label] = _per_call_case(case)
+        contenders.update({(case.label, *k): fn for k, fn in c.items()})
+    t = compare(contenders, cfg.rounds)
+    print("  per call done", file=sys.stderr)
+    return {"times": {c.label: {k[1:]: v for k, v in t.items() if k[0] == c.label}
+                      for c in cases}, "checks": checks}
 
 
-def _per_call_case(case: models.Case, cfg: Config) -> tuple[dict, dict]:
+def _per_call_case(case: models.Case) -> tuple[dict, dict]:
+    """The per-call contenders of one robot, and their largest deviations from mrnea."""
     robot, model, data = case.robot, case.model, case.data
     rng = np.random.default_rng(SEED)
     q, qd, xx = rng.uniform(-1.0, 1.0, (3, robot.n))
@@ -247,7 +252,7 @@ def _per_call_case(case: models.Case, cfg: Config) -> tuple[dict, dict]:
             lambda: (puma.inertia(q), puma.rne(q, qd, np.zeros(6))))
         c[("FD", "RTB accel")] = lambda: puma.accel(q, qd, xx)
         ck["RTB"] = rtb_check(puma, robot, q, qd, xx)
-    return compare(c, cfg.rounds), ck
+    return c, ck
 
 
 def rtb_check(puma, robot: mrnea.Robot, q, qd, tau) -> float:
@@ -316,14 +321,22 @@ def single_thread(fn):
 
 
 def batches(cases: list[models.Case], cfg: Config) -> dict:
-    out = {}
+    """Per-state times of the batches and the Pinocchio loops, all robots in one comparison."""
+    contenders, out = {}, {}
     for case in cases:
-        out[case.label] = _batch_case(case, cfg)
-        print(f"  batches: {case.label} done", file=sys.stderr)
+        c, out[case.label] = _batch_case(case, cfg)
+        contenders.update({(case.label, *k): fn for k, fn in c.items()})
+    t = compare(contenders, cfg.batch_rounds)
+    B1, Bp = min(cfg.batch_sizes), cfg.pin_loop_states
+    for k, v in t.items():
+        states = k[2] if isinstance(k[2], int) else Bp if k[1] == "pin" else B1
+        out[k[0]]["per_state"][k[1:]] = v / states
+    print("  batches done", file=sys.stderr)
     return out
 
 
-def _batch_case(case: models.Case, cfg: Config) -> dict:
+def _batch_case(case: models.Case, cfg: Config) -> tuple[dict, dict]:
+    """The batch contenders of one robot, and the check of the batch against the loop."""
     Bmax, Bp, B1 = max(cfg.batch_sizes), cfg.pin_loop_states, min(cfg.batch_sizes)
     robot, model, data = case.robot, case.model, case.data
     rng = np.random.default_rng(SEED)
@@ -349,10 +362,7 @@ def _batch_case(case: models.Case, cfg: Config) -> dict:
     # the batch gives what the loop gives
     fd = forward_dynamics(robot, Q[:Bp], QD[:Bp], X[:Bp])
     check = models.rel_err(c[("pin", "aba")](), fd)
-    t = compare(c, cfg.batch_rounds)
-    per_state = {k: v / (k[1] if isinstance(k[1], int) else B1 if k[0] != "pin" else Bp)
-                 for k, v in t.items()}
-    return {"per_state": per_state, "check": check, "ops": list(ops)}
+    return c, {"per_state": {}, "check": check, "ops": list(ops)}
 
 
 def batch_table(res: dict, cfg: Config) -> str:
@@ -401,12 +411,19 @@ def simulation(cases: list[models.Case], cfg: Config) -> dict:
                 training_profile(42.0 / K)[1][:K], "the demo's training profile, "
                 "Coulomb friction off"),
     }
-    return {label: _simulate_case(label, *run, cfg) for label, run in runs.items()}
+    contenders, out = {}, {}
+    for label, run in runs.items():
+        c, out[label] = _simulate_case(*run)
+        contenders.update({(label, k): fn for k, fn in c.items()})
+    for (label, name), v in compare(contenders, cfg.sim_rounds).items():
+        out[label]["per_cycle"][name] = v / K
+    print("  simulation done", file=sys.stderr)
+    return out
 
 
-def _simulate_case(label: str, robot: mrnea.Robot, model: pin.Model, dt: float,
-                   q_cmd: np.ndarray, what: str, cfg: Config) -> dict:
-    K = cfg.cycles
+def _simulate_case(robot: mrnea.Robot, model: pin.Model, dt: float, q_cmd: np.ndarray,
+                   what: str) -> tuple[dict, dict]:
+    """The simulation contenders of one robot, and the check of the loop against simulate."""
     robot = robot.with_actuators(effort_limit=1e9)  # generous limits: never saturates
     limit = np.full(robot.n, 1e9)
     model.armature = robot.gear_ratio ** 2 * robot.rotor_inertia
@@ -420,9 +437,7 @@ def _simulate_case(label: str, robot: mrnea.Robot, model: pin.Model, dt: float,
     c["simulate(hybrid, fd=mrnea)"] = lambda: simulate(robot, q_cmd, dt)
     c["Python loop + Pinocchio"] = lambda: simloop.pinocchio_loop(model, data, robot, q_cmd,
                                                                   dt, limit)
-    print(f"  simulation: {label} done", file=sys.stderr)
-    return {"per_cycle": {k: v / K for k, v in compare(c, cfg.sim_rounds).items()},
-            "check": check, "dt": dt, "what": what}
+    return c, {"per_cycle": {}, "check": check, "dt": dt, "what": what}
 
 
 def simulation_table(res: dict, cfg: Config) -> str:
@@ -476,12 +491,18 @@ def rtb_table(per: dict) -> str:
 
 def scaling(cfg: Config) -> dict:
     chains = models.random_chains(cfg.chain_sizes, SEED)
-    out = {n: _scaling_case(robot, cfg) for n, robot in chains.items()}
+    contenders, out = {}, {}
+    for n, robot in chains.items():
+        c, out[n] = _scaling_case(robot)
+        contenders.update({(n, k): fn for k, fn in c.items()})
+    for (n, name), v in compare(contenders, cfg.rounds).items():
+        out[n]["times"][name] = v
     print("  scaling done", file=sys.stderr)
     return out
 
 
-def _scaling_case(robot: mrnea.Robot, cfg: Config) -> dict:
+def _scaling_case(robot: mrnea.Robot) -> tuple[dict, dict]:
+    """The scaling contenders of one chain, and their largest deviation from pinocchio.aba."""
     n = robot.n
     model = models.to_pinocchio(robot)
     data = model.createData()
@@ -494,8 +515,7 @@ def _scaling_case(robot: mrnea.Robot, cfg: Config) -> dict:
     ref = pin.aba(model, data, q, qd, tau)
     err = max(models.rel_err(forward_dynamics(robot, q, qd, tau, method=m), ref)
               for m in FD_METHODS)
-    return {"times": compare(c, cfg.rounds), "check": err,
-            "prismatic": int(robot.is_prismatic.sum())}
+    return c, {"times": {}, "check": err, "prismatic": int(robot.is_prismatic.sum())}
 
 
 def scaling_tables(res: dict, flops: dict) -> str:
@@ -522,15 +542,21 @@ def scaling_tables(res: dict, flops: dict) -> str:
                   rrows))
     fr = flops.get("random", {})
     fns = sorted(int(n) for n in fr)
-    frows = [[str(n), *(f"{fr[str(n)][m]:,}" for m in FD_METHODS)] for n in fns]
+    def solve_share(n: int) -> str:
+        st = fr[str(n)]["mrnea stages"]
+        return f"{100 * st.get('Cholesky solve', 0) / sum(st.values()):.0f} %"
+
+    frows = [[str(n), *(f"{fr[str(n)][m]:,}" for m in FD_METHODS), solve_share(n)]
+             for n in fns]
     fbig = [n for n in fns if n >= 8]
     if len(fbig) >= 2:
         frows.append([f"exponent, n >= {fbig[0]}",
                       *(f"{slope(fbig, [fr[str(n)][m] for n in fbig]):.2f}"
-                        for m in FD_METHODS)])
+                        for m in FD_METHODS), ""])
     t3 = ("Floating-point operations per forward-dynamics call, counted by running each kernel's"
-          " source (benchmarks/flops.py), same chains:\n\n"
-          + table(["n", *(f"`{m}`" for m in FD_METHODS)], frows)) if fns else ""
+          " source (benchmarks/flops.py), same chains, and the Cholesky solve's share of "
+          "mRNEA's:\n\n"
+          + table(["n", *(f"`{m}`" for m in FD_METHODS), "mRNEA: solve"], frows)) if fns else ""
     checks = max(r["check"] for r in res.values())
     return "\n\n".join([t1, t2, t3, f"Checked: every method against `pinocchio.aba` on every "
                         f"chain, largest deviation {e(checks)}."])

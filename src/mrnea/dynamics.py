@@ -192,6 +192,11 @@ def mass_matrix_and_bias(
     Returns H, (n, n) or (B, n, n), and u', (n,) or (B, n). u' includes gravity and f_ext.
     """
     kernel, kernel_batch = _method(method, _HB)
+    if f_ext is None and f_ext_point is None and _single(robot, q, qd, qd):
+        n = robot.n
+        H, u = np.empty((n, n)), np.empty(n)
+        if kernel(robot.compiled, q, qd, _ZERO_WRENCH, _ZERO_POINT, H, u) == OK:
+            return H, u
     args = {"q": q, "qd": qd}
     batched, (q, qd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
@@ -263,6 +268,12 @@ def joint_reactions(
     joint axis. The component along the joint axis of the moment (revolute) or force
     (prismatic) is the joint effort tau_i; the rest is what the bearing carries.
     """
+    if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
+        n = robot.n
+        out = np.empty((n, 6))
+        if reactions(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, np.empty(n),
+                     out) == OK:
+            return out
     args = {"q": q, "qd": qd, "qdd": qdd}
     batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
