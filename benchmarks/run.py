@@ -5,11 +5,13 @@ Usage: ``python benchmarks/run.py [--quick] [--out docs/benchmark-results.md]``
 Everything runs in this one process, side by side, and the results are ratios: the machine is
 shared and noisy (absolute times drift by tens of percent from one minute to the next), but
 contenders timed within the same seconds see the same machine. Method (timing.py): every
-contender of a comparison is calibrated to enough calls per round (``timeit``) that one round
-takes at least 20 ms; the contenders then run in alternating rounds, the order rotated each
-round, and each one's figure is its fastest round. Every call goes through each library's public
-Python API, as a user makes it, and before anything is timed the contenders are checked to
-compute the same thing (the largest deviations are reported with the tables).
+contender of a comparison (a section: all robots, or all chain sizes, together) is calibrated
+to enough calls per round (``timeit``) that one round takes at least 20 ms; the contenders then
+run in alternating rounds, the order rotated each round, and each one's figure is its fastest
+round. The header reports the noise: how much slower the median round was than the best.
+Every call goes through each library's public Python API, as a user makes it, and before
+anything is timed the contenders are checked to compute the same thing (the largest deviations
+are reported with the tables).
 
 Sections (each a Markdown table; ``--out`` writes them all):
 
@@ -126,6 +128,7 @@ def slope(ns, ts) -> float:
 # --- the machine ---------------------------------------------------------------------------------
 
 def machine() -> dict:
+    """CPU (lscpu), nominal GHz, cores, library versions, mrnea's commit, threads, load."""
     info = {"cpu": platform.processor() or platform.machine(), "ghz": None}
     try:
         out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
@@ -163,6 +166,7 @@ def machine() -> dict:
 
 
 def header(info: dict, args: list[str], seconds: float) -> str:
+    """The run's first paragraph: the command, the machine, the versions, the load."""
     v = ", ".join(f"{k} {val}" for k, val in info["versions"].items())
     cmd = " ".join(["python", "benchmarks/run.py", *args])
     return (f"Command: `{cmd}` ({seconds / 60:.1f} min). Machine: {info['cpu']}, "
@@ -310,6 +314,8 @@ def per_call_tables(res: dict, cases: list[models.Case]) -> str:
 # --- 2. batches ----------------------------------------------------------------------------------
 
 def single_thread(fn):
+    """``fn`` run with Numba's parallel loops on one thread."""
+
     def run():
         nb.set_num_threads(1)
         try:
