@@ -56,6 +56,7 @@ from mrnea.kernels.common import (
     vec,
     workspace,
 )
+from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import cholesky_solve
 
 
@@ -93,25 +94,9 @@ def _mrnea(model, q, qd, fext, pe, H, u, full):
     E = buf[2 * n:3 * n]  # row k: E_{(i+1)k} (Eqs. 25-26)
     M = buf[3 * n:]  # row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
 
-    # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17)
-    w = (0.0, 0.0, 0.0)
-    wd = (0.0, 0.0, 0.0)
-    a_p = (0.0, 0.0, 0.0)
-    o_p = (0.0, 0.0, 0.0)
-    for i in range(n):
-        zi, oi = vec(z, i), vec(o, i)
-        p_star = sub(oi, o_p)
-        a_o = add(a_p, add(cross(wd, p_star), cross(w, cross(w, p_star))))
-        if model[i + 1, TYPE] == PRISMATIC:
-            a_o = add(a_o, scale(cross(w, zi), 2.0 * qd[i]))
-        else:
-            wd = add(wd, scale(cross(w, zi), qd[i]))
-            w = add(w, scale(zi, qd[i]))
-        r_cm = sub(vec(c, i), oi)
-        a_cm = add(a_o, add(cross(wd, r_cm), cross(w, cross(w, r_cm))))  # Eq. 5, qdd = 0
-        put(e, i, scale(sub(a_cm, g), model[i + 1, MASS]))  # Eq. 13
-        put(d, i, add(mv(Ic, i, wd), cross(w, mv(Ic, i, w))))  # Eq. 17
-        a_p, o_p = a_o, oi
+    # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
+    # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
+    link_forces(model, o, z, c, Ic, qd, np.zeros(n), g, e, d)
 
     # backward pass: E sums and n' coefficients, tip to base
     E_c = (fext[0], fext[1], fext[2])  # E_{i+1}: starts as f_{n+1} = f_e

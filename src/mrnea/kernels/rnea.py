@@ -48,22 +48,14 @@ from mrnea.kernels.common import (
 
 
 @nb.njit(**JIT)
-def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
-    """The two Newton-Euler passes, given the kinematics (R, o, z, c, Ic) of this state.
-
-    ``g`` is the gravity 3-tuple (Walker-Orin's columns pass zero). Fills tau, f, nm.
-    """
-    n = qd.shape[0]
-    buf = np.empty((2 * n, 3))
-    F = buf[:n]  # total force on link i, Eq. 6
-    N = buf[n:]  # total moment on link i about its centre of mass, Eq. 7
-
-    # forward pass: velocities and accelerations, base to tip
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
+    """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
+    centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3)."""
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
     wd = (0.0, 0.0, 0.0)  # its angular acceleration
     a_p = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
     o_p = (0.0, 0.0, 0.0)  # parent's origin
-    for i in range(n):
+    for i in range(qd.shape[0]):
         zi, oi = vec(z, i), vec(o, i)
         p_star = sub(oi, o_p)
         # acceleration of the point of the parent coinciding with o_i
@@ -79,6 +71,19 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
         put(F, i, scale(sub(a_cm, g), model[i + 1, MASS]))  # Eq. 6
         put(N, i, add(mv(Ic, i, wd), cross(w, mv(Ic, i, w))))  # Eq. 7
         a_p, o_p = a_o, oi
+
+
+@nb.njit(**JIT)
+def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
+    """The two Newton-Euler passes, given the kinematics (R, o, z, c, Ic) of this state.
+
+    ``g`` is the gravity 3-tuple (Walker-Orin's columns pass zero). Fills tau, f, nm.
+    """
+    n = qd.shape[0]
+    buf = np.empty((2 * n, 3))
+    F = buf[:n]  # total force on link i, Eq. 6
+    N = buf[n:]  # total moment on link i about its centre of mass, Eq. 7
+    link_forces(model, o, z, c, Ic, qd, qdd, g, F, N)
 
     # backward pass: forces and moments, tip to base
     f_next = (fext[0], fext[1], fext[2])  # f_{n+1} = f_e, Eq. 10
