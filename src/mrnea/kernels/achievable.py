@@ -47,9 +47,8 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import JIT, NONFINITE, OK, OVERFLOW, finite
-from mrnea.kernels.crba import crba
+from mrnea.kernels.crba import crba_bias
 from mrnea.kernels.mrnea import mrnea
-from mrnea.kernels.rnea import rnea
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.walker_orin import walker_orin
 
@@ -91,13 +90,10 @@ def effort_limit(act, i, qd_i):
 @nb.njit(**JIT)
 def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua):
     """H_a (n, n) and u'_a (n,) of Eqs. 42-43 (Coulomb term F_s sign(qd), sign(0) = 0)."""
-    n = q.shape[0]
     if engine == ENGINE_WALKER_ORIN:
         status = walker_orin(model, q, qd, fext, pe, Ha, ua)
     elif engine == ENGINE_CRBA:
-        status = rnea(model, q, qd, np.zeros(n), fext, pe, ua, np.empty((n, 3)),
-                      np.empty((n, 3)))
-        crba(model, q, Ha)
+        status = crba_bias(model, q, qd, fext, pe, Ha, ua)
     else:
         status = mrnea(model, q, qd, fext, pe, Ha, ua)
     if status != OK:

@@ -34,16 +34,38 @@ from mrnea.kernels.common import (
     vec,
     workspace,
 )
-from mrnea.kernels.rnea import rnea
+from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
 
 @nb.njit(**JIT)
 def crba(model, q, H):
     """The mass matrix H (n, n) of one state."""
+    R, o, z, c, Ic = workspace(q.shape[0])
+    kinematics(model, q, R, o, z, c, Ic)
+    composite(model, o, z, c, Ic, H)
+
+
+@nb.njit(**JIT)
+def crba_bias(model, q, qd, fext, pe, H, u):
+    """H by CRBA and u' by one Newton-Euler pass with qdd = 0, on one kinematics pass; the
+    same contract (and status) as ``mrnea``."""
+    if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
+        return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = workspace(n)
     kinematics(model, q, R, o, z, c, Ic)
+    fn = np.empty((2 * n, 3))  # the joint forces and moments, not needed here
+    g = (model[0, 0], model[0, 1], model[0, 2])
+    newton_euler(model, R, o, z, c, Ic, qd, np.zeros(n), g, fext, pe, u, fn[:n], fn[n:])
+    composite(model, o, z, c, Ic, H)
+    return OK if finite(H) and finite(u) else OVERFLOW
+
+
+@nb.njit(**JIT)
+def composite(model, o, z, c, Ic, H):
+    """The composite-rigid-body recursion, given the kinematics of this state; fills H."""
+    n = o.shape[0]
     Mc = 0.0  # composite mass
     hc = (0.0, 0.0, 0.0)  # composite first moment, sum m_k c_k
     Jc = np.zeros((1, 3, 3))  # composite inertia about the composite centre of mass
@@ -92,17 +114,14 @@ def crba_batch(model, Q, H):
 @nb.njit(**JIT)
 def fd_crba(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
+    if not finite(tau):
+        return NONFINITE
     n = q.shape[0]
     H = np.empty((n, n))
     u = np.empty(n)
-    status = rnea(model, q, qd, np.zeros(n), fext, pe, u, np.empty((n, 3)), np.empty((n, 3)))
+    status = crba_bias(model, q, qd, fext, pe, H, u)
     if status != OK:
         return status
-    if not finite(tau):
-        return NONFINITE
-    crba(model, q, H)
-    if not finite(H):
-        return OVERFLOW
     status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
     return status if status != OK or finite(qdd) else OVERFLOW
 
