@@ -492,6 +492,21 @@ def test_round_trip_real_arm(tmp_path: Path, rel: str) -> None:
     compare_with_pinocchio(robot, pin.buildModelFromUrdf(str(out)))
 
 
+def test_round_trip_extreme_values(tmp_path: Path) -> None:
+    """Finite values near float64's limit survive the round trip: the loader neither overflows
+    symmetrising an inertia ((I + I^T) / 2) nor multiplies a massless link's far-away centre of
+    mass (0 * inf) (found by the fuzz test)."""
+    big = 8.98846567431158e307  # 2 * big overflows
+    joints = [Joint("j1", "revolute", "base", "l1", transform((1e200, 0.0, 0.0))),
+              Joint("j2", "revolute", "l1", "l2", transform((0.0, 0.0, 0.5)))]
+    links = [Link("l1", 0.0, (1e200, 0.0, 0.0), np.diag([1.0, 1.0, 1.0])),
+             Link("l2", 1.0, (0.0, 0.0, 0.1), np.diag([big, big, big]))]
+    robot = Robot(joints, links)
+    back = load_urdf(write_urdf(robot, tmp_path / "x.urdf"))
+    assert np.array_equal(back.links[1].inertia, robot.links[1].inertia)
+    assert np.array_equal(back.links[0].inertia, robot.links[0].inertia)
+
+
 def test_write_into_missing_directory(tmp_path: Path) -> None:
     with pytest.raises(RobotFileError, match="cannot write URDF"):
         write_urdf(handmade_robot(), tmp_path / "no" / "such" / "dir.urdf")

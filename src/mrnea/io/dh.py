@@ -243,7 +243,7 @@ def dh_joint_chain(
         R = to_link[:3, :3]
         com = R @ lk.com + to_link[:3, 3]
         inertia = R @ lk.inertia @ R.T
-        inertia = 0.5 * (inertia + inertia.T)
+        inertia = 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
         links.append(Link(lname, mass=lk.mass, com=com, inertia=inertia))
         kwargs = {k: getattr(r, k) for k in _JOINT_FIELDS}
         joints.append(Joint(jname, r.type, parent, lname, origin=origin, axis=(0.0, 0.0, 1.0),

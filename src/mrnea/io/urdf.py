@@ -194,7 +194,7 @@ class _Reader:
         except ModelError as exc:
             raise self.error(str(exc)) from None
         inertia = lk.R @ lk.inertia @ lk.R.T
-        return lk.mass, lk.com, 0.5 * (inertia + inertia.T)
+        return lk.mass, lk.com, 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
 
     def joint(self, elem: ET.Element, index: int) -> _UrdfJoint:
         name = self.required(elem, "name", f"joint #{index + 1}")
@@ -283,9 +283,11 @@ def _combine(parts: list[tuple[float, NDArray, NDArray]]) -> tuple[float, NDArra
         com = np.zeros(3)
     inertia = np.zeros((3, 3))
     for m, c, I in parts:
-        d = c - com
-        inertia += I + m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-    return mass, np.array(com, dtype=float), 0.5 * (inertia + inertia.T)
+        inertia += I
+        if m > 0:  # parallel-axis term (a massless part far away would give 0 * inf)
+            d = c - com
+            inertia += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return mass, np.array(com, dtype=float), 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
 
 
 def load_urdf(
