@@ -242,3 +242,13 @@ def test_strided_and_fortran_inputs(robot) -> None:
                                   mrnea.inverse_dynamics(robot, Q, QD, TAU))
     np.testing.assert_array_equal(mrnea.forward_dynamics(robot, Q_f[1], QD_view[1], TAU[1]),
                                   mrnea.forward_dynamics(robot, Q[1], QD[1], TAU[1]))
+    # every single-state call (the path that skips Numba's dispatch) on strided and read-only views
+    ro = Q[2].copy()
+    ro.setflags(write=False)
+    for fn, args in ((mrnea.inverse_dynamics, (TAU[2],)), (mrnea.joint_reactions, (TAU[2],)),
+                     (mrnea.mass_matrix_and_bias, ()), (mrnea.forward_dynamics, (TAU[2],))):
+        a = fn(robot, ro, QD_view[2], *args)
+        b = fn(robot, Q[2], QD[2], *args)
+        for x, y in zip(a if isinstance(a, tuple) else (a,), b if isinstance(b, tuple) else (b,),
+                        strict=True):
+            np.testing.assert_array_equal(x, y)

@@ -38,3 +38,46 @@ def test_sdt_full_form():
     mrnea_kernel(robot.compiled, q, qd, z6, z3, H, u)
     mrnea_full(robot.compiled, q, qd, z6, z3, Hf, uf)
     assert np.abs(H - Hf).max() <= 1e-13 * np.abs(Hf).max()
+
+
+def _with_zero_offsets(robot: mrnea.Robot) -> mrnea.Robot:
+    """The chain with every other joint origin moved onto the parent's origin (o_i = o_{i-1}:
+    intersecting axes, p* = 0) and every third centre of mass on its link's origin."""
+    joints, links = [], []
+    for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True)):
+        origin = j.origin.copy()
+        if i % 2 == 0:
+            origin[:3, 3] = 0.0
+        joints.append(mrnea.Joint(j.name, j.type, j.parent, j.child, origin, axis=j.axis))
+        com = (0.0, 0.0, 0.0) if i % 3 == 0 else lk.com
+        links.append(mrnea.Link(lk.name, lk.mass, com, lk.inertia))
+    return mrnea.Robot(joints, links, gravity=robot.gravity)
+
+
+@pytest.mark.parametrize("n, frac", [(1, 0.0), (3, 0.5), (6, 0.0), (7, 0.3), (12, 0.4)])
+def test_specialised_kernels_equal_the_general_path(n, frac):
+    """Skipping the terms of zero offsets (NOPOS, NOCOM; Sec. IV's simplification) changes no
+    bit of any result: the specialised model against ``compile_model(specialise=False)``."""
+    from mrnea.kernels.common import NOCOM, NOPOS, compile_model
+    from mrnea.kernels.mrnea import fd_mrnea
+    from mrnea.kernels.rnea import reactions, rnea
+
+    rng = np.random.default_rng(100 + n)
+    robot = _with_zero_offsets(random_chain(rng, n, frac))
+    special, general = robot.compiled, compile_model(robot, specialise=False)
+    assert special[1:, NOPOS].sum() + special[1:, NOCOM].sum() > 0
+    assert not general[:, [NOPOS, NOCOM]].any()
+    for _ in range(10):
+        q, qd, x = rng.uniform(-2, 2, (3, n))
+        fe, pe = rng.normal(size=6), rng.normal(size=3)
+        results = []
+        for m in (special, general):
+            H, u, tau, qdd, W = (np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n),
+                                 np.empty((n, 6)))
+            assert mrnea_kernel(m, q, qd, fe, pe, H, u) == -1
+            assert rnea(m, q, qd, x, fe, pe, tau) == -1
+            assert reactions(m, q, qd, x, fe, pe, W) == -1
+            status = fd_mrnea(m, q, qd, x, fe, pe, qdd)  # a degenerate chain may be singular
+            results.append((H, u, tau, W, qdd if status == -1 else status))
+        for a, b in zip(*results, strict=True):
+            np.testing.assert_array_equal(a, b)

@@ -38,6 +38,7 @@ from mrnea.kernels.achievable import (
     achievable_batch,
     step,
 )
+from mrnea.kernels.common import scratch
 from mrnea.model import Robot
 
 Mode = Literal["hybrid", "paper"]
@@ -188,7 +189,7 @@ def achievable_step(
     status = step(m, act, q, qd, arrays["q_next_cmd"], arrays["qd_next_cmd"], dt, fe, pe, code,
                   ENGINE_MRNEA,
                   out["qdd_des"], out["qdd"], out["tau"], out["tau_req"], out["limit"], sat,
-                  out["q_next"], out["qd_next"], clamp)
+                  out["q_next"], out["qd_next"], clamp, scratch(n, 3 * n + 6, 4))
     _check(robot, status, {**arrays, "f_ext": f_ext, "f_ext_point": f_ext_point})
     q_cmd = np.clip(arrays["q_next_cmd"], robot.lower, robot.upper)
     qd_cmd = qd + out["qdd_des"] * dt

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.dynamics import _check, _inputs
-from mrnea.kernels.achievable import ENGINE_MRNEA, actuator_terms, effort_limit
+from mrnea.kernels.achievable import ENGINE_MRNEA, actuator_terms_batch, effort_limit
 from mrnea.model import Robot
 
 
@@ -39,8 +39,8 @@ def actuator_mass_matrix_and_bias(
     FE, PE = (fe, pe) if batched else (fe[None], pe[None])
     H = np.empty((Q.shape[0], n, n))
     u = np.empty((Q.shape[0], n))
-    status = np.array([actuator_terms(m, act, Q[b], QD[b], FE[b], PE[b], ENGINE_MRNEA, H[b], u[b])
-                       for b in range(Q.shape[0])])
+    status = np.empty(Q.shape[0], dtype=np.int64)
+    actuator_terms_batch(m, act, Q, QD, FE, PE, ENGINE_MRNEA, H, u, status)
     _check(robot, status if batched else int(status[0]),
            {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return (H, u) if batched else (H[0], u[0])

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from typing import Literal
 
+import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -37,13 +38,48 @@ from mrnea.kernels.walker_orin import (
 from mrnea.model import Robot
 
 Method = Literal["mrnea", "walker_orin", "crba", "aba"]
+
+
+class _Entry:
+    """A single-state kernel called through its machine-code entry for one fixed signature.
+
+    Numba's dispatcher types every argument on every call to pick the compiled version; at this
+    size that costs about a third of a call. The public functions check the arguments' types
+    themselves (:func:`_single`, :func:`_inputs`: float64 ndarrays of the right shape), so they
+    call the entry of the one signature below directly. ``Dispatcher.compile`` compiles it (or
+    loads it from Numba's disk cache) on the first call and returns that entry.
+    """
+
+    __slots__ = ("_kernel", "_sig", "call")
+
+    def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type) -> None:
+        py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT
+        n_in = py_func.__code__.co_argcount - 1 - len(outputs)
+        self._kernel = kernel
+        self._sig = nb.types.int64(_MODEL, *([_IN] * n_in), *outputs)
+        self.call = self._first if hasattr(kernel, "compile") else kernel
+
+    def _first(self, *args: object) -> int:
+        self.call = self._kernel.compile(self._sig)
+        return self.call(*args)
+
+
+# the signature: the compiled model, inputs of any layout, outputs as allocated here
+_MODEL = nb.types.Array(nb.types.float64, 2, "C", readonly=True)
+_IN = nb.types.Array(nb.types.float64, 1, "A")
+_OUT1 = nb.types.Array(nb.types.float64, 1, "C")
+_OUT2 = nb.types.Array(nb.types.float64, 2, "C")
+
 _FD = {
-    "mrnea": (fd_mrnea, fd_mrnea_batch),
-    "walker_orin": (fd_walker_orin, fd_walker_orin_batch),
-    "crba": (fd_crba, fd_crba_batch),
-    "aba": (aba, aba_batch),
+    "mrnea": (_Entry(fd_mrnea, _OUT1), fd_mrnea_batch),
+    "walker_orin": (_Entry(fd_walker_orin, _OUT1), fd_walker_orin_batch),
+    "crba": (_Entry(fd_crba, _OUT1), fd_crba_batch),
+    "aba": (_Entry(aba, _OUT1), aba_batch),
 }
-_HB = {"mrnea": (mrnea, mrnea_batch), "walker_orin": (walker_orin, walker_orin_batch)}
+_HB = {"mrnea": (_Entry(mrnea, _OUT2, _OUT1), mrnea_batch),
+       "walker_orin": (_Entry(walker_orin, _OUT2, _OUT1), walker_orin_batch)}
+_RNEA = _Entry(rnea, _OUT1)
+_REACTIONS = _Entry(reactions, _OUT2)
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
 _ZERO_WRENCH = np.zeros(6)
@@ -156,22 +192,19 @@ def inverse_dynamics(
     Returns tau, (n,) or (B, n) [N m | N]. See the module docstring for shapes and ``f_ext``.
     """
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
-        n = robot.n
-        tau = np.empty(n)
-        if rnea(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, tau, np.empty((n, 3)),
-                np.empty((n, 3))) == OK:
+        tau = np.empty(robot._shape)
+        if _RNEA.call(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, tau) == OK:
             return tau
     args = {"q": q, "qd": qd, "qdd": qdd}
     batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
     m = robot.compiled
-    n = robot.n
     if batched:
         tau = np.empty_like(q)
         status = np.empty(q.shape[0], dtype=np.int64)
         rnea_batch(m, q, qd, qdd, fe, pe, tau, status)
     else:
-        tau = np.empty(n)
-        status = rnea(m, q, qd, qdd, fe, pe, tau, np.empty((n, 3)), np.empty((n, 3)))
+        tau = np.empty(robot.n)
+        status = _RNEA.call(m, q, qd, qdd, fe, pe, tau)
     if batched or status != OK:
         _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return tau
@@ -195,7 +228,7 @@ def mass_matrix_and_bias(
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, qd):
         n = robot.n
         H, u = np.empty((n, n)), np.empty(n)
-        if kernel(robot.compiled, q, qd, _ZERO_WRENCH, _ZERO_POINT, H, u) == OK:
+        if kernel.call(robot.compiled, q, qd, _ZERO_WRENCH, _ZERO_POINT, H, u) == OK:
             return H, u
     args = {"q": q, "qd": qd}
     batched, (q, qd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
@@ -209,7 +242,7 @@ def mass_matrix_and_bias(
     else:
         H = np.empty((n, n))
         u = np.empty(n)
-        status = kernel(m, q, qd, fe, pe, H, u)
+        status = kernel.call(m, q, qd, fe, pe, H, u)
     if batched or status != OK:
         _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return H, u
@@ -234,7 +267,7 @@ def forward_dynamics(
     kernel, kernel_batch = _method(method, _FD)
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, tau):
         qdd = np.empty(robot._shape)
-        if kernel(robot.compiled, q, qd, tau, _ZERO_WRENCH, _ZERO_POINT, qdd) == OK:
+        if kernel.call(robot.compiled, q, qd, tau, _ZERO_WRENCH, _ZERO_POINT, qdd) == OK:
             return qdd
     args = {"q": q, "qd": qd, "tau": tau}
     batched, (q, qd, tau), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
@@ -245,7 +278,7 @@ def forward_dynamics(
         kernel_batch(m, q, qd, tau, fe, pe, qdd, status)
     else:
         qdd = np.empty(robot.n)
-        status = kernel(m, q, qd, tau, fe, pe, qdd)
+        status = kernel.call(m, q, qd, tau, fe, pe, qdd)
     if batched or status != OK:
         _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return qdd
@@ -271,8 +304,7 @@ def joint_reactions(
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
         n = robot.n
         out = np.empty((n, 6))
-        if reactions(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, np.empty(n),
-                     out) == OK:
+        if _REACTIONS.call(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, out) == OK:
             return out
     args = {"q": q, "qd": qd, "qdd": qdd}
     batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
@@ -281,10 +313,10 @@ def joint_reactions(
     if batched:
         out = np.empty((q.shape[0], n, 6))
         status = np.empty(q.shape[0], dtype=np.int64)
-        reactions_batch(m, q, qd, qdd, fe, pe, np.empty_like(q), out, status)
+        reactions_batch(m, q, qd, qdd, fe, pe, out, status)
     else:
         out = np.empty((n, 6))
-        status = reactions(m, q, qd, qdd, fe, pe, np.empty(n), out)
+        status = _REACTIONS.call(m, q, qd, qdd, fe, pe, out)
     if batched or status != OK:
         _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return out

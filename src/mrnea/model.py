@@ -427,7 +427,7 @@ class Robot:
     # --- compiled form and export ---------------------------------------------------------
     @cached_property
     def compiled_actuators(self) -> NDArray[np.float64]:
-        """The flat ``(n, 7)`` actuator array of kernels/achievable.py."""
+        """The flat ``(n, NACT)`` actuator array of kernels/achievable.py."""
         from mrnea.kernels.achievable import compile_actuators
 
         return compile_actuators(self)

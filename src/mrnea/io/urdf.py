@@ -287,7 +287,8 @@ def _combine(parts: list[tuple[float, NDArray, NDArray]]) -> tuple[float, NDArra
         if m > 0:  # parallel-axis term (a massless part far away would give 0 * inf)
             d = c - com
             inertia += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-    return mass, np.array(com, dtype=float), 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
+    # (I + I^T) / 2 could overflow
+    return mass, np.array(com, dtype=float), 0.5 * inertia + 0.5 * inertia.T
 
 
 def load_urdf(

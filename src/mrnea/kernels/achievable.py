@@ -1,8 +1,9 @@
 """Achievable accelerations: what the actuators can really do this cycle (paper Secs. II, V).
 
-Usage: ``status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, qdd, tau, tau_req,
-limit, sat)``; ``status = step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, qdd_des,
-qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp)``.
+Usage: ``status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau,
+tau_req, limit, sat)``; ``status = step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode,
+engine, qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp, ws)`` (``ws``: a
+scratch, kernels/common.py).
 
 Actuator equation (Eqs. 42-43), joint side, with the rigid-body mass matrix and bias of one
 mRNEA pass::
@@ -46,9 +47,18 @@ from typing import TYPE_CHECKING
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT, NONFINITE, OK, OVERFLOW, finite
+from mrnea.kernels.common import (
+    JIT,
+    NONFINITE,
+    OK,
+    OVERFLOW,
+    chunk,
+    finite,
+    n_chunks,
+    scratch,
+)
 from mrnea.kernels.crba import crba_bias
-from mrnea.kernels.mrnea import mrnea
+from mrnea.kernels.mrnea import mrnea_ws
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.walker_orin import walker_orin
 
@@ -88,20 +98,34 @@ def effort_limit(act, i, qd_i):
 
 
 @nb.njit(**JIT)
-def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua):
-    """H_a (n, n) and u'_a (n,) of Eqs. 42-43 (Coulomb term F_s sign(qd), sign(0) = 0)."""
+def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
+    """H_a (n, n) and u'_a (n,) of Eqs. 42-43 (Coulomb term F_s sign(qd), sign(0) = 0);
+    ``ws``: scratch (kernels/common.py)."""
     if engine == ENGINE_WALKER_ORIN:
         status = walker_orin(model, q, qd, fext, pe, Ha, ua)
     elif engine == ENGINE_CRBA:
         status = crba_bias(model, q, qd, fext, pe, Ha, ua)
     else:
-        status = mrnea(model, q, qd, fext, pe, Ha, ua)
+        status = mrnea_ws(model, q, qd, fext, pe, Ha, ua, False, ws)
     if status != OK:
         return status
     for i in range(q.shape[0]):
         Ha[i, i] += act[i, GEAR] ** 2 * act[i, JM]
         ua[i] += act[i, FV] * qd[i] + act[i, FS] * np.sign(qd[i])
     return OK
+
+
+@nb.njit(**{**JIT, "parallel": True})
+def actuator_terms_batch(model, act, Q, QD, FEXT, PE, engine, HA, UA, STATUS):
+    """``actuator_terms`` over a batch: HA (B, n, n), UA (B, n), STATUS (B,)."""
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = actuator_terms(model, act, Q[b], QD[b], FEXT[b], PE[b], engine, HA[b],
+                                       UA[b], ws)
 
 
 @nb.njit(**JIT)
@@ -166,17 +190,36 @@ def _start_from_rest(act, qd, qdd_des, i, held, slip):
 @nb.njit(**JIT)
 def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
                sat):
+    """``achievable_ws`` with its own scratch."""
+    return achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
+                         limit, sat, scratch(q.shape[0], 3 * q.shape[0] + 6, 4))
+
+
+@nb.njit(**JIT)
+def achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
+                  sat, ws):
     """Achievable accelerations of one state (module docstring). Returns a status.
 
     Fills qdd (achievable), tau (effort applied, joint side), tau_req (effort qdd_des needs),
     limit (effort limit at the current speed) and sat (True where the joint is saturated).
+    Scratch (kernels/common.py) rows: S[:n] H_a, S[n:3n] the system of the unknown
+    accelerations and its Cholesky factor, S[3n:3n + 6] vectors, I[:4] flags and indices.
     """
     n = q.shape[0]
     if not finite(qdd_des):
         return NONFINITE
-    Ha = np.empty((n, n))
-    ua = np.empty(n)
-    status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua)
+    S, ints = ws[2], ws[3]
+    Ha, Hs, L = S[:n], S[n:2 * n], S[2 * n:3 * n]
+    ua = S[3 * n]
+    slip = S[3 * n + 1]  # direction (+-1) of a joint starting from rest, its effort prescribed
+    tau_cmd = S[3 * n + 2]  # the prescribed efforts
+    fric = S[3 * n + 3]  # Coulomb friction of joints starting from rest
+    rhs, x = S[3 * n + 4], S[3 * n + 5]
+    known = ints[0]  # 0/1: acceleration prescribed (HYBRID, unsaturated)
+    held = ints[1]  # 0/1: effort prescribed, kept at rest by static friction
+    fixed = ints[2]  # 0/1: acceleration known this round (known or held)
+    idx = ints[3]  # the unknowns' joint indices (_mixed_solve)
+    status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
 
@@ -188,20 +231,14 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
         tau_req[i] = _with_static_friction(need, act[i, FS], qd[i] != 0.0, qdd_des[i])
         limit[i] = effort_limit(act, i, qd[i])
 
-    known = np.empty(n, dtype=np.bool_)  # acceleration prescribed (HYBRID, unsaturated)
-    held = np.zeros(n, dtype=np.bool_)  # effort prescribed, kept at rest by static friction
-    slip = np.zeros(n)  # direction (+-1) of a joint starting from rest with effort prescribed
-    tau_cmd = np.empty(n)  # the prescribed efforts
     for i in range(n):
         known[i] = mode == HYBRID
+        held[i] = False
+        slip[i] = 0.0
+        fric[i] = 0.0
         tau_cmd[i] = min(max(tau_req[i], -limit[i]), limit[i])  # Eq. 44's clamp
         if not known[i]:
             _start_from_rest(act, qd, qdd_des, i, held, slip)
-    fric = np.zeros(n)  # Coulomb friction of joints starting from rest
-    Hs, L = np.empty((n, n)), np.empty((n, n))
-    rhs, x = np.empty(n), np.empty(n)
-    idx = np.empty(n, dtype=np.int64)
-    fixed = np.empty(n, dtype=np.bool_)
     for _ in range(4 * n + 2):
         for i in range(n):
             fixed[i] = known[i] or held[i]
@@ -251,7 +288,7 @@ def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau
 
 @nb.njit(**JIT)
 def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
-         qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp):
+         qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp, ws):
     """One interpolation cycle of Sec. II. Returns a status.
 
     Clamps the commanded velocity qd_cmd to +-velocity limit and, where the commanded next
@@ -284,8 +321,8 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
             flags |= CLAMP_VELOCITY
         clamp[i] = flags
         qdd_des[i] = (vc - qd[i]) / dt
-    status = achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
-                        limit, sat)
+    status = achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
+                           limit, sat, ws)
     if status != OK:
         return status
     for i in range(n):
@@ -298,6 +335,11 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
 def achievable_batch(model, act, Q, QD, QDD_DES, FEXT, PE, mode, engine, QDD, TAU, TAU_REQ,
                      LIMIT, SAT, STATUS):
     """``achievable`` over a batch (B, n) (FEXT (B, 6), PE (B, 3), STATUS (B,))."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = achievable(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
-                               engine, QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 3 * n + 6, 4)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = achievable_ws(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
+                                      engine, QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b], ws)

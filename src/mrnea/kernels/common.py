@@ -4,16 +4,29 @@ Compiled model (``Robot.compiled``): one float64 array of shape ``(n + 1, NCOL)`
 Row 0 holds the gravity vector in ``[0:3]``; row ``i + 1`` describes joint ``i`` and link ``i``::
 
     TYPE        0 revolute (and continuous), 1 prismatic
-    ROT  (9)    origin rotation, parent link frame -> joint frame, row-major
+    ROT  (9)    origin rotation A, parent link frame -> joint frame, row-major
     POS  (3)    origin translation [m], parent link frame
-    AXIS (3)    unit joint axis, joint frame
+    AXIS (3)    unit joint axis a, joint frame
     MASS        link mass [kg]
     COM  (3)    centre of mass [m], link frame
     INER (9)    inertia about the centre of mass [kg m^2], link-frame axes, row-major
+    ROTB (9)    A [a]x     precomputed so that the link's rotation relative to its parent,
+    ROTC (9)    A [a]x^2   A Rot(a, q) = A + sin(q) A [a]x + (1 - cos(q)) A [a]x^2 (Rodrigues)
+    ZAX  (3)    A a, the joint axis in the parent link frame
+    NOPOS       1 for a revolute joint whose POS is exactly zero: o_i is the parent's origin
+    NOCOM       1 where COM is exactly zero: the centre of mass is the link frame's origin
+
+NOPOS and NOCOM are the specialisation the paper's Sec. IV makes by hand for the SDT: terms with
+a zero offset vanish, and the kernels skip them (``compile_model(robot, specialise=False)``
+leaves both flags at 0 and so runs every term: the general path the tests compare with).
 
 Every kernel works in base coordinates, as the paper does: ``R[i]`` (3, 3) is link i's orientation,
 ``o[i]`` (3,) its frame origin (a point on joint i's axis), ``z[i]`` (3,) joint i's unit axis,
 ``c[i]`` (3,) its centre of mass and ``Ic[i]`` (3, 3) its inertia about the centre of mass.
+
+Scratch memory (:func:`scratch`): a kernel called on one state allocates one scratch; the
+``*_ws`` form of a kernel takes one instead. Batch kernels allocate one scratch per chunk of
+states (:func:`n_chunks`), the simulation loop one per run: nothing on the hot path allocates.
 
 3-vectors inside kernels are tuples ``(x, y, z)``: Numba keeps them in registers, so the
 equations read as written and allocate nothing.
@@ -29,8 +42,9 @@ import numpy as np
 if TYPE_CHECKING:
     from mrnea.model import Robot
 
-TYPE, ROT, POS, AXIS, MASS, COM, INER = 0, 1, 10, 13, 16, 17, 20
-NCOL = 29
+TYPE, ROT, POS, AXIS, MASS, COM, INER, ROTB, ROTC, ZAX, NOPOS, NOCOM = (
+    0, 1, 10, 13, 16, 17, 20, 29, 38, 47, 50, 51)
+NCOL = 52
 PRISMATIC = 1.0
 
 # Kernel status codes: OK, NONFINITE (an input holds NaN or inf), OVERFLOW (finite inputs gave a
@@ -45,20 +59,68 @@ JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
 INLINE = JIT
 
 
-def compile_model(robot: Robot) -> np.ndarray:
-    """Flatten a validated Robot into the ``(n + 1, NCOL)`` array described above."""
+def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
+    """Flatten a validated Robot into the ``(n + 1, NCOL)`` array described above.
+
+    ``specialise=False`` keeps the NOPOS and NOCOM flags at 0 (every term is computed).
+    """
     m = np.zeros((robot.n + 1, NCOL))
     m[0, :3] = robot.gravity
     for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True), start=1):
+        A = j.origin[:3, :3]
+        ax = np.asarray(j.axis, dtype=float)
+        K = np.array([[0.0, -ax[2], ax[1]], [ax[2], 0.0, -ax[0]], [-ax[1], ax[0], 0.0]])
         m[i, TYPE] = PRISMATIC if j.is_prismatic else 0.0
-        m[i, ROT:ROT + 9] = j.origin[:3, :3].ravel()
+        m[i, ROT:ROT + 9] = A.ravel()
         m[i, POS:POS + 3] = j.origin[:3, 3]
-        m[i, AXIS:AXIS + 3] = j.axis
+        m[i, AXIS:AXIS + 3] = ax
         m[i, MASS] = lk.mass
         m[i, COM:COM + 3] = lk.com
         m[i, INER:INER + 9] = lk.inertia.ravel()
+        m[i, ROTB:ROTB + 9] = (A @ K).ravel()
+        m[i, ROTC:ROTC + 9] = (A @ K @ K).ravel()
+        m[i, ZAX:ZAX + 3] = A @ ax
+        if specialise:
+            m[i, NOPOS] = float(not j.is_prismatic and not np.any(j.origin[:3, 3]))
+            m[i, NOCOM] = float(not np.any(lk.com))
     m.setflags(write=False)
     return m
+
+
+@nb.njit(**JIT)
+def scratch(n, s_rows, i_rows):
+    """Scratch memory for one state of an n-joint robot: the tuple ``(T, V, S, I)`` of 3x3
+    matrices T (2n, 3, 3), 3-vectors V (7n, 3), s_rows rows of n floats S and i_rows rows of n
+    ints I (each kernel's docstring says which rows it uses). The 3x3 and 3-vector buffers
+    have fixed slots, first-axis slices (no copy, no reshape): the pose (:func:`pose_buffers`),
+    then either mRNEA's sums (:func:`mrnea_buffers`) or the Newton-Euler forces
+    (:func:`force_buffers`). Allocation costs time by the byte, so each caller asks for what it
+    uses.
+    """
+    return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
+            np.empty((max(i_rows, 1), n), dtype=np.int64))
+
+
+@nb.njit(**INLINE)
+def pose_buffers(ws, n):
+    """R, o, z, c, Ic: the kinematics pass's output slots in the scratch ``ws``."""
+    T, V = ws[0], ws[1]
+    return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:]
+
+
+@nb.njit(**INLINE)
+def mrnea_buffers(ws, n):
+    """e, d, E, M (n, 3) of the mRNEA pass (kernels/mrnea.py)."""
+    V = ws[1]
+    return V[3 * n:4 * n], V[4 * n:5 * n], V[5 * n:6 * n], V[6 * n:7 * n]
+
+
+@nb.njit(**INLINE)
+def force_buffers(ws, n):
+    """f, nm (n, 3): the Newton-Euler passes' forces and moments (kernels/rnea.py); the slots
+    of mRNEA's e, d."""
+    V = ws[1]
+    return V[3 * n:4 * n], V[4 * n:5 * n]
 
 
 # --- 3-vector algebra on tuples -----------------------------------------------------------------
@@ -137,6 +199,23 @@ def mm(A, B):
 
 
 @nb.njit(**INLINE)
+def mmt(A, B):
+    """The upper triangle (xx, xy, xz, yy, yz, zz) of ``A @ B.T`` for 9-tuples, where the
+    product is known to be symmetric."""
+    return (A[0] * B[0] + A[1] * B[1] + A[2] * B[2], A[0] * B[3] + A[1] * B[4] + A[2] * B[5],
+            A[0] * B[6] + A[1] * B[7] + A[2] * B[8], A[3] * B[3] + A[4] * B[4] + A[5] * B[5],
+            A[3] * B[6] + A[4] * B[7] + A[5] * B[8], A[6] * B[6] + A[7] * B[7] + A[8] * B[8])
+
+
+@nb.njit(**INLINE)
+def put_sym(M, k, S):
+    """``M[k] = S`` for a stack of 3x3 matrices M and the upper triangle S of ``mmt``."""
+    M[k, 0, 0], M[k, 0, 1], M[k, 0, 2] = S[0], S[1], S[2]
+    M[k, 1, 0], M[k, 1, 1], M[k, 1, 2] = S[1], S[3], S[4]
+    M[k, 2, 0], M[k, 2, 1], M[k, 2, 2] = S[2], S[4], S[5]
+
+
+@nb.njit(**INLINE)
 def mvt(A, v):
     """``A @ v`` for a 9-tuple A and a 3-tuple v."""
     return (A[0] * v[0] + A[1] * v[1] + A[2] * v[2],
@@ -166,59 +245,63 @@ def put_mat(M, k, A):
             M[k, a, b] = A[3 * a + b]
 
 
-@nb.njit(**INLINE)
-def rotation(ax, angle):
-    """Rodrigues: rotation by ``angle`` about the unit axis ``ax``, as a 9-tuple."""
-    s, c = np.sin(angle), np.cos(angle)
-    v = 1.0 - c
-    x, y, w = ax
-    return (c + x * x * v, x * y * v - w * s, x * w * v + y * s,
-            y * x * v + w * s, c + y * y * v, y * w * v - x * s,
-            w * x * v - y * s, w * y * v + x * s, c + w * w * v)
-
-
 @nb.njit(**JIT)
 def kinematics(model, q, R, o, z, c, Ic):
     """Link poses in base coordinates: fills R, o, z, c, Ic (shapes in the module docstring).
 
     ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``. A revolute joint turns the joint frame about its
-    unit axis a by q_i, ``R_i = R_joint @ Rot(a, q_i)``: a product of exact rotations, so rounding
-    does not compound along the chain. A prismatic joint moves the origin by ``z_i q_i``, z_i the
-    axis in base coordinates.
+    unit axis a by q_i: ``R_i = R_{i-1} (A + sin q_i A[a]x + (1 - cos q_i) A[a]x^2)``, a product
+    of exact rotations, so rounding does not compound along the chain. A prismatic joint moves
+    the origin by ``z_i q_i``. ``z_i = R_{i-1} (A a)``. Terms of a zero offset are skipped
+    (NOPOS, NOCOM).
     """
     Rp = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # orientation of the parent (the base)
     op = (0.0, 0.0, 0.0)
     for i in range(q.shape[0]):
         r = i + 1
-        Rj = mm(Rp, mat(model, r, ROT))  # joint frame
-        ax = triple(model, r, AXIS)
-        zi = mvt(Rj, ax)
-        oi = add(op, mvt(Rp, triple(model, r, POS)))
+        zi = mvt(Rp, triple(model, r, ZAX))
+        oi = op if model[r, NOPOS] else add(op, mvt(Rp, triple(model, r, POS)))
+        A = mat(model, r, ROT)
         if model[r, TYPE] == PRISMATIC:
             oi = add(oi, scale(zi, q[i]))
-            Ri = Rj
+            Ri = mm(Rp, A)
         else:
-            Ri = mm(Rj, rotation(ax, q[i]))
+            s = np.sin(q[i])
+            v = 1.0 - np.cos(q[i])
+            B, C = mat(model, r, ROTB), mat(model, r, ROTC)
+            Ri = mm(Rp, (A[0] + s * B[0] + v * C[0], A[1] + s * B[1] + v * C[1],
+                         A[2] + s * B[2] + v * C[2], A[3] + s * B[3] + v * C[3],
+                         A[4] + s * B[4] + v * C[4], A[5] + s * B[5] + v * C[5],
+                         A[6] + s * B[6] + v * C[6], A[7] + s * B[7] + v * C[7],
+                         A[8] + s * B[8] + v * C[8]))
         put_mat(R, i, Ri)
         put(o, i, oi)
         put(z, i, zi)
-        # centre of mass and inertia in base coordinates: c = o + R com, Ic = R I R^T
-        put(c, i, add(oi, mvt(Ri, triple(model, r, COM))))
-        RI = mm(Ri, mat(model, r, INER))
-        for a in range(3):
-            for b in range(3):
-                Ic[i, a, b] = (RI[3 * a] * Ri[3 * b] + RI[3 * a + 1] * Ri[3 * b + 1]
-                               + RI[3 * a + 2] * Ri[3 * b + 2])
+        # centre of mass and inertia in base coordinates: c = o + R com, Ic = R I R^T (symmetric)
+        put(c, i, oi if model[r, NOCOM] else add(oi, mvt(Ri, triple(model, r, COM))))
+        put_sym(Ic, i, mmt(mm(Ri, mat(model, r, INER)), Ri))
         Rp = Ri
         op = oi
 
 
+@nb.njit(**INLINE)
+def chunk(ch, n_chunks, B):
+    """States ``range(lo, hi)`` of chunk ``ch`` when a batch of B states is cut into n_chunks."""
+    return ch * B // n_chunks, (ch + 1) * B // n_chunks
+
+
+@nb.njit(**INLINE)
+def n_chunks(B):
+    """How many chunks a batch kernel cuts B states into, each with its own scratch array so that
+    threads share no memory but their outputs: up to 64, enough to balance the load of up to 16
+    threads (a constant: Numba cannot cache a kernel that asks for the thread count)."""
+    return min(B, 64)
+
+
 @nb.njit(**JIT)
 def workspace(n):
-    """Per-call buffers of the kinematics pass, R, o, z, c, Ic, carved from one allocation."""
-    mats = np.empty((2 * n, 3, 3))  # row slices of C arrays are views without a reshape
-    vecs = np.empty((3 * n, 3))
-    return mats[:n], vecs[:n], vecs[n:2 * n], vecs[2 * n:], mats[n:]
+    """R, o, z, c, Ic in a new scratch (for the comparison kernels, which allocate per call)."""
+    return pose_buffers(scratch(n, 0, 0), n)
 
 
 @nb.njit(**INLINE)

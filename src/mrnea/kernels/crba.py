@@ -57,7 +57,7 @@ def crba_bias(model, q, qd, fext, pe, H, u):
     kinematics(model, q, R, o, z, c, Ic)
     fn = np.empty((2 * n, 3))  # the joint forces and moments, not needed here
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, np.zeros(n), g, fext, pe, u, fn[:n], fn[n:])
+    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, fn[:n], fn[n:])
     composite(model, o, z, c, Ic, H)
     return OK if finite(H) and finite(u) else OVERFLOW
 

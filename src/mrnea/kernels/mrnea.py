@@ -22,6 +22,13 @@ the backward pass is a 3 x n coefficient matrix times qdd plus a 3-vector (Eqs. 
 * a3 only feeds h_ik with k >= i+2, the upper triangle, which equals h_ki because H is
   symmetric; ``mrnea`` fills it so and skips a3 (half the cross products), ``mrnea_full``
   computes every h_ik the paper's way, and the tests check that the two agree.
+* Sec. IV's simplification for a given robot: where p*_i = 0 (joint i+1 revolute with a zero
+  origin offset: consecutive axes intersect in o_i) the a2/a3 terms and p*_i x E_{i+1} vanish, and
+  where l_i = 0 (the centre of mass at o_i) the l_i x e terms do; the model's NOPOS/NOCOM flags
+  (kernels/common.py) skip them, and the tests check the result is bit-for-bit the general one.
+
+``mrnea_ws`` and ``fd_mrnea_ws`` take a scratch (kernels/common.py ``scratch``) instead of
+allocating one: the batch kernels and the simulation loop use them.
 
 Beyond the paper (which treats revolute joints): for a prismatic joint i the effort is the force
 along its axis, so h_ik = z_i . E_ik and u'_i = z_i . E_i. Eq. 14 folds the external force f_e
@@ -33,28 +40,33 @@ kernels/rnea.py (docs/notation.md).
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from mrnea.kernels.common import (
     JIT,
     MASS,
+    NOCOM,
     NONFINITE,
+    NOPOS,
     OK,
     OVERFLOW,
     PRISMATIC,
     TYPE,
     add,
+    chunk,
     cross,
     dot,
     finite,
     kinematics,
+    mrnea_buffers,
     mv,
+    n_chunks,
+    pose_buffers,
     put,
     scale,
+    scratch,
     sub,
     tip_point,
     vec,
-    workspace,
 )
 from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import cholesky_solve
@@ -67,7 +79,7 @@ def mrnea(model, q, qd, fext, pe, H, u):
     Rows are formed tip to base with n'_ia1 and n'_ia2 (h_ik, k <= i); the upper triangle is
     h_ik = h_ki (H is symmetric), so n'_ia3 is not formed: :func:`mrnea_full` forms it.
     """
-    return _mrnea(model, q, qd, fext, pe, H, u, False)
+    return mrnea_ws(model, q, qd, fext, pe, H, u, False, scratch(q.shape[0], 0, 0))
 
 
 @nb.njit(**JIT)
@@ -76,27 +88,27 @@ def mrnea_full(model, q, qd, fext, pe, H, u):
 
     The paper's form, kept to test that it equals the symmetric fill (tests/).
     """
-    return _mrnea(model, q, qd, fext, pe, H, u, True)
+    return mrnea_ws(model, q, qd, fext, pe, H, u, True, scratch(q.shape[0], 0, 0))
 
 
 @nb.njit(**JIT)
-def _mrnea(model, q, qd, fext, pe, H, u, full):
+def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
+    """:func:`mrnea` (``full``: :func:`mrnea_full`) on the scratch ``ws`` (kernels/common.py)."""
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
-    R, o, z, c, Ic = workspace(n)
+    R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
-
-    buf = np.zeros((4 * n, 3))  # e, d, E, M, each (n, 3); E and M start at zero
-    e = buf[:n]
-    d = buf[n:2 * n]
-    E = buf[2 * n:3 * n]  # row k: E_{(i+1)k} (Eqs. 25-26)
-    M = buf[3 * n:]  # row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
+    # E row k: E_{(i+1)k} (Eqs. 25-26); M row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
+    e, d, E, M = mrnea_buffers(ws, n)
+    for k in range(n):
+        put(E, k, (0.0, 0.0, 0.0))
+        put(M, k, (0.0, 0.0, 0.0))
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
     # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
-    link_forces(model, o, z, c, Ic, qd, np.zeros(n), g, e, d)
+    link_forces(model, o, z, c, Ic, qd, None, g, e, d)
 
     # backward pass: E sums and n' coefficients, tip to base
     E_c = (fext[0], fext[1], fext[2])  # E_{i+1}: starts as f_{n+1} = f_e
@@ -107,26 +119,37 @@ def _mrnea(model, q, qd, fext, pe, H, u, full):
         m_i = model[i + 1, MASS]
         l_i = sub(ci, oi)
         p_star = sub(p_next, oi)  # p*_i
-        # a2 (Eq. 25): p*_i x E_{(i+1)k}, k <= i+1
-        for k in range(min(i + 2, n)):
-            put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
-        if full:  # a3 (Eq. 26): p*_i x E_kk, k >= i+2
-            for k in range(i + 2, n):
+        # Sec. IV's simplifications: terms with p*_i = 0 (o_{i+1} = o_i, NOPOS) or l_i = 0
+        # (NOCOM) vanish; at i = n-1 the a2, a3 terms do too (E_{(n+1)k} = 0: f_e has no qdd part)
+        has_p = i < n - 1 and not model[i + 2, NOPOS]
+        has_l = not model[i + 1, NOCOM]
+        if has_p:  # a2 (Eq. 25): p*_i x E_{(i+1)k}, k <= i+1
+            for k in range(i + 2):
                 put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
+            if full:  # a3 (Eq. 26): p*_i x E_kk, k >= i+2
+                for k in range(i + 2, n):
+                    put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
         # a1 (Eq. 24): d_ik + l_i x e_ik, k <= i; and E_{ik} = E_{(i+1)k} + e_ik
         for k in range(i + 1):
             zk = vec(z, k)
             if model[k + 1, TYPE] == PRISMATIC:
                 e_ik = scale(zk, m_i)  # Eqs. 5, 15
-                t = cross(l_i, e_ik)
+                t = cross(l_i, e_ik) if has_l else (0.0, 0.0, 0.0)
             else:
                 e_ik = scale(cross(zk, sub(ci, vec(o, k))), m_i)  # Eqs. 5, 15
-                t = add(mv(Ic, i, zk), cross(l_i, e_ik))  # d_ik + l_i x e_ik (Eq. 16)
+                t = mv(Ic, i, zk)  # d_ik (Eq. 16)
+                if has_l:
+                    t = add(t, cross(l_i, e_ik))
             put(M, k, add(vec(M, k), t))
             put(E, k, add(vec(E, k), e_ik))
         e_i = vec(e, i)
         # n_ic = d_i + l_i x e_i + p*_i x E_{i+1} (Eq. 23); n'_ic = n'_{(i+1)c} + n_ic (Eq. 28)
-        n_c = add(n_c, add(add(vec(d, i), cross(l_i, e_i)), cross(p_star, E_c)))
+        n_ic = vec(d, i)
+        if has_l:
+            n_ic = add(n_ic, cross(l_i, e_i))
+        if i == n - 1 or has_p:
+            n_ic = add(n_ic, cross(p_star, E_c))
+        n_c = add(n_c, n_ic)
         E_c = add(E_c, e_i)  # E_i
         # Eqs. 35-36: moments projected on the axis; forces for a prismatic joint
         prismatic = model[i + 1, TYPE] == PRISMATIC
@@ -143,23 +166,28 @@ def _mrnea(model, q, qd, fext, pe, H, u, full):
 @nb.njit(**{**JIT, "parallel": True})
 def mrnea_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     """``mrnea`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n); STATUS (B,)."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = mrnea(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = mrnea_ws(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b], False, ws)
 
 
 @nb.njit(**JIT)
-def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
+def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
     """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
 
     Returns OK, NONFINITE, or the index of the pivot where H is not positive definite.
+    Scratch rows: S[:n] H, S[n:2n] its Cholesky factor L, S[2n] u', S[2n + 1] tau - u'.
     """
     if not finite(tau):
         return NONFINITE
     n = q.shape[0]
-    HL = np.empty((2 * n, n))  # H and its Cholesky factor L
-    ur = np.empty((2, n))  # u' and tau - u'
-    H, L, u, rhs = HL[:n], HL[n:], ur[0], ur[1]
-    status = mrnea(model, q, qd, fext, pe, H, u)
+    S = ws[2]
+    H, L, u, rhs = S[:n], S[n:2 * n], S[2 * n], S[2 * n + 1]
+    status = mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
     if status != OK:
         return status
     for i in range(n):
@@ -168,8 +196,19 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
     return status if status != OK or finite(qdd) else OVERFLOW
 
 
+@nb.njit(**JIT)
+def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
+    """``fd_mrnea_ws`` with its own scratch."""
+    return fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, scratch(q.shape[0], 2 * q.shape[0] + 2, 0))
+
+
 @nb.njit(**{**JIT, "parallel": True})
 def fd_mrnea_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``fd_mrnea`` over a batch; STATUS (B,) int64."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = fd_mrnea(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 2 * n + 2, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = fd_mrnea_ws(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

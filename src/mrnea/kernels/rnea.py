@@ -1,8 +1,9 @@
 """RNEA: recursive Newton-Euler inverse dynamics in base coordinates (paper Eqs. 4-19, 32-33).
 
-Usage: ``rnea(model, q, qd, qdd, fext, pe, tau, f, nm)`` fills ``tau`` (n,) with the joint efforts
-and ``f``, ``nm`` (n, 3) with the force and moment that link i-1 exerts on link i through joint i,
-in base coordinates, the moment taken about the joint's point o_i (Eqs. 18-19).
+Usage: ``rnea(model, q, qd, qdd, fext, pe, tau)`` fills ``tau`` (n,) with the joint efforts;
+``rnea_ws(model, q, qd, qdd, fext, pe, tau, ws)`` also the scratch's f, nm (n, 3): the force
+and moment that link i-1 exerts on link i through joint i, in base coordinates, the moment taken
+about the joint's point o_i (Eqs. 18-19).
 
 Index convention (docs/notation.md): the paper's joint i turns about z_{i-1} through the origin of
 frame i-1; here joint i turns about z[i] through o[i], the origin of link i's frame. The paper's
@@ -17,73 +18,87 @@ It enters as the force f_{n+1} = f_e and moment n_{n+1} = n_e of a virtual link 
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from mrnea.kernels.common import (
     JIT,
     MASS,
+    NOCOM,
     NONFINITE,
+    NOPOS,
     OK,
     OVERFLOW,
     PRISMATIC,
     ROT,
     TYPE,
     add,
+    chunk,
     cross,
     dot,
     finite,
+    force_buffers,
     kinematics,
     mat,
     mm,
     mtv,
     mv,
+    n_chunks,
+    pose_buffers,
     put,
     rot,
     scale,
+    scratch,
     sub,
     tip_point,
     vec,
-    workspace,
 )
 
 
 @nb.njit(**JIT)
 def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
-    centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3)."""
+    centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
+
+    ``qdd=None`` means qdd = 0 (the velocity terms alone, as mRNEA needs them): Numba compiles
+    that case without the qdd terms.
+    """
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
     wd = (0.0, 0.0, 0.0)  # its angular acceleration
-    a_p = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
-    o_p = (0.0, 0.0, 0.0)  # parent's origin
+    a_o = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
     for i in range(qd.shape[0]):
         zi, oi = vec(z, i), vec(o, i)
-        p_star = sub(oi, o_p)
-        # acceleration of the point of the parent coinciding with o_i
-        a_o = add(a_p, add(cross(wd, p_star), cross(w, cross(w, p_star))))
+        if not model[i + 1, NOPOS]:  # p*: from the parent's origin to o_i (zero: skipped)
+            p_star = sub(oi, vec(o, i - 1)) if i > 0 else oi
+            # acceleration of the point of the parent coinciding with o_i
+            a_o = add(a_o, add(cross(wd, p_star), cross(w, cross(w, p_star))))
+        qdd_i = 0.0 if qdd is None else qdd[i]
         if model[i + 1, TYPE] == PRISMATIC:
-            a_o = add(a_o, add(scale(zi, qdd[i]), scale(cross(w, zi), 2.0 * qd[i])))
+            a_o = add(a_o, scale(cross(w, zi), 2.0 * qd[i]))
+            if qdd is not None:
+                a_o = add(a_o, scale(zi, qdd_i))
         else:
-            wd = add(wd, add(scale(zi, qdd[i]), scale(cross(w, zi), qd[i])))
+            wd = add(wd, scale(cross(w, zi), qd[i]))
+            if qdd is not None:
+                wd = add(wd, scale(zi, qdd_i))
             w = add(w, scale(zi, qd[i]))
-        r_cm = sub(vec(c, i), oi)
         # Eq. 4: acceleration of the centre of mass
-        a_cm = add(a_o, add(cross(wd, r_cm), cross(w, cross(w, r_cm))))
+        a_cm = a_o
+        if not model[i + 1, NOCOM]:
+            r_cm = sub(vec(c, i), oi)
+            a_cm = add(a_o, add(cross(wd, r_cm), cross(w, cross(w, r_cm))))
         put(F, i, scale(sub(a_cm, g), model[i + 1, MASS]))  # Eq. 6
         put(N, i, add(mv(Ic, i, wd), cross(w, mv(Ic, i, w))))  # Eq. 7
-        a_p, o_p = a_o, oi
 
 
 @nb.njit(**JIT)
 def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
     """The two Newton-Euler passes, given the kinematics (R, o, z, c, Ic) of this state.
 
-    ``g`` is the gravity 3-tuple (Walker-Orin's columns pass zero). Fills tau, f, nm.
+    ``g`` is the gravity 3-tuple (Walker-Orin's columns pass zero); ``qdd=None`` means zero.
+    Fills tau, f, nm; f and nm first hold each link's F (Eq. 6) and N (Eq. 7), which the
+    backward pass reads once, tip to base, before it writes the joint force and moment there.
     """
     n = qd.shape[0]
-    buf = np.empty((2 * n, 3))
-    F = buf[:n]  # total force on link i, Eq. 6
-    N = buf[n:]  # total moment on link i about its centre of mass, Eq. 7
-    link_forces(model, o, z, c, Ic, qd, qdd, g, F, N)
+    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm)
 
     # backward pass: forces and moments, tip to base
     f_next = (fext[0], fext[1], fext[2])  # f_{n+1} = f_e, Eq. 10
@@ -91,11 +106,13 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
     p_next = tip_point(o, R, n, pe)  # where f_{n+1} acts
     for i in range(n - 1, -1, -1):
         oi = vec(o, i)
-        Fi = vec(F, i)
+        Fi = vec(f, i)
         fi = add(Fi, f_next)  # Eq. 18
-        l_i = sub(vec(c, i), oi)
-        p_star = sub(p_next, oi)
-        ni = add(add(n_next, vec(N, i)), add(cross(l_i, Fi), cross(p_star, f_next)))  # Eq. 19
+        ni = add(n_next, vec(nm, i))  # Eq. 19: n_{i+1} + N_i + l_i x F_i + p*_i x f_{i+1}
+        if not model[i + 1, NOCOM]:
+            ni = add(ni, cross(sub(vec(c, i), oi), Fi))
+        if i == n - 1 or not model[i + 2, NOPOS]:  # p*_i = 0 where o_{i+1} = o_i
+            ni = add(ni, cross(sub(p_next, oi), f_next))
         put(f, i, fi)
         put(nm, i, ni)
         # Eq. 33: projection on the axis of motion (force for a prismatic joint)
@@ -104,14 +121,14 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
 
 
 @nb.njit(**JIT)
-def rnea(model, q, qd, qdd, fext, pe, tau, f, nm):
-    """Inverse dynamics of one state; fills tau (n,), f (n, 3), nm (n, 3) (module docstring).
-
-    Returns OK, or NONFINITE if an input holds NaN or inf.
+def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws):
+    """Inverse dynamics of one state; fills tau (n,) and the scratch's ``force_buffers`` f, nm
+    (n, 3) (module docstring). Returns OK, or NONFINITE if an input holds NaN or inf.
     """
+    f, nm = force_buffers(ws, q.shape[0])
     if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
         return NONFINITE
-    R, o, z, c, Ic = workspace(q.shape[0])
+    R, o, z, c, Ic = pose_buffers(ws, q.shape[0])
     kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
@@ -119,22 +136,26 @@ def rnea(model, q, qd, qdd, fext, pe, tau, f, nm):
 
 
 @nb.njit(**JIT)
-def reactions(model, q, qd, qdd, fext, pe, tau, out):
+def rnea(model, q, qd, qdd, fext, pe, tau):
+    """Joint efforts tau (n,) of one state; returns a status (``rnea_ws``)."""
+    return rnea_ws(model, q, qd, qdd, fext, pe, tau, scratch(q.shape[0], 0, 0))
+
+
+@nb.njit(**JIT)
+def reactions_ws(model, q, qd, qdd, fext, pe, out, ws):
     """Joint reaction wrenches of one state, each in its joint frame (Eq. 32).
 
     ``out[i] = [f; n]`` (6,): force [N] and moment [N m] that link i-1 exerts on link i through
     joint i, in the joint frame (the parent's frame moved by the joint origin, fixed to the
     parent: the bearing's housing), the moment about the joint frame's origin o_i.
+    Scratch rows: S[0] (the efforts, not returned).
     """
-    if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
-        return NONFINITE
     n = q.shape[0]
-    R, o, z, c, Ic = workspace(n)
-    kinematics(model, q, R, o, z, c, Ic)
-    g = (model[0, 0], model[0, 1], model[0, 2])
-    f = np.empty((n, 3))
-    nm = np.empty((n, 3))
-    newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
+    status = rnea_ws(model, q, qd, qdd, fext, pe, ws[2][0], ws)
+    if status != OK:
+        return status
+    R, _, z, _, _ = pose_buffers(ws, n)
+    f, nm = force_buffers(ws, n)
     for i in range(n):
         # joint frame: the parent's orientation times the origin rotation, D_{i-1} in Eq. 32
         Rp = rot(R, i - 1) if i > 0 else (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
@@ -152,18 +173,31 @@ def reactions(model, q, qd, qdd, fext, pe, tau, out):
     return OK if finite(out) else OVERFLOW
 
 
+@nb.njit(**JIT)
+def reactions(model, q, qd, qdd, fext, pe, out):
+    """``reactions_ws`` with its own scratch."""
+    return reactions_ws(model, q, qd, qdd, fext, pe, out, scratch(q.shape[0], 1, 0))
+
+
 @nb.njit(**{**JIT, "parallel": True})
 def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS):
     """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,)."""
-    n = Q.shape[1]
-    for b in nb.prange(Q.shape[0]):
-        f = np.empty((n, 3))
-        nm = np.empty((n, 3))
-        STATUS[b] = rnea(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], f, nm)
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], ws)
 
 
 @nb.njit(**{**JIT, "parallel": True})
-def reactions_batch(model, Q, QD, QDD, FEXT, PE, TAU, OUT, STATUS):
+def reactions_batch(model, Q, QD, QDD, FEXT, PE, OUT, STATUS):
     """``reactions`` over a batch: OUT (B, n, 6), STATUS (B,)."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = reactions(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], OUT[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 1, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = reactions_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], OUT[b], ws)

@@ -21,11 +21,10 @@ Returns (-1, OK), or the cycle and status of a failure.
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from mrnea.kernels.achievable import step
-from mrnea.kernels.common import JIT, OK
-from mrnea.kernels.rnea import reactions
+from mrnea.kernels.common import JIT, OK, scratch
+from mrnea.kernels.rnea import reactions_ws
 
 
 @nb.njit(**JIT)
@@ -33,10 +32,8 @@ def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch
                     q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
     K, n = q_cmd.shape
-    q_next = np.empty(n)
-    qd_next = np.empty(n)
-    v = np.empty(n)
-    scratch = np.empty(n)
+    ws = scratch(n, 3 * n + 9, 4)  # step uses S[:3n + 6], reactions S[0]; then the loop's vectors
+    q_next, qd_next, v = ws[2][3 * n + 6], ws[2][3 * n + 7], ws[2][3 * n + 8]
     for k in range(k0, k1):
         last = k + 1 >= K
         for i in range(n):
@@ -44,10 +41,10 @@ def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch
             v[i] += catch_up * (q_cmd[k, i] - q[k, i])
         status = step(model, act, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt,
                       fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], tau_req[k],
-                      limit[k], sat[k], q_next, qd_next, clamp[k])
+                      limit[k], sat[k], q_next, qd_next, clamp[k], ws)
         if status != OK:
             return k, status
-        status = reactions(model, q[k], qd[k], qdd[k], fext[k], pe[k], scratch, wrench[k])
+        status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws)
         if status != OK:
             return k, status
         if not last:

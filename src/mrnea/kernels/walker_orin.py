@@ -29,7 +29,7 @@ def walker_orin(model, q, qd, fext, pe, H, u):
     f = np.empty((n, 3))
     nm = np.empty((n, 3))
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, np.zeros(n), g, fext, pe, u, f, nm)
+    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm)
     zero_n = np.zeros(n)
     zero_w = np.zeros(6)
     unit = np.zeros(n)
