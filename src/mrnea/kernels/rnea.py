@@ -121,15 +121,18 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
 
 
 @nb.njit(**JIT)
-def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws):
+def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     """Inverse dynamics of one state; fills tau (n,) and the scratch's ``force_buffers`` f, nm
     (n, 3) (module docstring). Returns OK, or NONFINITE if an input holds NaN or inf.
+    ``pose_ready``: the scratch's pose buffers already hold the kinematics of this q (the
+    simulation loop, after an mRNEA pass on the same state), so they are not computed again.
     """
     f, nm = force_buffers(ws, q.shape[0])
     if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, q.shape[0])
-    kinematics(model, q, R, o, z, c, Ic)
+    if not pose_ready:
+        kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
@@ -142,16 +145,16 @@ def rnea(model, q, qd, qdd, fext, pe, tau):
 
 
 @nb.njit(**JIT)
-def reactions_ws(model, q, qd, qdd, fext, pe, out, ws):
+def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     """Joint reaction wrenches of one state, each in its joint frame (Eq. 32).
 
     ``out[i] = [f; n]`` (6,): force [N] and moment [N m] that link i-1 exerts on link i through
     joint i, in the joint frame (the parent's frame moved by the joint origin, fixed to the
     parent: the bearing's housing), the moment about the joint frame's origin o_i.
-    Scratch rows: S[0] (the efforts, not returned).
+    Scratch rows: S[0] (the efforts, not returned). ``pose_ready``: as ``rnea_ws``.
     """
     n = q.shape[0]
-    status = rnea_ws(model, q, qd, qdd, fext, pe, ws[2][0], ws)
+    status = rnea_ws(model, q, qd, qdd, fext, pe, ws[2][0], ws, pose_ready)
     if status != OK:
         return status
     R, _, z, _, _ = pose_buffers(ws, n)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from mrnea.kernels.achievable import step
+from mrnea.kernels.achievable import ENGINE_MRNEA, step
 from mrnea.kernels.common import JIT, OK, scratch
 from mrnea.kernels.rnea import reactions_ws
 
@@ -44,7 +44,9 @@ def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch
                       limit[k], sat[k], q_next, qd_next, clamp[k], ws)
         if status != OK:
             return k, status
-        status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws)
+        # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
+        status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws,
+                              engine == ENGINE_MRNEA)
         if status != OK:
             return k, status
         if not last:
