@@ -110,9 +110,9 @@ def _single(robot: object, a: object, b: object, c: object) -> bool:
     Such a state goes straight to the kernels, which check finiteness themselves (status
     NONFINITE, then :func:`_check` names the argument); anything else is validated here.
     """
-    return (type(robot) is Robot and type(a) is _ND and type(b) is _ND and type(c) is _ND
-            and a.shape == b.shape == c.shape == robot._shape
-            and a.dtype is _F64 and b.dtype is _F64 and c.dtype is _F64)
+    return (type(robot) is Robot and type(a) is type(b) is type(c) is _ND
+            and a.dtype is b.dtype is c.dtype is _F64
+            and a.shape == b.shape == c.shape == robot._shape)
 
 
 def _require_robot(robot: object) -> None:
@@ -146,12 +146,12 @@ def _inputs(
 
 
 def _method(method: str, table: dict) -> tuple:
-    try:
-        return table[method]
-    except (KeyError, TypeError):  # TypeError: an unhashable value
+    """``table[method]``; a StateError for a method the table does not hold."""
+    kernels = table.get(method) if isinstance(method, str) else None
+    if kernels is None:
         raise StateError(
-            f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}"
-        ) from None
+            f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}")
+    return kernels
 
 
 def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> None:
