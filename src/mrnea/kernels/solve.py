@@ -1,6 +1,7 @@
 """Solve H qdd = rhs by Cholesky (H symmetric positive definite), checking every pivot.
 
-Usage: ``status = cholesky_solve(H, rhs, L, x)`` fills ``x`` (n,) using ``L`` (n, n) as scratch;
+Usage: ``status = cholesky_solve(H, rhs, L, x)`` fills ``x`` (n,) using ``L`` (n, n) as scratch
+(its strict lower triangle holds the factor, its diagonal the factor's reciprocal pivots);
 ``status`` is OK (-1) or the index of the first pivot that is not positive relative to the largest
 diagonal entry of H (a singular or indefinite H: for example a massless moving tip link).
 H and rhs are not modified.
@@ -30,21 +31,21 @@ def cholesky_solve(H, rhs, L, x):
             s -= L[j, k] * L[j, k]
         if not s > tol:  # also catches NaN
             return j
-        ljj = np.sqrt(s)
-        L[j, j] = ljj
+        inv = 1.0 / np.sqrt(s)  # one division per pivot: the column and both solves multiply
+        L[j, j] = inv  # the diagonal of the scratch L holds 1 / L_jj
         for i in range(j + 1, n):
             s = H[i, j]
             for k in range(j):
                 s -= L[i, k] * L[j, k]
-            L[i, j] = s / ljj
+            L[i, j] = s * inv
     for i in range(n):  # L y = rhs
         s = rhs[i]
         for k in range(i):
             s -= L[i, k] * x[k]
-        x[i] = s / L[i, i]
+        x[i] = s * L[i, i]
     for i in range(n - 1, -1, -1):  # L^T x = y
         s = x[i]
         for k in range(i + 1, n):
             s -= L[k, i] * x[k]
-        x[i] = s / L[i, i]
+        x[i] = s * L[i, i]
     return OK
