@@ -5,7 +5,7 @@
   joints locked with ``buildReducedModel``); the built-in robots exported with ``to_urdf``.
 * :func:`to_pinocchio` -- the same chain built directly (one Pinocchio joint per mrnea joint,
   ``nq == nv``), used for the random chains and the simulation loop.
-* :func:`random_chain` -- a random, physically consistent chain (a copy of tests/conftest.py's).
+* :func:`random_chain` -- a random, physically consistent chain (tests/conftest.py's builder).
 * :func:`rel_err` -- the error measure of the tests: ``max|a - b| / max(1, max|b|)``.
 """
 
@@ -22,7 +22,10 @@ import numpy as np
 import pinocchio as pin
 
 import mrnea
-from mrnea import Joint, Link, Robot
+from mrnea import Robot
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+from conftest import random_chain
 
 
 def rel_err(a, b) -> float:
@@ -125,42 +128,6 @@ def to_pinocchio(robot: Robot) -> pin.Model:
 
 
 # --- random chains (tests/conftest.py's builder) ---------------------------------------------
-
-def _random_rotation(rng: np.random.Generator) -> np.ndarray:
-    Q, R = np.linalg.qr(rng.normal(size=(3, 3)))
-    Q = Q * np.sign(np.diag(R))
-    if np.linalg.det(Q) < 0:
-        Q[:, 0] = -Q[:, 0]
-    return Q
-
-
-def _random_inertia(rng: np.random.Generator, mass: float) -> np.ndarray:
-    a, b, c = rng.uniform(0.05, 0.4, size=3)
-    principal = mass / 5.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
-    R = _random_rotation(rng)
-    inertia = R @ np.diag(principal) @ R.T
-    return 0.5 * (inertia + inertia.T)
-
-
-def random_chain(rng: np.random.Generator, n: int, prismatic_fraction: float = 0.3) -> Robot:
-    """A random serial chain of n joints (revolute, prismatic with probability
-    ``prismatic_fraction``): random origins and axes, masses 0.5-5 kg, solid-ellipsoid inertias."""
-    joints, links = [], []
-    parent = "base"
-    for i in range(n):
-        typ = "prismatic" if rng.random() < prismatic_fraction else "revolute"
-        origin = np.eye(4)
-        origin[:3, :3] = _random_rotation(rng)
-        origin[:3, 3] = rng.uniform(-0.5, 0.5, size=3)
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        mass = float(rng.uniform(0.5, 5.0))
-        joints.append(Joint(f"j{i}", typ, parent, f"l{i}", origin=origin, axis=axis))
-        links.append(Link(f"l{i}", mass=mass, com=rng.uniform(-0.2, 0.2, size=3),
-                          inertia=_random_inertia(rng, mass)))
-        parent = f"l{i}"
-    return Robot(joints, links, name=f"random{n}")
-
 
 def random_chains(ns, seed: int = 0) -> dict[int, Robot]:
     """One random chain per size n, the same in every process (seeded by (seed, n))."""
