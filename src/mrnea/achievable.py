@@ -26,7 +26,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import _array, _check, _inputs, _require_robot
+from mrnea.dynamics import _array, _check, _inputs, _require_robot, _time_step
 from mrnea.errors import StateError
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
@@ -95,19 +95,6 @@ class StepResult(AchievableResult):
     qd_cmd: NDArray[np.float64] = None  # type: ignore[assignment]
     position_clamped: NDArray[np.bool_] = None  # type: ignore[assignment]
     velocity_clamped: NDArray[np.bool_] = None  # type: ignore[assignment]
-
-
-def _time_step(dt: object) -> float:
-    """dt [s] as a float: a finite number > 0 (a bool is not a time step)."""
-    if isinstance(dt, bool):
-        raise StateError(f"dt: not a number: {dt!r}")
-    try:
-        dt = float(dt)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise StateError(f"dt: not a number: {dt!r}") from None
-    if not (np.isfinite(dt) and dt > 0):
-        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
-    return dt
 
 
 def _mode(mode: str) -> int:

@@ -104,6 +104,19 @@ def _array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
     return a
 
 
+def _time_step(dt: object) -> float:
+    """dt [s] as a float: a finite number > 0 (a bool is not a time step)."""
+    if isinstance(dt, bool):
+        raise StateError(f"dt: not a number: {dt!r}")
+    try:
+        dt = float(dt)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise StateError(f"dt: not a number: {dt!r}") from None
+    if not (np.isfinite(dt) and dt > 0):
+        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
+    return dt
+
+
 def _single(robot: object, a: object, b: object, c: object) -> bool:
     """True for the fast path: a Robot and three float64 ndarrays of shape (n,), no wrench.
 

@@ -29,8 +29,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.achievable import _mode, _time_step
-from mrnea.dynamics import _array, _require_robot
+from mrnea.achievable import _mode
+from mrnea.dynamics import _array, _require_robot, _time_step
 from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mrnea.dynamics import _time_step
 from mrnea.errors import MrneaError, StateError
 
 if TYPE_CHECKING:
@@ -77,16 +78,6 @@ class ProgramFileError(MrneaError):
 
 
 # --- argument checks ------------------------------------------------------------------------
-
-
-def _dt(dt: object) -> float:
-    try:
-        value = float(dt)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise StateError(f"dt: not a number: {dt!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise StateError(f"dt: must be a finite time step > 0 s, got {value}")
-    return value
 
 
 def _t0(t0: object) -> float:
@@ -295,7 +286,7 @@ def trapezoidal(
     StateError
         Bad shapes or values (non-finite waypoints, limits <= 0 or NaN, dt <= 0, ...).
     """
-    dt = _dt(dt)
+    dt = _time_step(dt)
     t0 = _t0(t0)
     w = _waypoints(waypoints)
     W, n = w.shape
@@ -349,7 +340,7 @@ def quintic(
     StateError
         Bad shapes or values.
     """
-    dt = _dt(dt)
+    dt = _time_step(dt)
     t0 = _t0(t0)
     w = _waypoints(waypoints)
     W, n = w.shape
@@ -482,7 +473,7 @@ def from_csv(
     StateError
         Bad ``dt`` or ``n``.
     """
-    dt = _dt(dt)
+    dt = _time_step(dt)
     if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1):
         raise StateError(f"n: expected a number of joints >= 1 or None, got {n!r}")
     p = Path(path)

@@ -70,15 +70,14 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
             p_star = sub(oi, vec(o, i - 1)) if i > 0 else oi
             # acceleration of the point of the parent coinciding with o_i
             a_o = add(a_o, add(cross(wd, p_star), cross(w, cross(w, p_star))))
-        qdd_i = 0.0 if qdd is None else qdd[i]
         if model[i + 1, TYPE] == PRISMATIC:
             a_o = add(a_o, scale(cross(w, zi), 2.0 * qd[i]))
             if qdd is not None:
-                a_o = add(a_o, scale(zi, qdd_i))
+                a_o = add(a_o, scale(zi, qdd[i]))
         else:
             wd = add(wd, scale(cross(w, zi), qd[i]))
             if qdd is not None:
-                wd = add(wd, scale(zi, qdd_i))
+                wd = add(wd, scale(zi, qdd[i]))
             w = add(w, scale(zi, qd[i]))
         # Eq. 4: acceleration of the centre of mass
         a_cm = a_o
