@@ -613,16 +613,16 @@ def kernel_times(case: models.Case, cfg: Config) -> dict:
     n, model = robot.n, robot.compiled
     rng = np.random.default_rng(SEED)
     Q, QD, TAU = rng.uniform(-1.0, 1.0, (3, 64, robot.n))
-    fe, pe, qdd = np.zeros(6), np.zeros(3), np.empty(n)
+    qdd = np.empty(n)
     H, u = np.empty((n, n)), np.empty(n)
     reps = 1000
-    c = {("kernel", m): (lambda k=k: _repeat(k, model, Q, QD, TAU, fe, pe, qdd, reps))
+    c = {("kernel", m): (lambda k=k: _repeat(k, model, Q, QD, TAU, None, None, qdd, reps))
          for m, k in KERNELS.items()}
-    c[("kernel", "mrnea pass")] = lambda: _repeat_pass(model, Q, QD, fe, pe, H, u, reps)
+    c[("kernel", "mrnea pass")] = lambda: _repeat_pass(model, Q, QD, None, None, H, u, reps)
     q, qd, tau = Q[0], QD[0], TAU[0]
     for m, k in KERNELS.items():
-        c[("direct", m)] = lambda k=k: k(model, q, qd, tau, fe, pe, qdd)
-        c[("entry", m)] = lambda e=_FD[m][0]: e.call(model, q, qd, tau, fe, pe, qdd)
+        c[("direct", m)] = lambda k=k: k(model, q, qd, tau, None, None, qdd)
+        c[("entry", m)] = lambda e=_FD[m][0]: e.free(model, q, qd, tau, None, None, qdd)
         c[("api", m)] = lambda m=m: forward_dynamics(robot, q, qd, tau, method=m)
     t = compare(c, cfg.rounds)
     return {k: (v / reps if k[0] == "kernel" else v) for k, v in t.items()}

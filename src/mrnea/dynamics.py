@@ -17,6 +17,7 @@ unknown method) and :class:`mrnea.errors.SingularMassMatrixError`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Literal
 
 import numba as nb
@@ -41,30 +42,43 @@ Method = Literal["mrnea", "walker_orin", "crba", "aba"]
 
 
 class _Entry:
-    """A single-state kernel called through its machine-code entry for one fixed signature.
+    """A single-state kernel called through its machine-code entries for fixed signatures.
 
     Numba's dispatcher types every argument on every call to pick the compiled version; at this
     size that costs about a third of a call. The public functions check the arguments' types
-    themselves (:func:`_single`, :func:`_inputs`: float64 ndarrays of the right shape), so they
-    call the entry of the one signature below directly. ``Dispatcher.compile`` compiles it (or
-    loads it from Numba's disk cache) on the first call and returns that entry.
+    themselves (:func:`_single`, :func:`_inputs`: float64 ndarrays of one dimension; the kernel
+    checks their lengths, status SIZE), so they call an entry directly: ``free`` takes
+    ``fext=None, pe=None`` (no external wrench: Numba compiles that case without reading
+    either, and two fewer arrays cross from Python), ``call`` takes both arrays.
+    ``Dispatcher.compile`` compiles an entry (or loads it from Numba's disk cache) on its first
+    call and returns it.
     """
 
-    __slots__ = ("_kernel", "_sig", "call")
+    __slots__ = ("_kernel", "call", "free")
 
     def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type) -> None:
         py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT
-        n_in = py_func.__code__.co_argcount - 1 - len(outputs)
+        states = [_IN] * (py_func.__code__.co_argcount - 3 - len(outputs))
         self._kernel = kernel
-        self._sig = nb.types.int64(_MODEL, *([_IN] * n_in), *outputs)
-        self.call = self._first if hasattr(kernel, "compile") else kernel
+        if hasattr(kernel, "compile"):
+            none = nb.types.none
+            self.call = self._first("call", nb.types.int64(_MODEL, *states, _IN, _IN, *outputs))
+            self.free = self._first("free", nb.types.int64(_MODEL, *states, none, none, *outputs))
+        else:
+            self.call = self.free = kernel
 
-    def _first(self, *args: object) -> int:
-        self.call = self._kernel.compile(self._sig)
-        return self.call(*args)
+    def _first(self, slot: str, sig: nb.core.typing.Signature) -> Callable[..., int]:
+        """A stand-in for the entry ``slot`` that compiles it on its first call."""
+
+        def first(*args: object) -> int:
+            entry = self._kernel.compile(sig)
+            setattr(self, slot, entry)
+            return entry(*args)
+
+        return first
 
 
-# the signature: the compiled model, inputs of any layout, outputs as allocated here
+# the signatures: the compiled model, inputs of any layout, outputs as allocated here
 _MODEL = nb.types.Array(nb.types.float64, 2, "C", readonly=True)
 _IN = nb.types.Array(nb.types.float64, 1, "A")
 _OUT1 = nb.types.Array(nb.types.float64, 1, "C")
@@ -118,14 +132,15 @@ def _time_step(dt: object) -> float:
 
 
 def _single(robot: object, a: object, b: object, c: object) -> bool:
-    """True for the fast path: a Robot and three float64 ndarrays of shape (n,), no wrench.
+    """True for the fast path: a Robot and three one-dimensional float64 ndarrays, no wrench.
 
-    Such a state goes straight to the kernels, which check finiteness themselves (status
-    NONFINITE, then :func:`_check` names the argument); anything else is validated here.
+    Such a state goes straight to a kernel's ``free`` entry, which checks the lengths (status
+    SIZE) and finiteness (NONFINITE) itself; on any status but OK the call takes the validated
+    path (:func:`_evaluate`), which names the offending argument. The type, dtype and ndim must
+    be checked here: the compiled entry would read an array of another dtype or ndim wrongly.
     """
     return (type(robot) is Robot and type(a) is type(b) is type(c) is _ND
-            and a.dtype is b.dtype is c.dtype is _F64
-            and a.shape == b.shape == c.shape == robot._shape)
+            and a.dtype is b.dtype is c.dtype is _F64 and a.ndim == b.ndim == c.ndim == 1)
 
 
 def _require_robot(robot: object) -> None:
@@ -160,11 +175,12 @@ def _inputs(
 
 def _method(method: str, table: dict) -> tuple:
     """``table[method]``; a StateError for a method the table does not hold."""
-    kernels = table.get(method) if isinstance(method, str) else None
-    if kernels is None:
+    try:
+        return table[method]
+    except (KeyError, TypeError):  # TypeError: an unhashable value
         raise StateError(
-            f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}")
-    return kernels
+            f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}"
+        ) from None
 
 
 def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> None:
@@ -192,6 +208,36 @@ def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> N
     )
 
 
+def _evaluate(
+    robot: Robot,
+    kernel: _Entry,
+    kernel_batch: nb.core.registry.CPUDispatcher,
+    states: dict[str, ArrayLike],
+    f_ext: ArrayLike | None,
+    f_ext_point: ArrayLike | None,
+    shapes: Callable[[int], tuple[tuple[int, ...], ...]],
+) -> list[NDArray[np.float64]]:
+    """The validated path every public function shares: check and broadcast the inputs, run
+    the single-state kernel or the batch kernel, raise what its status reports. ``shapes(n)``:
+    the outputs' shapes for one state (a batch prepends B). Returns the outputs."""
+    batched, arrays, fe, pe = _inputs(robot, states, f_ext, f_ext_point)
+    m = robot.compiled
+    if batched:
+        B = arrays[0].shape[0]
+        outputs = [np.empty((B, *shape)) for shape in shapes(robot.n)]
+        status = np.empty(B, dtype=np.int64)
+        kernel_batch(m, *arrays, fe, pe, *outputs, status)
+    else:
+        outputs = [np.empty(shape) for shape in shapes(robot.n)]
+        if f_ext is None:  # a point without a force changes nothing
+            status = kernel.free(m, *arrays, None, None, *outputs)
+        else:
+            status = kernel.call(m, *arrays, fe, pe, *outputs)
+    if batched or status != OK:
+        _check(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    return outputs
+
+
 def inverse_dynamics(
     robot: Robot,
     q: ArrayLike,
@@ -206,20 +252,10 @@ def inverse_dynamics(
     """
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
         tau = np.empty(robot._shape)
-        if _RNEA.call(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, tau) == OK:
+        if _RNEA.free(robot.compiled, q, qd, qdd, None, None, tau) == OK:
             return tau
     args = {"q": q, "qd": qd, "qdd": qdd}
-    batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
-    m = robot.compiled
-    if batched:
-        tau = np.empty_like(q)
-        status = np.empty(q.shape[0], dtype=np.int64)
-        rnea_batch(m, q, qd, qdd, fe, pe, tau, status)
-    else:
-        tau = np.empty(robot.n)
-        status = _RNEA.call(m, q, qd, qdd, fe, pe, tau)
-    if batched or status != OK:
-        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    (tau,) = _evaluate(robot, _RNEA, rnea_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
     return tau
 
 
@@ -241,23 +277,10 @@ def mass_matrix_and_bias(
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, qd):
         n = robot.n
         H, u = np.empty((n, n)), np.empty(n)
-        if kernel.call(robot.compiled, q, qd, _ZERO_WRENCH, _ZERO_POINT, H, u) == OK:
+        if kernel.free(robot.compiled, q, qd, None, None, H, u) == OK:
             return H, u
-    args = {"q": q, "qd": qd}
-    batched, (q, qd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
-    m = robot.compiled
-    n = robot.n
-    if batched:
-        H = np.empty((q.shape[0], n, n))
-        u = np.empty_like(q)
-        status = np.empty(q.shape[0], dtype=np.int64)
-        kernel_batch(m, q, qd, fe, pe, H, u, status)
-    else:
-        H = np.empty((n, n))
-        u = np.empty(n)
-        status = kernel.call(m, q, qd, fe, pe, H, u)
-    if batched or status != OK:
-        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    H, u = _evaluate(robot, kernel, kernel_batch, {"q": q, "qd": qd}, f_ext, f_ext_point,
+                     lambda n: ((n, n), (n,)))
     return H, u
 
 
@@ -280,20 +303,10 @@ def forward_dynamics(
     kernel, kernel_batch = _method(method, _FD)
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, tau):
         qdd = np.empty(robot._shape)
-        if kernel.call(robot.compiled, q, qd, tau, _ZERO_WRENCH, _ZERO_POINT, qdd) == OK:
+        if kernel.free(robot.compiled, q, qd, tau, None, None, qdd) == OK:
             return qdd
     args = {"q": q, "qd": qd, "tau": tau}
-    batched, (q, qd, tau), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
-    m = robot.compiled
-    if batched:
-        qdd = np.empty_like(q)
-        status = np.empty(q.shape[0], dtype=np.int64)
-        kernel_batch(m, q, qd, tau, fe, pe, qdd, status)
-    else:
-        qdd = np.empty(robot.n)
-        status = kernel.call(m, q, qd, tau, fe, pe, qdd)
-    if batched or status != OK:
-        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    (qdd,) = _evaluate(robot, kernel, kernel_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
     return qdd
 
 
@@ -315,21 +328,10 @@ def joint_reactions(
     (prismatic) is the joint effort tau_i; the rest is what the bearing carries.
     """
     if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
-        n = robot.n
-        out = np.empty((n, 6))
-        if _REACTIONS.call(robot.compiled, q, qd, qdd, _ZERO_WRENCH, _ZERO_POINT, out) == OK:
+        out = np.empty((robot.n, 6))
+        if _REACTIONS.free(robot.compiled, q, qd, qdd, None, None, out) == OK:
             return out
     args = {"q": q, "qd": qd, "qdd": qdd}
-    batched, (q, qd, qdd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
-    m = robot.compiled
-    n = robot.n
-    if batched:
-        out = np.empty((q.shape[0], n, 6))
-        status = np.empty(q.shape[0], dtype=np.int64)
-        reactions_batch(m, q, qd, qdd, fe, pe, out, status)
-    else:
-        out = np.empty((n, 6))
-        status = _REACTIONS.call(m, q, qd, qdd, fe, pe, out)
-    if batched or status != OK:
-        _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    (out,) = _evaluate(robot, _REACTIONS, reactions_batch, args, f_ext, f_ext_point,
+                       lambda n: ((n, 6),))
     return out

@@ -18,20 +18,24 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import (
+    ALLOC,
     JIT,
     MASS,
     NONFINITE,
     OK,
     OVERFLOW,
     PRISMATIC,
+    SIZE,
     TYPE,
     add,
     cross,
     finite,
     kinematics,
+    sized,
     tip_point,
     vec,
     workspace,
+    wrench,
 )
 
 
@@ -55,9 +59,11 @@ def _force_cross(v, f, out):
     out[0], out[1], out[2], out[3], out[4], out[5] = a[0], a[1], a[2], b[0], b[1], b[2]
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def aba(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics of one state by the articulated-body algorithm (module docstring)."""
+    if not sized(model, q, qd, tau):
+        return SIZE
     if not (finite(q) and finite(qd) and finite(tau) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
@@ -106,8 +112,8 @@ def aba(model, q, qd, tau, fext, pe, qdd):
         _force_cross(v[i], Iv, pA[i])
     # the environment's reaction on the last link: p_n -= -[n_e + p x f_e; f_e]
     p = tip_point(o, R, n, pe)
-    fe = (fext[0], fext[1], fext[2])
-    ne = add((fext[3], fext[4], fext[5]), cross(p, fe))
+    fe, ne = wrench(fext)
+    ne = add(ne, cross(p, fe))
     for a in range(3):
         pA[n - 1, a] += ne[a]
         pA[n - 1, 3 + a] += fe[a]
@@ -162,7 +168,7 @@ def aba(model, q, qd, tau, fext, pe, qdd):
     return OK if finite(qdd) else OVERFLOW
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``aba`` over a batch; STATUS (B,) int64 receives each state's status."""
     for b in nb.prange(Q.shape[0]):

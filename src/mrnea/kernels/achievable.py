@@ -48,6 +48,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import (
+    ALLOC,
     JIT,
     NONFINITE,
     OK,
@@ -115,7 +116,7 @@ def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
     return OK
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def actuator_terms_batch(model, act, Q, QD, FEXT, PE, engine, HA, UA, STATUS):
     """``actuator_terms`` over a batch: HA (B, n, n), UA (B, n), STATUS (B,)."""
     B, n = Q.shape
@@ -187,7 +188,7 @@ def _start_from_rest(act, qd, qdd_des, i, held, slip):
         held[i] = True
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def achievable(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
                sat):
     """``achievable_ws`` with its own scratch."""
@@ -331,7 +332,7 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
     return OK
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def achievable_batch(model, act, Q, QD, QDD_DES, FEXT, PE, mode, engine, QDD, TAU, TAU_REQ,
                      LIMIT, SAT, STATUS):
     """``achievable`` over a batch (B, n) (FEXT (B, 6), PE (B, 3), STATUS (B,))."""

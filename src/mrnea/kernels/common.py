@@ -48,15 +48,27 @@ NCOL = 52
 PRISMATIC = 1.0
 
 # Kernel status codes: OK, NONFINITE (an input holds NaN or inf), OVERFLOW (finite inputs gave a
-# result that is not finite: values too large for float64); a value >= 0 is the index of the
-# joint whose pivot of H (or articulated inertia) is not positive.
+# result that is not finite: values too large for float64), SIZE (a state array's length is not
+# the model's n: the single-state entries check it, so that the public wrapper need not); a value
+# >= 0 is the index of the joint whose pivot of H (or articulated inertia) is not positive.
 OK = -1
 NONFINITE = -2
 OVERFLOW = -3
+SIZE = -4
 
 # Numba options, set in one place: compiled code is cached on disk next to the sources.
-JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
+# JIT: a kernel that allocates nothing runs without reference counting ("_nrt": False). Every
+# array it sees belongs to a caller that holds it for the whole call, so the atomic
+# increments and decrements Numba would emit for each array argument and view (dozens per
+# state, contended between threads in a batch) are pure cost. Such a kernel must not return an
+# array (its caller would release a reference it never took): the helpers that return views
+# are VIEWS, compiled into their caller. No fastmath: NaN and inf checks must stay, and fused
+# multiply-adds (4-8 % faster, measured) would round differently from the same sums in NumPy.
+# ALLOC: a kernel that allocates (a scratch, or the comparison kernels' own arrays).
+JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy", "_nrt": False}
+ALLOC = {**JIT, "_nrt": True}
 INLINE = JIT
+VIEWS = {"inline": "always"}
 
 
 def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
@@ -87,35 +99,38 @@ def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
     return m
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def scratch(n, s_rows, i_rows):
     """Scratch memory for one state of an n-joint robot: the tuple ``(T, V, S, I)`` of 3x3
     matrices T (2n, 3, 3), 3-vectors V (7n, 3), s_rows rows of n floats S and i_rows rows of n
     ints I (each kernel's docstring says which rows it uses). The 3x3 and 3-vector buffers
     have fixed slots, first-axis slices (no copy, no reshape): the pose (:func:`pose_buffers`),
     then either mRNEA's sums (:func:`mrnea_buffers`) or the Newton-Euler forces
-    (:func:`force_buffers`). Allocation costs time by the byte, so each caller asks for what it
-    uses.
+    (:func:`force_buffers`). All four are views of one allocation (the ints reinterpret 8-byte
+    words of it), so a single-state call allocates once; each caller asks for the rows it uses.
     """
-    return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
-            np.empty((max(i_rows, 1), n), dtype=np.int64))
+    s_rows, i_rows = max(s_rows, 1), max(i_rows, 1)
+    buf = np.empty(39 * n + (s_rows + i_rows) * n)
+    a, b, c = 18 * n, 39 * n, (39 + s_rows) * n
+    return (buf[:a].reshape((2 * n, 3, 3)), buf[a:b].reshape((7 * n, 3)),
+            buf[b:c].reshape((s_rows, n)), buf[c:].view(np.int64).reshape((i_rows, n)))
 
 
-@nb.njit(**INLINE)
+@nb.njit(**VIEWS)
 def pose_buffers(ws, n):
     """R, o, z, c, Ic: the kinematics pass's output slots in the scratch ``ws``."""
     T, V = ws[0], ws[1]
     return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:]
 
 
-@nb.njit(**INLINE)
+@nb.njit(**VIEWS)
 def mrnea_buffers(ws, n):
     """e, d, E, M (n, 3) of the mRNEA pass (kernels/mrnea.py)."""
     V = ws[1]
     return V[3 * n:4 * n], V[4 * n:5 * n], V[5 * n:6 * n], V[6 * n:7 * n]
 
 
-@nb.njit(**INLINE)
+@nb.njit(**VIEWS)
 def force_buffers(ws, n):
     """f, nm (n, 3): the Newton-Euler passes' forces and moments (kernels/rnea.py); the slots
     of mRNEA's e, d."""
@@ -298,7 +313,7 @@ def n_chunks(B):
     return min(B, 64)
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def workspace(n):
     """R, o, z, c, Ic in a new scratch (for the comparison kernels, which allocate per call)."""
     return pose_buffers(scratch(n, 0, 0), n)
@@ -306,14 +321,35 @@ def workspace(n):
 
 @nb.njit(**INLINE)
 def tip_point(o, R, n, pe):
-    """Base-frame point where the external wrench acts: o_n + R_n p_e (p_e in link-n frame)."""
+    """Base-frame point where the external wrench acts: o_n + R_n p_e (p_e in link-n frame;
+    ``pe=None``: the link frame's origin o_n)."""
+    if pe is None:
+        return vec(o, n - 1)
     return add(vec(o, n - 1), mv(R, n - 1, (pe[0], pe[1], pe[2])))
 
 
 @nb.njit(**INLINE)
 def finite(a):
-    """True when every entry of the array ``a`` is finite."""
+    """True when every entry of the array ``a`` is finite (``None``: no array, True)."""
+    if a is None:
+        return True
     for x in a.flat:
         if not np.isfinite(x):
             return False
     return True
+
+
+@nb.njit(**INLINE)
+def wrench(fext):
+    """The external wrench ``fext = [f_e; n_e]`` (6,) as two 3-tuples; ``None``: no wrench
+    (Numba compiles that case without reading an array: the free-motion fast path)."""
+    if fext is None:
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    return (fext[0], fext[1], fext[2]), (fext[3], fext[4], fext[5])
+
+
+@nb.njit(**INLINE)
+def sized(model, a, b, c):
+    """True when the state arrays a, b, c (n,) each hold one entry per joint of ``model``."""
+    n = model.shape[0] - 1
+    return a.shape[0] == n and b.shape[0] == n and c.shape[0] == n

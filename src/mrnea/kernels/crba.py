@@ -16,12 +16,13 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import (
-    JIT,
+    ALLOC,
     MASS,
     NONFINITE,
     OK,
     OVERFLOW,
     PRISMATIC,
+    SIZE,
     TYPE,
     add,
     cross,
@@ -30,6 +31,7 @@ from mrnea.kernels.common import (
     kinematics,
     mv,
     scale,
+    sized,
     sub,
     vec,
     workspace,
@@ -38,7 +40,7 @@ from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def crba(model, q, H):
     """The mass matrix H (n, n) of one state."""
     R, o, z, c, Ic = workspace(q.shape[0])
@@ -46,7 +48,7 @@ def crba(model, q, H):
     composite(model, o, z, c, Ic, H)
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def crba_bias(model, q, qd, fext, pe, H, u):
     """H by CRBA and u' by one Newton-Euler pass with qdd = 0, on one kinematics pass; the
     same contract (and status) as ``mrnea``."""
@@ -62,7 +64,7 @@ def crba_bias(model, q, qd, fext, pe, H, u):
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def composite(model, o, z, c, Ic, H):
     """The composite-rigid-body recursion, given the kinematics of this state; fills H."""
     n = o.shape[0]
@@ -104,16 +106,18 @@ def composite(model, o, z, c, Ic, H):
             H[j, i] = h
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def crba_batch(model, Q, H):
     """``crba`` over a batch: Q (B, n), H (B, n, n)."""
     for b in nb.prange(Q.shape[0]):
         crba(model, Q[b], H[b])
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def fd_crba(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
+    if not sized(model, q, qd, tau):
+        return SIZE
     if not finite(tau):
         return NONFINITE
     n = q.shape[0]
@@ -126,7 +130,7 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd):
     return status if status != OK or finite(qdd) else OVERFLOW
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def fd_crba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``fd_crba`` over a batch; STATUS (B,) int64."""
     for b in nb.prange(Q.shape[0]):

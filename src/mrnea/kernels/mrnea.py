@@ -42,6 +42,7 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import (
+    ALLOC,
     JIT,
     MASS,
     NOCOM,
@@ -50,6 +51,7 @@ from mrnea.kernels.common import (
     OK,
     OVERFLOW,
     PRISMATIC,
+    SIZE,
     TYPE,
     add,
     chunk,
@@ -64,30 +66,36 @@ from mrnea.kernels.common import (
     put,
     scale,
     scratch,
+    sized,
     sub,
     tip_point,
     vec,
+    wrench,
 )
 from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import cholesky_solve
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def mrnea(model, q, qd, fext, pe, H, u):
     """H (n, n) and u' (n,) of one state, in one pass (module docstring); returns a status.
 
     Rows are formed tip to base with n'_ia1 and n'_ia2 (h_ik, k <= i); the upper triangle is
     h_ik = h_ki (H is symmetric), so n'_ia3 is not formed: :func:`mrnea_full` forms it.
     """
+    if not sized(model, q, qd, qd):
+        return SIZE
     return mrnea_ws(model, q, qd, fext, pe, H, u, False, scratch(q.shape[0], 0, 0))
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def mrnea_full(model, q, qd, fext, pe, H, u):
     """As :func:`mrnea`, every h_ik from Eq. 35 with all three of n'_ia1, n'_ia2, n'_ia3.
 
     The paper's form, kept to test that it equals the symmetric fill (tests/).
     """
+    if not sized(model, q, qd, qd):
+        return SIZE
     return mrnea_ws(model, q, qd, fext, pe, H, u, True, scratch(q.shape[0], 0, 0))
 
 
@@ -111,8 +119,8 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     link_forces(model, o, z, c, Ic, qd, None, g, e, d)
 
     # backward pass: E sums and n' coefficients, tip to base
-    E_c = (fext[0], fext[1], fext[2])  # E_{i+1}: starts as f_{n+1} = f_e
-    n_c = (fext[3], fext[4], fext[5])  # n'_{(i+1)c}: starts as n_e
+    # E_{i+1} starts as f_{n+1} = f_e, n'_{(i+1)c} as n_e
+    E_c, n_c = wrench(fext)
     p_next = tip_point(o, R, n, pe)
     for i in range(n - 1, -1, -1):
         oi, ci, zi = vec(o, i), vec(c, i), vec(z, i)
@@ -163,7 +171,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def mrnea_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     """``mrnea`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n); STATUS (B,)."""
     B, n = Q.shape
@@ -196,13 +204,15 @@ def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
     return status if status != OK or finite(qdd) else OVERFLOW
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
     """``fd_mrnea_ws`` with its own scratch."""
+    if not sized(model, q, qd, tau):
+        return SIZE
     return fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, scratch(q.shape[0], 2 * q.shape[0] + 2, 0))
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def fd_mrnea_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``fd_mrnea`` over a batch; STATUS (B,) int64."""
     B, n = Q.shape

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import (
+    ALLOC,
     JIT,
     MASS,
     NOCOM,
@@ -29,6 +30,7 @@ from mrnea.kernels.common import (
     OVERFLOW,
     PRISMATIC,
     ROT,
+    SIZE,
     TYPE,
     add,
     chunk,
@@ -47,9 +49,11 @@ from mrnea.kernels.common import (
     rot,
     scale,
     scratch,
+    sized,
     sub,
     tip_point,
     vec,
+    wrench,
 )
 
 
@@ -100,8 +104,7 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
     link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm)
 
     # backward pass: forces and moments, tip to base
-    f_next = (fext[0], fext[1], fext[2])  # f_{n+1} = f_e, Eq. 10
-    n_next = (fext[3], fext[4], fext[5])  # n_{n+1} = n_e, Eq. 11
+    f_next, n_next = wrench(fext)  # f_{n+1} = f_e, n_{n+1} = n_e (Eqs. 10-11)
     p_next = tip_point(o, R, n, pe)  # where f_{n+1} acts
     for i in range(n - 1, -1, -1):
         oi = vec(o, i)
@@ -137,9 +140,11 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def rnea(model, q, qd, qdd, fext, pe, tau):
     """Joint efforts tau (n,) of one state; returns a status (``rnea_ws``)."""
+    if not sized(model, q, qd, qdd):
+        return SIZE
     return rnea_ws(model, q, qd, qdd, fext, pe, tau, scratch(q.shape[0], 0, 0))
 
 
@@ -175,13 +180,15 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     return OK if finite(out) else OVERFLOW
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def reactions(model, q, qd, qdd, fext, pe, out):
     """``reactions_ws`` with its own scratch."""
+    if not sized(model, q, qd, qdd):
+        return SIZE
     return reactions_ws(model, q, qd, qdd, fext, pe, out, scratch(q.shape[0], 1, 0))
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS):
     """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,)."""
     B, n = Q.shape
@@ -193,7 +200,7 @@ def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS):
             STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], ws)
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def reactions_batch(model, Q, QD, QDD, FEXT, PE, OUT, STATUS):
     """``reactions`` over a batch: OUT (B, n, 6), STATUS (B,)."""
     B, n = Q.shape

@@ -23,11 +23,11 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.achievable import ENGINE_MRNEA, step
-from mrnea.kernels.common import JIT, OK, scratch
+from mrnea.kernels.common import ALLOC, OK, scratch
 from mrnea.kernels.rnea import reactions_ws
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch_up, k0, k1,
                     q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""

@@ -13,14 +13,26 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT, NONFINITE, OK, OVERFLOW, finite, kinematics, workspace
+from mrnea.kernels.common import (
+    ALLOC,
+    NONFINITE,
+    OK,
+    OVERFLOW,
+    SIZE,
+    finite,
+    kinematics,
+    sized,
+    workspace,
+)
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def walker_orin(model, q, qd, fext, pe, H, u):
     """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status."""
+    if not sized(model, q, qd, qd):
+        return SIZE
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
@@ -43,16 +55,18 @@ def walker_orin(model, q, qd, fext, pe, H, u):
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def walker_orin_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     """``walker_orin`` over a batch (shapes as ``mrnea_batch``)."""
     for b in nb.prange(Q.shape[0]):
         STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
 
 
-@nb.njit(**JIT)
+@nb.njit(**ALLOC)
 def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a status."""
+    if not sized(model, q, qd, tau):
+        return SIZE
     if not finite(tau):
         return NONFINITE
     n = q.shape[0]
@@ -65,7 +79,7 @@ def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
     return status if status != OK or finite(qdd) else OVERFLOW
 
 
-@nb.njit(**{**JIT, "parallel": True})
+@nb.njit(**{**ALLOC, "parallel": True})
 def fd_walker_orin_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``fd_walker_orin`` over a batch; STATUS (B,) int64."""
     for b in nb.prange(Q.shape[0]):
