@@ -13,6 +13,14 @@ environment applies *to* the robot, Pinocchio's and MuJoCo's convention, is the 
 
 The caller's arrays are never modified. Errors are :class:`mrnea.errors.StateError` (shapes, NaN,
 unknown method) and :class:`mrnea.errors.SingularMassMatrixError`.
+
+The fast path. A single state of one-dimensional float64 ndarrays without a wrench goes straight
+to a kernel's compiled ``free`` entry (:class:`_Entry`): at n = 6 the kernel takes about 2 us, so
+every check in Python counts. The wrapper checks only what the entry cannot (dtype and ndim:
+the entry would read another dtype or ndim wrongly); the kernel checks the lengths (status SIZE)
+and finiteness. Anything else (lists, a batch, a wrong length, NaN, a non-Robot, which fails
+with AttributeError or the entry's TypeError) takes the validated path, :func:`_evaluate`,
+which converts the inputs or names the offending one.
 """
 
 from __future__ import annotations
@@ -45,11 +53,11 @@ class _Entry:
     """A single-state kernel called through its machine-code entries for fixed signatures.
 
     Numba's dispatcher types every argument on every call to pick the compiled version; at this
-    size that costs about a third of a call. The public functions check the arguments' types
-    themselves (:func:`_single`, :func:`_inputs`: float64 ndarrays of one dimension; the kernel
-    checks their lengths, status SIZE), so they call an entry directly: ``free`` takes
-    ``fext=None, pe=None`` (no external wrench: Numba compiles that case without reading
-    either, and two fewer arrays cross from Python), ``call`` takes both arrays.
+    size that costs about a third of a call. The public functions check what the entry cannot
+    (the fast path in the module docstring, or :func:`_inputs`), so they call an entry
+    directly: ``free`` takes ``fext=None, pe=None`` (no external wrench: Numba compiles that
+    case without reading either, and two fewer arrays cross from Python), ``call`` takes both
+    arrays.
     ``Dispatcher.compile`` compiles an entry (or loads it from Numba's disk cache) on its first
     call and returns it.
     """
@@ -129,18 +137,6 @@ def _time_step(dt: object) -> float:
     if not (np.isfinite(dt) and dt > 0):
         raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
     return dt
-
-
-def _single(robot: object, a: object, b: object, c: object) -> bool:
-    """True for the fast path: a Robot and three one-dimensional float64 ndarrays, no wrench.
-
-    Such a state goes straight to a kernel's ``free`` entry, which checks the lengths (status
-    SIZE) and finiteness (NONFINITE) itself; on any status but OK the call takes the validated
-    path (:func:`_evaluate`), which names the offending argument. The type, dtype and ndim must
-    be checked here: the compiled entry would read an array of another dtype or ndim wrongly.
-    """
-    return (type(robot) is Robot and type(a) is type(b) is type(c) is _ND
-            and a.dtype is b.dtype is c.dtype is _F64 and a.ndim == b.ndim == c.ndim == 1)
 
 
 def _require_robot(robot: object) -> None:
@@ -250,10 +246,14 @@ def inverse_dynamics(
 
     Returns tau, (n,) or (B, n) [N m | N]. See the module docstring for shapes and ``f_ext``.
     """
-    if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
-        tau = np.empty(robot._shape)
-        if _RNEA.free(robot.compiled, q, qd, qdd, None, None, tau) == OK:
-            return tau
+    if f_ext is None and f_ext_point is None:
+        try:  # the fast path (module docstring)
+            if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
+                tau = np.empty(robot._shape)
+                if _RNEA.free(robot.compiled, q, qd, qdd, None, None, tau) == OK:
+                    return tau
+        except (AttributeError, TypeError):
+            pass
     args = {"q": q, "qd": qd, "qdd": qdd}
     (tau,) = _evaluate(robot, _RNEA, rnea_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
     return tau
@@ -274,11 +274,15 @@ def mass_matrix_and_bias(
     Returns H, (n, n) or (B, n, n), and u', (n,) or (B, n). u' includes gravity and f_ext.
     """
     kernel, kernel_batch = _method(method, _HB)
-    if f_ext is None and f_ext_point is None and _single(robot, q, qd, qd):
-        n = robot.n
-        H, u = np.empty((n, n)), np.empty(n)
-        if kernel.free(robot.compiled, q, qd, None, None, H, u) == OK:
-            return H, u
+    if f_ext is None and f_ext_point is None:
+        try:  # the fast path (module docstring)
+            if q.dtype is qd.dtype is _F64 and q.ndim == qd.ndim == 1:
+                n = robot.n
+                H, u = np.empty((n, n)), np.empty(n)
+                if kernel.free(robot.compiled, q, qd, None, None, H, u) == OK:
+                    return H, u
+        except (AttributeError, TypeError):
+            pass
     H, u = _evaluate(robot, kernel, kernel_batch, {"q": q, "qd": qd}, f_ext, f_ext_point,
                      lambda n: ((n, n), (n,)))
     return H, u
@@ -301,10 +305,14 @@ def forward_dynamics(
     Raises SingularMassMatrixError where H is not positive definite.
     """
     kernel, kernel_batch = _method(method, _FD)
-    if f_ext is None and f_ext_point is None and _single(robot, q, qd, tau):
-        qdd = np.empty(robot._shape)
-        if kernel.free(robot.compiled, q, qd, tau, None, None, qdd) == OK:
-            return qdd
+    if f_ext is None and f_ext_point is None:
+        try:  # the fast path (module docstring)
+            if q.dtype is qd.dtype is tau.dtype is _F64 and q.ndim == qd.ndim == tau.ndim == 1:
+                qdd = np.empty(robot._shape)
+                if kernel.free(robot.compiled, q, qd, tau, None, None, qdd) == OK:
+                    return qdd
+        except (AttributeError, TypeError):
+            pass
     args = {"q": q, "qd": qd, "tau": tau}
     (qdd,) = _evaluate(robot, kernel, kernel_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
     return qdd
@@ -327,10 +335,14 @@ def joint_reactions(
     joint axis. The component along the joint axis of the moment (revolute) or force
     (prismatic) is the joint effort tau_i; the rest is what the bearing carries.
     """
-    if f_ext is None and f_ext_point is None and _single(robot, q, qd, qdd):
-        out = np.empty((robot.n, 6))
-        if _REACTIONS.free(robot.compiled, q, qd, qdd, None, None, out) == OK:
-            return out
+    if f_ext is None and f_ext_point is None:
+        try:  # the fast path (module docstring)
+            if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
+                out = np.empty((robot.n, 6))
+                if _REACTIONS.free(robot.compiled, q, qd, qdd, None, None, out) == OK:
+                    return out
+        except (AttributeError, TypeError):
+            pass
     args = {"q": q, "qd": qd, "qdd": qdd}
     (out,) = _evaluate(robot, _REACTIONS, reactions_batch, args, f_ext, f_ext_point,
                        lambda n: ((n, 6),))

@@ -19,6 +19,7 @@ import numpy as np
 
 from mrnea.kernels.common import (
     ALLOC,
+    ENTRY,
     JIT,
     MASS,
     NONFINITE,
@@ -59,7 +60,7 @@ def _force_cross(v, f, out):
     out[0], out[1], out[2], out[3], out[4], out[5] = a[0], a[1], a[2], b[0], b[1], b[2]
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def aba(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics of one state by the articulated-body algorithm (module docstring)."""
     if not sized(model, q, qd, tau):

@@ -67,6 +67,10 @@ SIZE = -4
 # ALLOC: a kernel that allocates (a scratch, or the comparison kernels' own arrays).
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy", "_nrt": False}
 ALLOC = {**JIT, "_nrt": True}
+# ENTRY: a single-state kernel the public API calls from Python (dynamics._Entry). A call of a
+# few microseconds keeps the GIL: releasing and retaking it would add about 0.1 us (measured),
+# and no other thread could do much in the time. Batch and simulation kernels release it.
+ENTRY = {**ALLOC, "nogil": False}
 INLINE = JIT
 VIEWS = {"inline": "always"}
 
@@ -106,14 +110,11 @@ def scratch(n, s_rows, i_rows):
     ints I (each kernel's docstring says which rows it uses). The 3x3 and 3-vector buffers
     have fixed slots, first-axis slices (no copy, no reshape): the pose (:func:`pose_buffers`),
     then either mRNEA's sums (:func:`mrnea_buffers`) or the Newton-Euler forces
-    (:func:`force_buffers`). All four are views of one allocation (the ints reinterpret 8-byte
-    words of it), so a single-state call allocates once; each caller asks for the rows it uses.
+    (:func:`force_buffers`). Allocation costs time by the byte, so each caller asks for what it
+    uses.
     """
-    s_rows, i_rows = max(s_rows, 1), max(i_rows, 1)
-    buf = np.empty(39 * n + (s_rows + i_rows) * n)
-    a, b, c = 18 * n, 39 * n, (39 + s_rows) * n
-    return (buf[:a].reshape((2 * n, 3, 3)), buf[a:b].reshape((7 * n, 3)),
-            buf[b:c].reshape((s_rows, n)), buf[c:].view(np.int64).reshape((i_rows, n)))
+    return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
+            np.empty((max(i_rows, 1), n), dtype=np.int64))
 
 
 @nb.njit(**VIEWS)

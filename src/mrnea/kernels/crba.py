@@ -17,6 +17,7 @@ import numpy as np
 
 from mrnea.kernels.common import (
     ALLOC,
+    ENTRY,
     MASS,
     NONFINITE,
     OK,
@@ -113,7 +114,7 @@ def crba_batch(model, Q, H):
         crba(model, Q[b], H[b])
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def fd_crba(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
     if not sized(model, q, qd, tau):

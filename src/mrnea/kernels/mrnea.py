@@ -43,6 +43,7 @@ import numba as nb
 
 from mrnea.kernels.common import (
     ALLOC,
+    ENTRY,
     JIT,
     MASS,
     NOCOM,
@@ -76,7 +77,7 @@ from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import cholesky_solve
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def mrnea(model, q, qd, fext, pe, H, u):
     """H (n, n) and u' (n,) of one state, in one pass (module docstring); returns a status.
 
@@ -88,7 +89,7 @@ def mrnea(model, q, qd, fext, pe, H, u):
     return mrnea_ws(model, q, qd, fext, pe, H, u, False, scratch(q.shape[0], 0, 0))
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def mrnea_full(model, q, qd, fext, pe, H, u):
     """As :func:`mrnea`, every h_ik from Eq. 35 with all three of n'_ia1, n'_ia2, n'_ia3.
 
@@ -204,7 +205,7 @@ def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
     return status if status != OK or finite(qdd) else OVERFLOW
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
     """``fd_mrnea_ws`` with its own scratch."""
     if not sized(model, q, qd, tau):

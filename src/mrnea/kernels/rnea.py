@@ -21,6 +21,7 @@ import numba as nb
 
 from mrnea.kernels.common import (
     ALLOC,
+    ENTRY,
     JIT,
     MASS,
     NOCOM,
@@ -140,7 +141,7 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def rnea(model, q, qd, qdd, fext, pe, tau):
     """Joint efforts tau (n,) of one state; returns a status (``rnea_ws``)."""
     if not sized(model, q, qd, qdd):
@@ -180,7 +181,7 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     return OK if finite(out) else OVERFLOW
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def reactions(model, q, qd, qdd, fext, pe, out):
     """``reactions_ws`` with its own scratch."""
     if not sized(model, q, qd, qdd):

@@ -15,6 +15,7 @@ import numpy as np
 
 from mrnea.kernels.common import (
     ALLOC,
+    ENTRY,
     NONFINITE,
     OK,
     OVERFLOW,
@@ -28,7 +29,7 @@ from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def walker_orin(model, q, qd, fext, pe, H, u):
     """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status."""
     if not sized(model, q, qd, qd):
@@ -62,7 +63,7 @@ def walker_orin_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
         STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**ENTRY)
 def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
     """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a status."""
     if not sized(model, q, qd, tau):
