@@ -167,7 +167,7 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     for i in range(n):
         # joint frame: the parent's orientation times the origin rotation, D_{i-1} in Eq. 32
         Rp = rot(R, i - 1) if i > 0 else (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-        Rj = mm(Rp, mat(model, i + 1, ROT))
+        Rj = mm(Rp, mat(model[i + 1, ROT:ROT + 9]))
         if model[i + 1, TYPE] == PRISMATIC:
             # moment about the joint frame's origin, o_i - z_i q_i: add (z_i q_i) x f_i
             t = cross(scale(vec(z, i), q[i]), vec(f, i))
