@@ -194,7 +194,10 @@ def count(kernel, robot, rng: np.random.Generator) -> dict:
     COUNT.flops.clear()
     COUNT.trig.clear()
     COUNT.line_stage = "other"
-    status = kernel(model, q, qd, tau, None, None, qdd)  # free motion, as the public call
+    from mrnea.kernels.common import entry_scratch
+
+    ws = entry_scratch(n)  # arrays of Flops: the kernel modules' np is the counting one
+    status = kernel(model, q, qd, tau, None, None, qdd, ws)  # free motion, as the public call
     assert status == -1, f"kernel status {status}"
     return {"flops": dict(COUNT.flops), "trig": dict(COUNT.trig),
             "total": sum(COUNT.flops.values()), "trig_total": sum(COUNT.trig.values())}

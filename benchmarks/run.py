@@ -572,12 +572,12 @@ def scaling_tables(res: dict, flops: dict) -> str:
 # --- 6. flops and the machine's peak -------------------------------------------------------------
 
 @nb.njit
-def _repeat(kernel, model, Q, QD, TAU, fe, pe, qdd, reps):  # pragma: no cover - compiled
+def _repeat(kernel, model, Q, QD, TAU, fe, pe, qdd, ws, reps):  # pragma: no cover - compiled
     """Call a forward-dynamics kernel reps times, cycling through the states: kernel time."""
     s = 0
     for r in range(reps):
         b = r % Q.shape[0]
-        s += kernel(model, Q[b], QD[b], TAU[b], fe, pe, qdd)
+        s += kernel(model, Q[b], QD[b], TAU[b], fe, pe, qdd, ws)
     return s
 
 
@@ -594,12 +594,12 @@ def count_flops(cfg: Config) -> dict:
 
 
 @nb.njit
-def _repeat_pass(model, Q, QD, fe, pe, H, u, reps):  # pragma: no cover - compiled
+def _repeat_pass(model, Q, QD, fe, pe, H, u, ws, reps):  # pragma: no cover - compiled
     """The mRNEA pass alone (H and u'), reps times: its share of the forward-dynamics time."""
     s = 0
     for r in range(reps):
         b = r % Q.shape[0]
-        s += k_mrnea(model, Q[b], QD[b], fe, pe, H, u)
+        s += k_mrnea(model, Q[b], QD[b], fe, pe, H, u, ws)
     return s
 
 
@@ -616,13 +616,14 @@ def kernel_times(case: models.Case, cfg: Config) -> dict:
     qdd = np.empty(n)
     H, u = np.empty((n, n)), np.empty(n)
     reps = 1000
-    c = {("kernel", m): (lambda k=k: _repeat(k, model, Q, QD, TAU, None, None, qdd, reps))
+    ws = robot._scratch
+    c = {("kernel", m): (lambda k=k: _repeat(k, model, Q, QD, TAU, None, None, qdd, ws, reps))
          for m, k in KERNELS.items()}
-    c[("kernel", "mrnea pass")] = lambda: _repeat_pass(model, Q, QD, None, None, H, u, reps)
+    c[("kernel", "mrnea pass")] = lambda: _repeat_pass(model, Q, QD, None, None, H, u, ws, reps)
     q, qd, tau = Q[0], QD[0], TAU[0]
     for m, k in KERNELS.items():
-        c[("direct", m)] = lambda k=k: k(model, q, qd, tau, None, None, qdd)
-        c[("entry", m)] = lambda e=_FD[m][0]: e.free(model, q, qd, tau, None, None, qdd)
+        c[("direct", m)] = lambda k=k: k(model, q, qd, tau, None, None, qdd, ws)
+        c[("entry", m)] = lambda e=_FD[m][0]: e.free(model, q, qd, tau, None, None, qdd, ws)
         c[("api", m)] = lambda m=m: forward_dynamics(robot, q, qd, tau, method=m)
     t = compare(c, cfg.rounds)
     return {k: (v / reps if k[0] == "kernel" else v) for k, v in t.items()}

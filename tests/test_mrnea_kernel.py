@@ -7,6 +7,7 @@ import pytest
 from conftest import random_chain
 
 import mrnea
+from mrnea.kernels.common import entry_scratch
 from mrnea.kernels.mrnea import mrnea as mrnea_kernel
 from mrnea.kernels.mrnea import mrnea_full
 
@@ -20,8 +21,8 @@ def test_symmetric_fill_equals_the_papers_full_form(n, frac):
         fe, pe = rng.normal(size=6), rng.normal(size=3)
         H, u = np.empty((n, n)), np.empty(n)
         Hf, uf = np.empty((n, n)), np.empty(n)
-        assert mrnea_kernel(robot.compiled, q, qd, fe, pe, H, u) == -1
-        assert mrnea_full(robot.compiled, q, qd, fe, pe, Hf, uf) == -1
+        assert mrnea_kernel(robot.compiled, q, qd, fe, pe, H, u, entry_scratch(n)) == -1
+        assert mrnea_full(robot.compiled, q, qd, fe, pe, Hf, uf, entry_scratch(n)) == -1
         scale = np.abs(Hf).max()
         assert np.abs(H - Hf).max() <= 1e-13 * scale
         assert np.abs(Hf - Hf.T).max() <= 1e-13 * scale  # the paper's a3 gives the same upper
@@ -35,8 +36,9 @@ def test_sdt_full_form():
     H, u = np.empty((4, 4)), np.empty(4)
     Hf, uf = np.empty((4, 4)), np.empty(4)
     z6, z3 = np.zeros(6), np.zeros(3)
-    mrnea_kernel(robot.compiled, q, qd, z6, z3, H, u)
-    mrnea_full(robot.compiled, q, qd, z6, z3, Hf, uf)
+    ws = entry_scratch(robot.n)
+    mrnea_kernel(robot.compiled, q, qd, z6, z3, H, u, ws)
+    mrnea_full(robot.compiled, q, qd, z6, z3, Hf, uf, ws)
     assert np.abs(H - Hf).max() <= 1e-13 * np.abs(Hf).max()
 
 
@@ -74,10 +76,11 @@ def test_specialised_kernels_equal_the_general_path(n, frac):
         for m in (special, general):
             H, u, tau, qdd, W = (np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n),
                                  np.empty((n, 6)))
-            assert mrnea_kernel(m, q, qd, fe, pe, H, u) == -1
-            assert rnea(m, q, qd, x, fe, pe, tau) == -1
-            assert reactions(m, q, qd, x, fe, pe, W) == -1
-            status = fd_mrnea(m, q, qd, x, fe, pe, qdd)  # a degenerate chain may be singular
+            ws = entry_scratch(n)
+            assert mrnea_kernel(m, q, qd, fe, pe, H, u, ws) == -1
+            assert rnea(m, q, qd, x, fe, pe, tau, ws) == -1
+            assert reactions(m, q, qd, x, fe, pe, W, ws) == -1
+            status = fd_mrnea(m, q, qd, x, fe, pe, qdd, ws)  # a degenerate chain may be singular
             results.append((H, u, tau, W, qdd if status == -1 else status))
         for a, b in zip(*results, strict=True):
             np.testing.assert_array_equal(a, b)

@@ -66,12 +66,14 @@ class _Entry:
 
     def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type) -> None:
         py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT
-        states = [_IN] * (py_func.__code__.co_argcount - 3 - len(outputs))
+        states = [_IN] * (py_func.__code__.co_argcount - 4 - len(outputs))
         self._kernel = kernel
         if hasattr(kernel, "compile"):
             none = nb.types.none
-            self.call = self._first("call", nb.types.int64(_MODEL, *states, _IN, _IN, *outputs))
-            self.free = self._first("free", nb.types.int64(_MODEL, *states, none, none, *outputs))
+            self.call = self._first(
+                "call", nb.types.int64(_MODEL, *states, _IN, _IN, *outputs, _SCRATCH))
+            self.free = self._first(
+                "free", nb.types.int64(_MODEL, *states, none, none, *outputs, _SCRATCH))
         else:
             self.call = self.free = kernel
 
@@ -91,6 +93,8 @@ _MODEL = nb.types.Array(nb.types.float64, 2, "C", readonly=True)
 _IN = nb.types.Array(nb.types.float64, 1, "A")
 _OUT1 = nb.types.Array(nb.types.float64, 1, "C")
 _OUT2 = nb.types.Array(nb.types.float64, 2, "C")
+_SCRATCH = nb.types.Tuple((nb.types.Array(nb.types.float64, 3, "C"), _OUT2, _OUT2,
+                           nb.types.Array(nb.types.int64, 2, "C")))  # Robot._scratch
 
 _FD = {
     "mrnea": (_Entry(fd_mrnea, _OUT1), fd_mrnea_batch),
@@ -226,9 +230,9 @@ def _evaluate(
     else:
         outputs = [np.empty(shape) for shape in shapes(robot.n)]
         if f_ext is None:  # a point without a force changes nothing
-            status = kernel.free(m, *arrays, None, None, *outputs)
+            status = kernel.free(m, *arrays, None, None, *outputs, robot._scratch)
         else:
-            status = kernel.call(m, *arrays, fe, pe, *outputs)
+            status = kernel.call(m, *arrays, fe, pe, *outputs, robot._scratch)
     if batched or status != OK:
         _check(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return outputs
@@ -250,7 +254,7 @@ def inverse_dynamics(
         try:  # the fast path (module docstring)
             if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
                 tau = np.empty(robot._shape)
-                if _RNEA.free(robot.compiled, q, qd, qdd, None, None, tau) == OK:
+                if _RNEA.free(robot.compiled, q, qd, qdd, None, None, tau, robot._scratch) == OK:
                     return tau
         except (AttributeError, TypeError):
             pass
@@ -279,7 +283,7 @@ def mass_matrix_and_bias(
             if q.dtype is qd.dtype is _F64 and q.ndim == qd.ndim == 1:
                 n = robot.n
                 H, u = np.empty((n, n)), np.empty(n)
-                if kernel.free(robot.compiled, q, qd, None, None, H, u) == OK:
+                if kernel.free(robot.compiled, q, qd, None, None, H, u, robot._scratch) == OK:
                     return H, u
         except (AttributeError, TypeError):
             pass
@@ -309,7 +313,7 @@ def forward_dynamics(
         try:  # the fast path (module docstring)
             if q.dtype is qd.dtype is tau.dtype is _F64 and q.ndim == qd.ndim == tau.ndim == 1:
                 qdd = np.empty(robot._shape)
-                if kernel.free(robot.compiled, q, qd, tau, None, None, qdd) == OK:
+                if kernel.free(robot.compiled, q, qd, tau, None, None, qdd, robot._scratch) == OK:
                     return qdd
         except (AttributeError, TypeError):
             pass
@@ -339,7 +343,8 @@ def joint_reactions(
         try:  # the fast path (module docstring)
             if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
                 out = np.empty((robot.n, 6))
-                if _REACTIONS.free(robot.compiled, q, qd, qdd, None, None, out) == OK:
+                ws = robot._scratch
+                if _REACTIONS.free(robot.compiled, q, qd, qdd, None, None, out, ws) == OK:
                     return out
         except (AttributeError, TypeError):
             pass

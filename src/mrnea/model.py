@@ -439,6 +439,16 @@ class Robot:
 
         return compile_model(self)
 
+    @cached_property
+    def _scratch(self) -> tuple[NDArray[np.float64], ...]:
+        """Scratch memory of the single-state dynamics calls (kernels/common.py
+        ``entry_scratch``): a per-call workspace, as a Pinocchio user keeps one Data per Model,
+        not state. Every kernel writes a slot before it reads it, and the entry kernels that use
+        it hold the GIL (kernels/common.py ENTRY), so one per Robot serves every thread."""
+        from mrnea.kernels.common import entry_scratch
+
+        return entry_scratch(self.n)
+
     def to_urdf(self, path: str | Path) -> Path:
         """Write this robot as a URDF file (actuator fields as limit/dynamics/transmission)."""
         from mrnea.io.urdf import write_urdf

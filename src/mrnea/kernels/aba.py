@@ -19,7 +19,7 @@ import numpy as np
 
 from mrnea.kernels.common import (
     ALLOC,
-    ENTRY,
+    ENTRY_ALLOC,
     JIT,
     MASS,
     NONFINITE,
@@ -29,13 +29,16 @@ from mrnea.kernels.common import (
     SIZE,
     TYPE,
     add,
+    chunk,
     cross,
     finite,
     kinematics,
+    n_chunks,
+    pose_buffers,
+    scratch,
     sized,
     tip_point,
     vec,
-    workspace,
     wrench,
 )
 
@@ -60,15 +63,17 @@ def _force_cross(v, f, out):
     out[0], out[1], out[2], out[3], out[4], out[5] = a[0], a[1], a[2], b[0], b[1], b[2]
 
 
-@nb.njit(**ENTRY)
-def aba(model, q, qd, tau, fext, pe, qdd):
-    """Forward dynamics of one state by the articulated-body algorithm (module docstring)."""
+@nb.njit(**ENTRY_ALLOC)
+def aba(model, q, qd, tau, fext, pe, qdd, ws):
+    """Forward dynamics of one state by the articulated-body algorithm (module docstring);
+    the link poses go to the scratch ``ws`` (kernels/common.py), the spatial quantities to arrays
+    of its own."""
     if not sized(model, q, qd, tau):
         return SIZE
     if not (finite(q) and finite(qd) and finite(tau) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
-    R, o, z, c, Ic = workspace(n)
+    R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic)
     S = np.zeros((n, 6))
     v = np.zeros((n, 6))
@@ -172,5 +177,10 @@ def aba(model, q, qd, tau, fext, pe, qdd):
 @nb.njit(**{**ALLOC, "parallel": True})
 def aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``aba`` over a batch; STATUS (B,) int64 receives each state's status."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

@@ -103,9 +103,9 @@ def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
     """H_a (n, n) and u'_a (n,) of Eqs. 42-43 (Coulomb term F_s sign(qd), sign(0) = 0);
     ``ws``: scratch (kernels/common.py)."""
     if engine == ENGINE_WALKER_ORIN:
-        status = walker_orin(model, q, qd, fext, pe, Ha, ua)
+        status = walker_orin(model, q, qd, fext, pe, Ha, ua, ws)
     elif engine == ENGINE_CRBA:
-        status = crba_bias(model, q, qd, fext, pe, Ha, ua)
+        status = crba_bias(model, q, qd, fext, pe, Ha, ua, ws)
     else:
         status = mrnea_ws(model, q, qd, fext, pe, Ha, ua, False, ws)
     if status != OK:

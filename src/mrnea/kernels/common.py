@@ -67,10 +67,15 @@ SIZE = -4
 # ALLOC: a kernel that allocates (a scratch, or the comparison kernels' own arrays).
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy", "_nrt": False}
 ALLOC = {**JIT, "_nrt": True}
-# ENTRY: a single-state kernel the public API calls from Python (dynamics._Entry). A call of a
-# few microseconds keeps the GIL: releasing and retaking it would add about 0.1 us (measured),
-# and no other thread could do much in the time. Batch and simulation kernels release it.
-ENTRY = {**ALLOC, "nogil": False}
+# ENTRY: a single-state kernel the public API calls from Python (dynamics._Entry), on the scratch
+# the Robot keeps for them (``entry_scratch``, model.Robot._scratch). It keeps the GIL: that is
+# what makes one scratch per Robot safe to share between Python threads, and a call of a few
+# microseconds gains nothing from releasing it (releasing and retaking cost about 0.1 us,
+# measured). It allocates nothing, so its arguments are unboxed without Numba's runtime (about
+# 60 ns an array less). ENTRY_ALLOC: the same for the comparison kernels (ABA, CRBA,
+# Walker-Orin), which allocate arrays of their own. Batch and simulation kernels release the GIL.
+ENTRY = {**JIT, "nogil": False}
+ENTRY_ALLOC = {**ALLOC, "nogil": False}
 INLINE = JIT
 VIEWS = {"inline": "always"}
 
@@ -115,6 +120,12 @@ def scratch(n, s_rows, i_rows):
     """
     return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
             np.empty((max(i_rows, 1), n), dtype=np.int64))
+
+
+@nb.njit(**ALLOC)
+def entry_scratch(n):
+    """A scratch every single-state entry kernel can use (the largest asks for 2n + 2 rows)."""
+    return scratch(n, 2 * n + 2, 0)
 
 
 @nb.njit(**VIEWS)

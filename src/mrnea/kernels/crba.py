@@ -17,7 +17,7 @@ import numpy as np
 
 from mrnea.kernels.common import (
     ALLOC,
-    ENTRY,
+    ENTRY_ALLOC,
     MASS,
     NONFINITE,
     OK,
@@ -26,12 +26,17 @@ from mrnea.kernels.common import (
     SIZE,
     TYPE,
     add,
+    chunk,
     cross,
     dot,
     finite,
+    force_buffers,
     kinematics,
     mv,
+    n_chunks,
+    pose_buffers,
     scale,
+    scratch,
     sized,
     sub,
     vec,
@@ -50,17 +55,17 @@ def crba(model, q, H):
 
 
 @nb.njit(**ALLOC)
-def crba_bias(model, q, qd, fext, pe, H, u):
+def crba_bias(model, q, qd, fext, pe, H, u, ws):
     """H by CRBA and u' by one Newton-Euler pass with qdd = 0, on one kinematics pass; the
-    same contract (and status) as ``mrnea``."""
+    same contract (and status) as ``mrnea``. Poses and forces go to the scratch ``ws``."""
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
-    R, o, z, c, Ic = workspace(n)
+    R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic)
-    fn = np.empty((2 * n, 3))  # the joint forces and moments, not needed here
+    f, nm = force_buffers(ws, n)  # the joint forces and moments, not needed here
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, fn[:n], fn[n:])
+    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm)
     composite(model, o, z, c, Ic, H)
     return OK if finite(H) and finite(u) else OVERFLOW
 
@@ -114,8 +119,8 @@ def crba_batch(model, Q, H):
         crba(model, Q[b], H[b])
 
 
-@nb.njit(**ENTRY)
-def fd_crba(model, q, qd, tau, fext, pe, qdd):
+@nb.njit(**ENTRY_ALLOC)
+def fd_crba(model, q, qd, tau, fext, pe, qdd, ws):
     """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
     if not sized(model, q, qd, tau):
         return SIZE
@@ -124,7 +129,7 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd):
     n = q.shape[0]
     H = np.empty((n, n))
     u = np.empty(n)
-    status = crba_bias(model, q, qd, fext, pe, H, u)
+    status = crba_bias(model, q, qd, fext, pe, H, u, ws)
     if status != OK:
         return status
     status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
@@ -134,5 +139,10 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd):
 @nb.njit(**{**ALLOC, "parallel": True})
 def fd_crba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``fd_crba`` over a batch; STATUS (B,) int64."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = fd_crba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = fd_crba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

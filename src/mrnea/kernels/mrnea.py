@@ -78,26 +78,27 @@ from mrnea.kernels.solve import cholesky_solve
 
 
 @nb.njit(**ENTRY)
-def mrnea(model, q, qd, fext, pe, H, u):
+def mrnea(model, q, qd, fext, pe, H, u, ws):
     """H (n, n) and u' (n,) of one state, in one pass (module docstring); returns a status.
 
     Rows are formed tip to base with n'_ia1 and n'_ia2 (h_ik, k <= i); the upper triangle is
     h_ik = h_ki (H is symmetric), so n'_ia3 is not formed: :func:`mrnea_full` forms it.
+    ``ws``: a scratch (kernels/common.py ``entry_scratch``).
     """
     if not sized(model, q, qd, qd):
         return SIZE
-    return mrnea_ws(model, q, qd, fext, pe, H, u, False, scratch(q.shape[0], 0, 0))
+    return mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
 
 
 @nb.njit(**ENTRY)
-def mrnea_full(model, q, qd, fext, pe, H, u):
+def mrnea_full(model, q, qd, fext, pe, H, u, ws):
     """As :func:`mrnea`, every h_ik from Eq. 35 with all three of n'_ia1, n'_ia2, n'_ia3.
 
     The paper's form, kept to test that it equals the symmetric fill (tests/).
     """
     if not sized(model, q, qd, qd):
         return SIZE
-    return mrnea_ws(model, q, qd, fext, pe, H, u, True, scratch(q.shape[0], 0, 0))
+    return mrnea_ws(model, q, qd, fext, pe, H, u, True, ws)
 
 
 @nb.njit(**JIT)
@@ -206,11 +207,11 @@ def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
 
 
 @nb.njit(**ENTRY)
-def fd_mrnea(model, q, qd, tau, fext, pe, qdd):
-    """``fd_mrnea_ws`` with its own scratch."""
+def fd_mrnea(model, q, qd, tau, fext, pe, qdd, ws):
+    """``fd_mrnea_ws`` after checking the state's lengths (status SIZE)."""
     if not sized(model, q, qd, tau):
         return SIZE
-    return fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, scratch(q.shape[0], 2 * q.shape[0] + 2, 0))
+    return fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws)
 
 
 @nb.njit(**{**ALLOC, "parallel": True})

@@ -142,11 +142,12 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
 
 
 @nb.njit(**ENTRY)
-def rnea(model, q, qd, qdd, fext, pe, tau):
-    """Joint efforts tau (n,) of one state; returns a status (``rnea_ws``)."""
+def rnea(model, q, qd, qdd, fext, pe, tau, ws):
+    """Joint efforts tau (n,) of one state; returns a status (``rnea_ws``, after checking the
+    state's lengths)."""
     if not sized(model, q, qd, qdd):
         return SIZE
-    return rnea_ws(model, q, qd, qdd, fext, pe, tau, scratch(q.shape[0], 0, 0))
+    return rnea_ws(model, q, qd, qdd, fext, pe, tau, ws)
 
 
 @nb.njit(**JIT)
@@ -182,11 +183,11 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
 
 
 @nb.njit(**ENTRY)
-def reactions(model, q, qd, qdd, fext, pe, out):
-    """``reactions_ws`` with its own scratch."""
+def reactions(model, q, qd, qdd, fext, pe, out, ws):
+    """``reactions_ws`` after checking the state's lengths (status SIZE)."""
     if not sized(model, q, qd, qdd):
         return SIZE
-    return reactions_ws(model, q, qd, qdd, fext, pe, out, scratch(q.shape[0], 1, 0))
+    return reactions_ws(model, q, qd, qdd, fext, pe, out, ws)
 
 
 @nb.njit(**{**ALLOC, "parallel": True})

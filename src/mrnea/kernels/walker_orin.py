@@ -15,42 +15,45 @@ import numpy as np
 
 from mrnea.kernels.common import (
     ALLOC,
-    ENTRY,
+    ENTRY_ALLOC,
     NONFINITE,
     OK,
     OVERFLOW,
     SIZE,
+    chunk,
     finite,
+    force_buffers,
     kinematics,
+    n_chunks,
+    pose_buffers,
+    scratch,
     sized,
-    workspace,
 )
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.solve import cholesky_solve
 
 
-@nb.njit(**ENTRY)
-def walker_orin(model, q, qd, fext, pe, H, u):
-    """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status."""
+@nb.njit(**ENTRY_ALLOC)
+def walker_orin(model, q, qd, fext, pe, H, u, ws):
+    """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status.
+    Poses and forces go to the scratch ``ws`` (kernels/common.py)."""
     if not sized(model, q, qd, qd):
         return SIZE
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
-    R, o, z, c, Ic = workspace(n)
+    R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic)
-    f = np.empty((n, 3))
-    nm = np.empty((n, 3))
+    f, nm = force_buffers(ws, n)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm)
     zero_n = np.zeros(n)
-    zero_w = np.zeros(6)
     unit = np.zeros(n)
     col = np.empty(n)
     for k in range(n):
         unit[k] = 1.0
-        newton_euler(model, R, o, z, c, Ic, zero_n, unit, (0.0, 0.0, 0.0), zero_w, pe,
-                     col, f, nm)
+        newton_euler(model, R, o, z, c, Ic, zero_n, unit, (0.0, 0.0, 0.0), None, None, col, f,
+                     nm)
         H[:, k] = col
         unit[k] = 0.0
     return OK if finite(H) and finite(u) else OVERFLOW
@@ -59,12 +62,17 @@ def walker_orin(model, q, qd, fext, pe, H, u):
 @nb.njit(**{**ALLOC, "parallel": True})
 def walker_orin_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     """``walker_orin`` over a batch (shapes as ``mrnea_batch``)."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b], ws)
 
 
-@nb.njit(**ENTRY)
-def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
+@nb.njit(**ENTRY_ALLOC)
+def fd_walker_orin(model, q, qd, tau, fext, pe, qdd, ws):
     """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a status."""
     if not sized(model, q, qd, tau):
         return SIZE
@@ -73,7 +81,7 @@ def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
     n = q.shape[0]
     H = np.empty((n, n))
     u = np.empty(n)
-    status = walker_orin(model, q, qd, fext, pe, H, u)
+    status = walker_orin(model, q, qd, fext, pe, H, u, ws)
     if status != OK:
         return status
     status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
@@ -83,5 +91,10 @@ def fd_walker_orin(model, q, qd, tau, fext, pe, qdd):
 @nb.njit(**{**ALLOC, "parallel": True})
 def fd_walker_orin_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     """``fd_walker_orin`` over a batch; STATUS (B,) int64."""
-    for b in nb.prange(Q.shape[0]):
-        STATUS[b] = fd_walker_orin(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b])
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, 0, 0)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = fd_walker_orin(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)
