@@ -122,10 +122,10 @@ def scratch(n, s_rows, i_rows):
             np.empty((max(i_rows, 1), n), dtype=np.int64))
 
 
-@nb.njit(**ALLOC)
 def entry_scratch(n):
-    """A scratch every single-state entry kernel can use (the largest asks for 2n + 2 rows)."""
-    return scratch(n, 2 * n + 2, 0)
+    """A scratch every single-state entry kernel can use (the largest asks for 2n + 2 rows),
+    made by ``scratch``'s own source in Python: the Robot's first call compiles nothing more."""
+    return getattr(scratch, "py_func", scratch)(n, 2 * n + 2, 0)
 
 
 @nb.njit(**VIEWS)
