@@ -142,6 +142,13 @@ def machine() -> dict:
             info["ghz"] = float(fields["CPU max MHz"]) / 1000
     except (OSError, subprocess.CalledProcessError):
         pass
+    if info["ghz"] is None:  # a VM whose model name has no frequency: the clock it reports
+        try:
+            m = re.search(r"cpu MHz\s*:\s*([\d.]+)", Path("/proc/cpuinfo").read_text())
+            info["ghz"] = float(m.group(1)) / 1000 if m else None
+            info["ghz_source"] = "the clock /proc/cpuinfo reports"
+        except OSError:
+            pass
     info["cores"] = os.cpu_count()
     versions = {"Python": platform.python_version(), "NumPy": np.__version__,
                 "Numba": nb.__version__, "Pinocchio": pin.__version__,
@@ -660,10 +667,12 @@ def flops_tables(flops: dict, kt: dict, info: dict) -> str:
             "public call [us]", "Gflop/s (kernel)"]
     if peak:
         head += ["of peak", "at peak [us]", "kernel / peak time"]
-    assume = (f"one core's scalar peak taken as 2 flops per cycle at the nominal {ghz:g} GHz = "
-              f"{peak:g} Gflop/s (two scalar floating-point operations issued per cycle; Numba "
+    where = info.get("ghz_source", "the nominal")
+    assume = (f"one core's scalar peak taken as 2 flops per cycle at {where} {ghz:.2f} GHz = "
+              f"{peak:.2f} Gflop/s (two scalar floating-point operations issued per cycle; Numba "
               "compiles without fastmath, so no fused multiply-adds and no vectorised "
-              "arithmetic across the 3-vectors; turbo, if the VM has any, would raise it)"
+              "arithmetic across the 3-vectors; a core that issues two additions and two "
+              "multiplications per cycle, or a turbo clock, would double or raise it)"
               if peak else "the CPU frequency is unknown, so no peak is given")
     t2 = ("Measured against the machine, UR5: the kernel in a compiled loop over 64 states (no "
           "Python, no dispatch), the kernel's compiled entry called from Python with ready "
