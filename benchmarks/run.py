@@ -676,7 +676,7 @@ def flops_tables(flops: dict, kt: dict, info: dict) -> str:
               if peak else "the CPU frequency is unknown, so no peak is given")
     t2 = ("Measured against the machine, UR5: the kernel in a compiled loop over 64 states (no "
           "Python, no dispatch), the kernel's compiled entry called from Python with ready "
-          "arrays (+ unboxing the seven arguments: the public call's path), the same kernel "
+          "arrays (+ unboxing its arguments: the public call's path), the same kernel "
           "through Numba's dispatcher (+ typing every argument: the path the public call "
           "skips), the public call (entry + the wrapper), and " + assume + ":\n\n"
           + table(head, rows))
@@ -685,8 +685,9 @@ def flops_tables(flops: dict, kt: dict, info: dict) -> str:
     t2 += (f"\n\nWhere the {us(ta)} us of `forward_dynamics(method='mrnea')` go (UR5): "
            f"{us(tp)} us in the mRNEA pass (H and u'), {us(tf - tp)} us in the rest of the "
            f"kernel (tau - u' and the Cholesky solve), {us(te - tf)} us in the call of the "
-           f"compiled entry (unboxing seven arrays), {us(ta - te)} us in the Python wrapper "
-           f"(type and shape checks, the output array). Numba's dispatcher would add "
+           f"compiled entry (unboxing the model, three states, the output and the scratch), "
+           f"{us(ta - te)} us in the Python wrapper (dtype and ndim checks, the output array). "
+           f"Numba's dispatcher would add "
            f"{us(td - te)} us on top of the entry call.")
     return t1 + "\n\n" + t2
 
