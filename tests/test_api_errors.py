@@ -252,3 +252,85 @@ def test_strided_and_fortran_inputs(robot) -> None:
         for x, y in zip(a if isinstance(a, tuple) else (a,), b if isinstance(b, tuple) else (b,),
                         strict=True):
             np.testing.assert_array_equal(x, y)
+
+
+# --- the single-state fast path (dynamics module docstring) ---------------------------------------
+# Without a wrench, one state of 1-D float64 ndarrays goes straight to a compiled entry that checks
+# lengths and finiteness itself; anything it cannot take must reach the validated path.
+
+@pytest.mark.parametrize("fn", FUNCTIONS)
+def test_fast_path_wrong_length_names_the_argument(robot, fn: str) -> None:
+    for arg in _state_args(fn):
+        for bad in (np.zeros(N - 1), np.zeros(N + 1)):
+            kw = {a: np.full(N, 0.1) for a in _state_args(fn)}
+            kw[arg] = bad
+            with names_argument(arg) as info:
+                getattr(mrnea, fn)(robot, **kw)
+            assert str(bad.shape) in str(info.value)
+
+
+@pytest.mark.parametrize("fn", FUNCTIONS)
+def test_fast_path_hands_other_inputs_to_the_validated_path(robot, fn: str) -> None:
+    """Integer arrays, array-likes that are not ndarrays (here an object with a float64 dtype
+    and ndim 1, as a pandas Series has), and a non-Robot: the same result or a named error."""
+
+    class Duck:
+        dtype, ndim = np.dtype(np.float64), 1
+
+        def __init__(self, a):
+            self.a = a
+
+        def __array__(self, dtype=None, copy=None):
+            return self.a
+
+    args = _state_args(fn)
+    ints = {a: np.arange(N) for a in args}
+    floats = {a: np.arange(N, dtype=float) for a in args}
+    expect = getattr(mrnea, fn)(robot, **floats)
+    for kw in (ints, {a: Duck(v) for a, v in floats.items()}):
+        got = getattr(mrnea, fn)(robot, **kw)
+        for x, y in zip(got if isinstance(got, tuple) else (got,),
+                        expect if isinstance(expect, tuple) else (expect,), strict=True):
+            np.testing.assert_array_equal(x, y)
+    with names_argument("robot"):
+        getattr(mrnea, fn)("not a robot", **floats)
+
+
+@pytest.mark.parametrize("fn", FUNCTIONS)
+def test_free_motion_entry_equals_a_zero_wrench(robot, fn: str) -> None:
+    """The free-motion entry (compiled without the wrench terms) gives the results of the
+    general entry with a zero wrench, bit for bit."""
+    rng = np.random.default_rng(8)
+    for _ in range(5):
+        kw = {a: rng.uniform(-2, 2, N) for a in _state_args(fn)}
+        free = getattr(mrnea, fn)(robot, **kw)
+        zero = getattr(mrnea, fn)(robot, **kw, f_ext=np.zeros(6), f_ext_point=np.zeros(3))
+        for x, y in zip(free if isinstance(free, tuple) else (free,),
+                        zero if isinstance(zero, tuple) else (zero,), strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_threads_share_the_robots_scratch(robot) -> None:
+    """Single-state calls from several Python threads on one Robot (one shared scratch, safe
+    because the entries hold the GIL) give the results of the same calls made in turn."""
+    import threading
+
+    rng = np.random.default_rng(9)
+    Q, QD, TAU = rng.uniform(-2, 2, (3, 200, N))
+    expect = [mrnea.forward_dynamics(robot, Q[b], QD[b], TAU[b]) for b in range(200)]
+    expect_h = [mrnea.mass_matrix_and_bias(robot, Q[b], QD[b])[0] for b in range(200)]
+    results: dict[int, list] = {}
+
+    def work(k: int) -> None:
+        results[k] = [(mrnea.forward_dynamics(robot, Q[b], QD[b], TAU[b]),
+                       mrnea.mass_matrix_and_bias(robot, Q[b], QD[b])[0]) for b in range(200)]
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for k in range(4):
+        for b, (qdd, H) in enumerate(results[k]):
+            np.testing.assert_array_equal(qdd, expect[b])
+            np.testing.assert_array_equal(H, expect_h[b])

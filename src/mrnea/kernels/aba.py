@@ -1,6 +1,6 @@
 """ABA: the articulated-body algorithm, O(n) forward dynamics (Featherstone, RBDA Sec. 7.3).
 
-Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd)`` fills ``qdd`` (n,). ``status`` is OK,
+Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd, ws)`` fills ``qdd`` (n,). ``status`` is OK,
 NONFINITE (an input holds NaN or inf), or the index of the first joint whose articulated inertia
 D_i is not positive (a singular H).
 

@@ -24,9 +24,10 @@ Every kernel works in base coordinates, as the paper does: ``R[i]`` (3, 3) is li
 ``o[i]`` (3,) its frame origin (a point on joint i's axis), ``z[i]`` (3,) joint i's unit axis,
 ``c[i]`` (3,) its centre of mass and ``Ic[i]`` (3, 3) its inertia about the centre of mass.
 
-Scratch memory (:func:`scratch`): a kernel called on one state allocates one scratch; the
-``*_ws`` form of a kernel takes one instead. Batch kernels allocate one scratch per chunk of
-states (:func:`n_chunks`), the simulation loop one per run: nothing on the hot path allocates.
+Scratch memory (:func:`scratch`): the single-state entry kernels take the scratch the Robot
+keeps for them (:func:`entry_scratch`, ``Robot._scratch``), the ``*_ws`` forms take one from
+their caller. Batch kernels allocate one scratch per chunk of states (:func:`n_chunks`), the
+simulation loop one per run: nothing on the hot path allocates.
 
 3-vectors inside kernels are tuples ``(x, y, z)``: Numba keeps them in registers, so the
 equations read as written and allocate nothing.
@@ -72,7 +73,7 @@ ALLOC = {**JIT, "_nrt": True}
 # what makes one scratch per Robot safe to share between Python threads, and a call of a few
 # microseconds gains nothing from releasing it (releasing and retaking cost about 0.1 us,
 # measured). It allocates nothing, so its arguments are unboxed without Numba's runtime (about
-# 60 ns an array less). ENTRY_ALLOC: the same for the comparison kernels (ABA, CRBA,
+# 40 ns an array less). ENTRY_ALLOC: the same for the comparison kernels (ABA, CRBA,
 # Walker-Orin), which allocate arrays of their own. Batch and simulation kernels release the GIL.
 ENTRY = {**JIT, "nogil": False}
 ENTRY_ALLOC = {**ALLOC, "nogil": False}

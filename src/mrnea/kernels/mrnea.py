@@ -1,6 +1,6 @@
 """mRNEA: the paper's modified RNEA, the mass matrix H and bias u' in one pass (Eqs. 4-36).
 
-Usage: ``mrnea(model, q, qd, fext, pe, H, u)`` fills ``H`` (n, n) and ``u`` (n,) so that the
+Usage: ``mrnea(model, q, qd, fext, pe, H, u, ws)`` fills ``H`` (n, n) and ``u`` (n,) so that the
 joint efforts are ``tau = H @ qdd + u`` (Eq. 34) for every qdd.
 
 The RNEA's recursion is split into the part that multiplies the accelerations and the part that
@@ -27,8 +27,9 @@ the backward pass is a 3 x n coefficient matrix times qdd plus a 3-vector (Eqs. 
   where l_i = 0 (the centre of mass at o_i) the l_i x e terms do; the model's NOPOS/NOCOM flags
   (kernels/common.py) skip them, and the tests check the result is bit-for-bit the general one.
 
-``mrnea_ws`` and ``fd_mrnea_ws`` take a scratch (kernels/common.py ``scratch``) instead of
-allocating one: the batch kernels and the simulation loop use them.
+``ws`` is a scratch (kernels/common.py ``scratch``). ``mrnea`` and ``fd_mrnea`` are the
+single-state entries (they check the state's lengths, status SIZE); ``mrnea_ws`` and
+``fd_mrnea_ws``, which do not, are what the batch kernels and the simulation loop call.
 
 Beyond the paper (which treats revolute joints): for a prismatic joint i the effort is the force
 along its axis, so h_ik = z_i . E_ik and u'_i = z_i . E_i. Eq. 14 folds the external force f_e

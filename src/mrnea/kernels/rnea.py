@@ -1,7 +1,7 @@
 """RNEA: recursive Newton-Euler inverse dynamics in base coordinates (paper Eqs. 4-19, 32-33).
 
-Usage: ``rnea(model, q, qd, qdd, fext, pe, tau)`` fills ``tau`` (n,) with the joint efforts;
-``rnea_ws(model, q, qd, qdd, fext, pe, tau, ws)`` also the scratch's f, nm (n, 3): the force
+Usage: ``rnea(model, q, qd, qdd, fext, pe, tau, ws)`` fills ``tau`` (n,) with the joint efforts
+and the scratch ``ws``'s (kernels/common.py) f, nm (n, 3): the force
 and moment that link i-1 exerts on link i through joint i, in base coordinates, the moment taken
 about the joint's point o_i (Eqs. 18-19).
 

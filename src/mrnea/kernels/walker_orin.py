@@ -1,6 +1,6 @@
 """Walker-Orin method 1: H and u' from n + 1 RNEA passes (the paper's baseline).
 
-Usage: ``walker_orin(model, q, qd, fext, pe, H, u)``, the same contract as ``mrnea``.
+Usage: ``walker_orin(model, q, qd, fext, pe, H, u, ws)``, the same contract as ``mrnea``.
 
 u' is the RNEA with zero acceleration (velocity, gravity and external wrench in); column k of H
 is the RNEA with unit acceleration of joint k, no velocity, no gravity and no external wrench.
