@@ -152,8 +152,9 @@ def test_dh_forward_kinematics_of_centres_of_mass(convention: str, mix: str) -> 
 
 
 def test_dh_rows_as_dataclasses_and_defaults() -> None:
-    rows = [DHRow(a=0.3, alpha=0.0, d=0.1), DHRow(a=0.2, alpha=0.5, d=0.0, type="prismatic",
-                                                   lower=-0.1, upper=0.2, gear_ratio=3.0)]
+    rows = [DHRow(a=0.3, alpha=0.0, d=0.1),
+            DHRow(a=0.2, alpha=0.5, d=0.0, type="prismatic",
+                  joint={"lower": -0.1, "upper": 0.2, "gear_ratio": 3.0})]
     joints, links = dh_joint_chain(rows, base="ground")
     assert [j.name for j in joints] == ["joint1", "joint2"]
     assert [lk.name for lk in links] == ["link1", "link2"]
@@ -176,6 +177,8 @@ def test_dh_rows_as_dataclasses_and_defaults() -> None:
         ([{"a": 0, "alpha": 0, "d": 0, "link_name": "forearm", "mass": -1}], "modified",
          "link 'forearm'.*mass"),
         ([], "standard", "empty"),
+        ([DHRow(a=0, alpha=0, d=0, name="elbow", joint={"gear": 2.0})], "standard",
+         r"joint 'elbow'.*unknown joint field\(s\) \['gear'\]"),
     ],
 )
 def test_dh_errors(rows, convention, match) -> None:

@@ -46,12 +46,24 @@ from mrnea.model import JOINT_TYPES, Joint, Link
 
 CONVENTIONS = ("standard", "modified")
 
-__all__ = ["CONVENTIONS", "DHRow", "dh_fixed_transform", "dh_joint_chain", "dh_tip_transform"]
+__all__ = [
+    "CONVENTIONS",
+    "JOINT_FIELDS",
+    "DHRow",
+    "dh_fixed_transform",
+    "dh_joint_chain",
+    "dh_tip_transform",
+]
+
+#: The keyword fields of :class:`mrnea.model.Joint` beyond its place in the chain (the limits and
+#: the actuator): what a DH row, a native joint entry and a sidecar actuator file may set.
+JOINT_FIELDS = tuple(f.name for f in fields(Joint)
+                     if f.name not in ("name", "type", "parent", "child", "origin", "axis"))
 
 
 @dataclass(frozen=True)
 class DHRow:
-    """One row of a DH table: the joint, its link's inertials and its actuator.
+    """One row of a DH table: the DH parameters, the joint's type, the link's inertials, the names.
 
     Parameters
     ----------
@@ -63,9 +75,8 @@ class DHRow:
     com : (3,) centre of mass [m] in the DH link frame (frame i of the chosen convention).
     inertia : (3, 3) inertia [kg m^2] about the centre of mass, axes of the DH link frame.
     name, link_name : joint and link names (default ``joint<i>``, ``link<i>``, 1-based).
-    lower, upper, velocity_limit, effort_limit, gear_ratio, rotor_inertia, viscous_friction,
-    coulomb_friction, torque_speed : as in :class:`mrnea.model.Joint` (joint side; limits in rad
-    or m).
+    joint : the joint's limit and actuator fields (:data:`JOINT_FIELDS`), passed on to
+        :class:`mrnea.model.Joint` as keywords (joint side; limits in rad or m).
     """
 
     a: float
@@ -78,20 +89,11 @@ class DHRow:
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
     name: str | None = None
     link_name: str | None = None
-    lower: float = -math.inf
-    upper: float = math.inf
-    velocity_limit: float = math.inf
-    effort_limit: float = math.inf
-    gear_ratio: float = 1.0
-    rotor_inertia: float = 0.0
-    viscous_friction: float = 0.0
-    coulomb_friction: float = 0.0
-    torque_speed: tuple[float, float, float] | None = None
+    joint: Mapping[str, Any] = field(default_factory=dict)
 
 
-_ROW_FIELDS = tuple(f.name for f in fields(DHRow))
-_JOINT_FIELDS = ("lower", "upper", "velocity_limit", "effort_limit", "gear_ratio",
-                 "rotor_inertia", "viscous_friction", "coulomb_friction", "torque_speed")
+#: The names a row given as a mapping may use: the row's own and, flat, the joint's fields.
+_ROW_FIELDS = tuple(f.name for f in fields(DHRow) if f.name != "joint")
 
 
 def _rot_x(angle: float) -> NDArray[np.float64]:
@@ -122,18 +124,25 @@ def _check_convention(convention: str) -> None:
 
 
 def _as_row(row: DHRow | Mapping[str, Any], i: int) -> DHRow:
-    if isinstance(row, DHRow):
-        return row
-    if not isinstance(row, Mapping):
+    if isinstance(row, Mapping):
+        label = f"DH row {i + 1}" + (f" (joint '{row['name']}')" if "name" in row else "")
+        unknown = sorted(set(row) - set(_ROW_FIELDS) - set(JOINT_FIELDS))
+        if unknown:
+            raise ModelError(f"{label}: unknown field(s) {unknown}; allowed: "
+                             f"{[*_ROW_FIELDS, *JOINT_FIELDS]}")
+        missing = [k for k in ("a", "alpha", "d") if k not in row]
+        if missing:
+            raise ModelError(f"{label}: missing DH parameter(s) {missing}")
+        return DHRow(**{k: v for k, v in row.items() if k in _ROW_FIELDS},
+                     joint={k: v for k, v in row.items() if k in JOINT_FIELDS})
+    if not isinstance(row, DHRow):
         raise ModelError(f"DH row {i + 1}: expected a DHRow or a mapping, got {row!r}")
-    label = f"DH row {i + 1}" + (f" (joint '{row['name']}')" if "name" in row else "")
-    unknown = sorted(set(row) - set(_ROW_FIELDS))
+    unknown = sorted(set(row.joint) - set(JOINT_FIELDS))
     if unknown:
-        raise ModelError(f"{label}: unknown field(s) {unknown}; allowed: {list(_ROW_FIELDS)}")
-    missing = [k for k in ("a", "alpha", "d") if k not in row]
-    if missing:
-        raise ModelError(f"{label}: missing DH parameter(s) {missing}")
-    return DHRow(**row)
+        label = f"DH row {i + 1}" + (f" (joint '{row.name}')" if row.name else "")
+        raise ModelError(f"{label}: unknown joint field(s) {unknown}; allowed: "
+                         f"{list(JOINT_FIELDS)}")
+    return row
 
 
 def _param(row: DHRow, key: str, label: str) -> float:
@@ -245,8 +254,7 @@ def dh_joint_chain(
         inertia = R @ lk.inertia @ R.T
         inertia = 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
         links.append(Link(lname, mass=lk.mass, com=com, inertia=inertia))
-        kwargs = {k: getattr(r, k) for k in _JOINT_FIELDS}
         joints.append(Joint(jname, r.type, parent, lname, origin=origin, axis=(0.0, 0.0, 1.0),
-                            **kwargs))
+                            **r.joint))
         parent = lname
     return joints, links

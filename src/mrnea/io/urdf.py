@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import ModelError, RobotFileError
+from mrnea.io.sidecar import apply_actuator_file
 from mrnea.model import (
     DEFAULT_GRAVITY,
     Joint,
@@ -306,7 +307,7 @@ def load_urdf(
         off the root-to-tip path are lumped, at ``q = 0``, into the chain link they hang from.
     actuators : str or Path, optional
         A sidecar actuator file (TOML) for what URDF cannot say: rotor inertias, torque-speed
-        curves, or overrides (:func:`mrnea.io.native.apply_actuator_file`).
+        curves, or overrides (:func:`mrnea.io.sidecar.apply_actuator_file`).
 
     Returns
     -------
@@ -482,8 +483,6 @@ def load_urdf(
             stacklevel=2,
         )
     if actuators is not None:
-        from mrnea.io.native import apply_actuator_file
-
         robot = apply_actuator_file(robot, actuators)
     return robot
 
