@@ -33,11 +33,11 @@ import mrnea.errors
 from mrnea.achievable import achievable_accelerations, achievable_step
 from mrnea.cli import main
 from mrnea.errors import ModelError, MrneaError, RobotFileError, StateError
-from mrnea.io import load_robot
+from mrnea.io import from_csv, load_robot
 from mrnea.io.native import loads_native
 from mrnea.model import Joint, Link, Robot, transform
 from mrnea.simulate import simulate
-from mrnea.trajectory import from_csv, quintic, trapezoidal
+from mrnea.trajectory import quintic, trapezoidal
 
 CORPUS = Path(__file__).resolve().parent / "malformed"
 CASES = tomllib.loads((CORPUS / "cases.toml").read_text(encoding="utf-8"))

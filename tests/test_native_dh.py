@@ -18,9 +18,10 @@ import pytest
 
 from mrnea.errors import ModelError, RobotFileError
 from mrnea.io.dh import DHRow, dh_joint_chain, dh_tip_transform
+from mrnea.io.dispatch import BUILTIN_ROBOTS, load_builtin
 from mrnea.io.native import load_native, loads_native
 from mrnea.model import Robot, transform
-from mrnea.robots import load, names, puma560, sdt
+from mrnea.robots import puma560, sdt
 
 # --- independent kinematics -------------------------------------------------------------------
 
@@ -434,12 +435,12 @@ def test_native_errors_are_model_errors() -> None:
 
 
 def test_builtin_names_and_load() -> None:
-    assert set(names()) == {"sdt", "puma560"}
-    for name in names():
-        robot = load(name)
+    assert set(BUILTIN_ROBOTS) == {"sdt", "puma560"}
+    for name in BUILTIN_ROBOTS:
+        robot = load_builtin(name)
         assert robot.name == name
     with pytest.raises(RobotFileError, match="unknown built-in robot 'r2d2'"):
-        load("r2d2")
+        load_builtin("r2d2")
 
 
 SDT_A1, SDT_D2 = 3.0, 1.6

@@ -1,4 +1,4 @@
-"""The path interpolator (mrnea.trajectory): profiles, CSV paths and program files.
+"""The path interpolator (mrnea.trajectory) and the files it reads (mrnea.io: CSV paths, programs).
 
 Expected values are closed forms worked out by hand (durations, positions of a trapezoid or a
 quintic at given times, peak velocities), never outputs of the code under test.
@@ -16,16 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrnea.errors import MrneaError, StateError
-from mrnea.trajectory import (
-    Program,
-    ProgramFileError,
-    from_csv,
-    load_program,
-    loads_program,
-    quintic,
-    trapezoidal,
-)
+from mrnea.errors import MrneaError, ProgramFileError, StateError
+from mrnea.io import Program, from_csv, load_program, loads_program
+from mrnea.simulate import simulate
+from mrnea.trajectory import quintic, trapezoidal
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -623,7 +617,9 @@ def test_example_sdt_csv() -> None:
 @pytest.mark.parametrize("name", ["puma_pick.toml", "sdt_csv.toml"])
 def test_examples_simulate_achievable(name: str) -> None:
     prog = load_program(EXAMPLES / name)
-    res = prog.simulate()
+    mode = {} if prog.mode is None else {"mode": prog.mode}
+    res = simulate(prog.load_robot(), prog.q_cmd, prog.dt, f_ext=prog.f_ext,
+                   f_ext_point=prog.f_ext_point, **mode)
     assert res.achievable, res.verdict()
     assert res.mode == (prog.mode or "hybrid")
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mrnea.errors import ModelError, RobotFileError
-from mrnea.io.dispatch import load_robot
+from mrnea.io.dispatch import load_robot, load_robot_spec, resolve_robot
 from mrnea.io.urdf import UNBOUNDED, load_urdf, write_urdf
 from mrnea.model import Joint, Link, Robot, rotation_from_rpy, transform
 
@@ -338,6 +338,18 @@ def test_dispatch(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(mrnea.io.native, "load_native", lambda path: calls.append(path))
     load_robot(tmp_path / "r.toml")
     assert calls == [tmp_path / "r.toml"]
+
+
+def test_resolve_robot_name_or_path(tmp_path: Path) -> None:
+    """A built-in name wins; a relative path is taken in base_dir (as given without one)."""
+    assert resolve_robot("sdt", tmp_path) == "sdt"
+    assert resolve_robot("cell/r.urdf", tmp_path) == str(tmp_path / "cell" / "r.urdf")
+    assert resolve_robot("cell/r.urdf") == str(Path("cell/r.urdf"))
+    assert resolve_robot(str(tmp_path / "r.urdf"), "elsewhere") == str(tmp_path / "r.urdf")
+    body = "\n".join([link("base"), joint("j1", "base", "a"), link("a", 1.0)])
+    write(tmp_path, body, "r.urdf")
+    assert load_robot_spec("r.urdf", tmp_path).n == 1
+    assert load_robot_spec("puma560", tmp_path).n == 6
 
 
 # --- malformed files ----------------------------------------------------------------------------

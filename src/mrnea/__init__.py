@@ -15,11 +15,12 @@ from mrnea.errors import (
     ModelError,
     ModelWarning,
     MrneaError,
+    ProgramFileError,
     RobotFileError,
     SingularMassMatrixError,
     StateError,
 )
-from mrnea.io import load_robot, load_urdf
+from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot, transform
 
 __version__ = "0.1.0"
@@ -30,6 +31,7 @@ __all__ = [
     "ModelError",
     "ModelWarning",
     "MrneaError",
+    "ProgramFileError",
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
@@ -38,6 +40,7 @@ __all__ = [
     "forward_dynamics",
     "inverse_dynamics",
     "joint_reactions",
+    "load_program",
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",

@@ -25,6 +25,7 @@ import numpy as np
 
 from mrnea import robots
 from mrnea.errors import MrneaError
+from mrnea.io import from_csv, load_program, load_robot_spec
 from mrnea.model import Robot
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
@@ -49,11 +50,7 @@ def compile_notice(delay: float = 2.0) -> Iterator[None]:
 
 def load_any(spec: str) -> Robot:
     """A built-in robot by name, else a robot file (URDF or native TOML) by path."""
-    if spec in robots.names():
-        return robots.load(spec)
-    from mrnea.io import load_robot
-
-    return load_robot(spec)
+    return load_robot_spec(spec)
 
 
 def fresh_dir(base: str) -> Path:
@@ -191,14 +188,12 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
 
 def _load_program(robot: Robot, program: str, dt: float | None):
     """(q_cmd, dt, f_ext, f_ext_point, mode) from a program .toml or a CSV file."""
-    from mrnea import trajectory
-
     if program.lower().endswith(".csv"):
         if dt is None:
             raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
-        _, q = trajectory.from_csv(program, dt, n=robot.n)
+        _, q = from_csv(program, dt, n=robot.n)
         return q, dt, None, None, None
-    prog = trajectory.load_program(program)
+    prog = load_program(program)
     if dt is not None and not np.isclose(dt, prog.dt):
         raise click.UsageError(
             f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")

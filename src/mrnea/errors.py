@@ -19,6 +19,14 @@ class RobotFileError(ModelError):
     """A robot file (URDF, native TOML/YAML, DH table) cannot be read or parsed."""
 
 
+class ProgramFileError(MrneaError):
+    """A program file (TOML) or path CSV cannot be read, parsed or validated.
+
+    The message names the file and the key, row or column at fault (TOML syntax errors: line
+    and column).
+    """
+
+
 class StateError(MrneaError):
     """A state or argument passed to the public API has the wrong shape, type or value."""
 

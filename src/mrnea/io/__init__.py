@@ -1,7 +1,38 @@
-"""Loaders: every robot file format mrnea reads produces a validated :class:`mrnea.Robot`."""
+"""Files mrnea reads: robots (URDF, native TOML, DH tables, sidecar actuator files), built-in
+robots by name, program files and path CSVs.
 
-from mrnea.io.dispatch import load_robot
-from mrnea.io.native import load_native
+One public entry per task, all importable from here: :func:`load_robot` (a robot file, chosen by
+suffix), :func:`load_builtin` (a built-in robot by name), :func:`load_robot_spec` (either),
+:func:`load_urdf`, :func:`load_native`, :func:`apply_actuator_file` (a sidecar file),
+:func:`load_program` (a program file into a :class:`Program`) and :func:`from_csv` (a path CSV
+resampled to dt). Every TOML reader checks its document with :mod:`mrnea.io.tomlcheck`.
+"""
+
+from mrnea.io.dispatch import (
+    BUILTIN_ROBOTS,
+    load_builtin,
+    load_robot,
+    load_robot_spec,
+    resolve_robot,
+)
+from mrnea.io.native import load_native, loads_native
+from mrnea.io.pathcsv import from_csv
+from mrnea.io.program import Program, load_program, loads_program
+from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.urdf import load_urdf
 
-__all__ = ["load_native", "load_robot", "load_urdf"]
+__all__ = [
+    "BUILTIN_ROBOTS",
+    "Program",
+    "apply_actuator_file",
+    "from_csv",
+    "load_builtin",
+    "load_native",
+    "load_program",
+    "load_robot",
+    "load_robot_spec",
+    "load_urdf",
+    "loads_native",
+    "loads_program",
+    "resolve_robot",
+]

@@ -1,14 +1,26 @@
-"""Load a robot file of any supported format, chosen by the file's suffix."""
+"""Which robot a name means: a built-in robot, or a robot file read by the reader its suffix picks.
+
+The built-in robots' files are package data in ``mrnea/robots/data`` (:mod:`mrnea.robots` gives
+them named constructors); this module reads them, so :mod:`mrnea.robots` imports ``io`` and
+never the other way round.
+"""
 
 from __future__ import annotations
 
+import warnings
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from mrnea.errors import RobotFileError
+from mrnea.errors import ModelWarning, RobotFileError
+from mrnea.io import native, urdf
 from mrnea.model import Robot
 
-__all__ = ["SUFFIXES", "load_robot"]
+__all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "load_builtin", "load_robot", "load_robot_spec",
+           "resolve_robot"]
+
+#: Names of the built-in robots (files ``mrnea/robots/data/<name>.toml``).
+BUILTIN_ROBOTS = ("sdt", "puma560")
 
 #: Supported suffixes (case-insensitive) and the format each one selects.
 SUFFIXES = {".urdf": "URDF", ".xml": "URDF", ".toml": "native TOML"}
@@ -23,7 +35,7 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
         ``.urdf`` or ``.xml``: read by :func:`mrnea.io.urdf.load_urdf`; ``.toml``: read by
         :func:`mrnea.io.native.load_native`. The suffix is matched case-insensitively.
     **kw
-        Passed on to the reader (e.g. ``tip=`` for URDF).
+        Passed on to the reader (e.g. ``tip=`` for URDF, ``actuators=`` for both).
 
     Returns
     -------
@@ -38,14 +50,66 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in (".urdf", ".xml"):
-        from mrnea.io.urdf import load_urdf
-
-        return load_urdf(path, **kw)
+        return urdf.load_urdf(path, **kw)
     if suffix == ".toml":
-        from mrnea.io.native import load_native
-
-        return load_native(path, **kw)
+        return native.load_native(path, **kw)
     supported = ", ".join(f"{s} ({fmt})" for s, fmt in SUFFIXES.items())
     raise RobotFileError(
         f"{path}: unsupported robot file suffix {path.suffix or '(none)'!r}; supported: {supported}"
     )
+
+
+def load_builtin(name: str) -> Robot:
+    """Load a built-in robot by name (one of :data:`BUILTIN_ROBOTS`).
+
+    Raises
+    ------
+    RobotFileError
+        If ``name`` is not a built-in robot.
+    """
+    if name not in BUILTIN_ROBOTS:
+        raise RobotFileError(
+            f"unknown built-in robot {name!r}; available: {', '.join(BUILTIN_ROBOTS)}")
+    resource = resources.files("mrnea").joinpath("robots", "data", f"{name}.toml")
+    # Built-ins are curated, not the user's input: no ModelWarning. (The published Puma 560's
+    # link 1 is a lumped inertia about its axis only, Izz = 0.35 with no mass, and its link 3's
+    # principal moments 0.0125 + 0.066 < 0.086: both break the triangle inequality as published.)
+    with resources.as_file(resource) as path, warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
+        return native.load_native(path)
+
+
+def resolve_robot(spec: str, base_dir: str | Path | None = None) -> str:
+    """The robot ``spec`` names: a built-in robot's name, or the path of a robot file.
+
+    Parameters
+    ----------
+    spec : a name in :data:`BUILTIN_ROBOTS` (these win over a file of the same name), else a
+        path (``~`` expanded).
+    base_dir : the folder a relative path is taken in (a program's folder); None: the path is
+        returned as given, relative to the current folder.
+
+    Returns
+    -------
+    str
+        The built-in name, or the file's path (whether the file exists is not checked here: the
+        reader says so, naming the file).
+    """
+    if spec in BUILTIN_ROBOTS:
+        return spec
+    p = Path(spec).expanduser()
+    if base_dir is not None and not p.is_absolute():
+        p = Path(base_dir) / p
+    return str(p)
+
+
+def load_robot_spec(spec: str, base_dir: str | Path | None = None) -> Robot:
+    """Load the robot ``spec`` names: a built-in robot or a robot file (:func:`resolve_robot`).
+
+    Raises
+    ------
+    RobotFileError
+        The file cannot be read (the message names it) or is malformed.
+    """
+    source = resolve_robot(spec, base_dir)
+    return load_builtin(source) if source in BUILTIN_ROBOTS else load_robot(source)

@@ -5,52 +5,16 @@
 * :func:`puma560` -- the classic Puma 560 as in Robotics Toolbox for Python
   (``rtb.models.DH.Puma560()``), with RTB's motor-side friction mapped to the joint side.
 
-:func:`names` and :func:`load` serve the command line (``mrnea ... --robot sdt``).
+Loading any of them by name (the command line's ``mrnea info sdt``) is
+:func:`mrnea.io.load_robot_spec`; the list of names is :data:`mrnea.io.BUILTIN_ROBOTS`.
 """
 
 from __future__ import annotations
 
-import warnings
-from importlib import resources
-from typing import TYPE_CHECKING
+from mrnea.io.dispatch import load_builtin
+from mrnea.model import Robot
 
-from mrnea.errors import ModelWarning, RobotFileError
-
-if TYPE_CHECKING:
-    from mrnea.model import Robot
-
-__all__ = ["load", "names", "puma560", "sdt"]
-
-_BUILTIN = ("sdt", "puma560")
-
-
-def names() -> tuple[str, ...]:
-    """Names of the built-in robots, as accepted by :func:`load`."""
-    return _BUILTIN
-
-
-def load(name: str) -> Robot:
-    """Load a built-in robot by name (see :func:`names`).
-
-    Raises
-    ------
-    RobotFileError
-        If ``name`` is not a built-in robot.
-    """
-    if name not in _BUILTIN:
-        raise RobotFileError(
-            f"unknown built-in robot {name!r}; available: {', '.join(_BUILTIN)}"
-        )
-    # Imported here: mrnea.io imports modules that may import this package.
-    from mrnea.io.native import load_native
-
-    resource = resources.files(__name__).joinpath("data", f"{name}.toml")
-    # Built-ins are curated, not the user's input: no ModelWarning. (The published Puma 560's
-    # link 1 is a lumped inertia about its axis only, Izz = 0.35 with no mass, and its link 3's
-    # principal moments 0.0125 + 0.066 < 0.086: both break the triangle inequality as published.)
-    with resources.as_file(resource) as path, warnings.catch_warnings():
-        warnings.simplefilter("ignore", ModelWarning)
-        return load_native(path)
+__all__ = ["puma560", "sdt"]
 
 
 def sdt() -> Robot:
@@ -61,7 +25,7 @@ def sdt() -> Robot:
     limits, gears and friction are engineering estimates for a full-size trainer
     (``docs/sdt.md``). Base frame: origin on the planetary axis at arm height, z up.
     """
-    return load("sdt")
+    return load_builtin("sdt")
 
 
 def puma560() -> Robot:
@@ -71,4 +35,4 @@ def puma560() -> Robot:
     ``viscous_friction = B G^2``, ``coulomb_friction = |G| (|Tc+| + |Tc-|) / 2``;
     effort limits from Armstrong, Khatib & Burdick (1986). Details in ``puma560.toml``.
     """
-    return load("puma560")
+    return load_builtin("puma560")

@@ -1,0 +1,274 @@
+"""Program files: a robot, a cycle time, a path and an optional external wrench, in TOML.
+
+:func:`load_program` reads one into a :class:`Program` (format and examples: ``docs/programs.md``).
+A waypoint path is made by the profiles of :mod:`mrnea.trajectory` (pure NumPy, below ``io``), a
+CSV path by :mod:`mrnea.io.pathcsv`; the robot is a built-in name or a robot file
+(:func:`mrnea.io.dispatch.resolve_robot`). Every problem raises
+:class:`mrnea.errors.ProgramFileError` naming the file and the table and key at fault.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mrnea.errors import ProgramFileError, StateError
+from mrnea.io.dispatch import BUILTIN_ROBOTS, load_robot_spec, resolve_robot
+from mrnea.io.pathcsv import read_table, resample
+from mrnea.io.tomlcheck import TomlCheck, did_you_mean, read_text
+from mrnea.model import Robot
+from mrnea.trajectory import quintic, trapezoidal
+
+__all__ = ["Program", "load_program", "loads_program"]
+
+#: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
+#: and ``[path] units``.
+MODES = ("hybrid", "paper")
+PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic}
+UNITS = ("rad", "deg")
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """A robot program ready for :func:`mrnea.simulate.simulate`, read by :func:`load_program`.
+
+    Run it with ``simulate(prog.load_robot(), prog.q_cmd, prog.dt, f_ext=prog.f_ext,
+    f_ext_point=prog.f_ext_point)``, adding ``mode=prog.mode`` when the program sets one.
+
+    Attributes
+    ----------
+    robot : a built-in robot name (``sdt``, ``puma560``) or the path of a robot file, resolved
+        relative to the program file's folder.
+    dt : interpolation cycle [s].
+    t : (K,) cycle times [s] (``k dt`` for waypoint paths, the CSV's clock for CSV paths).
+    q_cmd : (K, n) commanded joint positions [rad | m].
+    f_ext : (K, 6) wrench ``[f; n]`` [N, N m] the end effector exerts on its environment, base
+        frame, one row per cycle; None: no external wrench.
+    f_ext_point : (3,) point [m] of the last link's frame where f_ext acts; None: its origin.
+    mode : ``"hybrid"``, ``"paper"`` or None (the simulator's default).
+    name : the program's name.
+    source : the program file it was read from (for messages).
+
+    The arrays are read-only.
+    """
+
+    robot: str
+    dt: float
+    t: NDArray[np.float64]
+    q_cmd: NDArray[np.float64]
+    f_ext: NDArray[np.float64] | None
+    f_ext_point: NDArray[np.float64] | None
+    mode: Literal["hybrid", "paper"] | None
+    name: str
+    source: str = ""
+
+    @property
+    def K(self) -> int:
+        """Number of cycles."""
+        return int(self.q_cmd.shape[0])
+
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return int(self.q_cmd.shape[1])
+
+    @property
+    def duration(self) -> float:
+        """``(K - 1) dt`` [s]: from the first to the last cycle."""
+        return (self.K - 1) * self.dt
+
+    def load_robot(self) -> Robot:
+        """The robot the program names: a built-in one or a robot file (any supported format).
+
+        Raises
+        ------
+        ProgramFileError
+            If the robot's joint count differs from the program's.
+        RobotFileError
+            If the robot file cannot be read.
+        """
+        robot = load_robot_spec(self.robot)
+        if robot.n != self.n:
+            raise ProgramFileError(
+                f"{self.source or self.name}: the program commands {self.n} joints but robot "
+                f"'{robot.name}' ({self.robot}) has {robot.n}")
+        return robot
+
+
+_TOP_KEYS = ("program", "path", "wrench")
+_PROGRAM_KEYS = ("name", "robot", "dt", "mode")
+_CSV_KEYS = ("csv", "units")
+_PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "dwell", "csv",
+              "units")
+_WRENCH_KEYS = ("times", "values", "point")
+
+
+def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
+    source = resolve_robot(value, base_dir)
+    if source not in BUILTIN_ROBOTS and not Path(source).is_file():
+        raise check.error("[program]", f"robot {value!r} is neither a built-in robot "
+                                       f"({', '.join(BUILTIN_ROBOTS)}) nor an existing robot "
+                                       f"file (looked for {source})")
+    return source
+
+
+def _limit(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArray[np.float64]:
+    """A per-joint limit: a number or n numbers, each > 0 (inf = unlimited)."""
+    if isinstance(value, list):
+        a = check.vector(value, where, key, n, allow_inf=True)
+    else:
+        a = np.full(n, check.number(value, where, key, allow_inf=True))
+    if not (a > 0).all():
+        raise check.error(where, f"'{key}' must be > 0 for every joint (inf = unlimited), "
+                                 f"got {a.tolist()}")
+    return a
+
+
+def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
+          ) -> tuple[NDArray, NDArray]:
+    where = "[path]"
+    check.check_keys(table, _PATH_KEYS, where)
+    units = table.get("units", "rad")
+    if units not in UNITS:
+        raise check.error(where, f"'units' must be one of {', '.join(map(repr, UNITS))}, got "
+                                 f"{units!r}")
+    scale = math.pi / 180.0 if units == "deg" else 1.0
+    if "csv" in table:
+        for key in table:
+            if key not in _CSV_KEYS:
+                raise check.error(where, f"key '{key}' cannot be used with 'csv' (a CSV path "
+                                         "gives its own positions and times; allowed with csv: "
+                                         f"{', '.join(_CSV_KEYS)})")
+        p = Path(check.string(table["csv"], where, "csv")).expanduser()
+        if not p.is_absolute():
+            p = base_dir / p
+        _, data = read_table(p, None)
+        return resample(data[:, 0], data[:, 1:] * scale, dt)
+    if "waypoints" not in table and "profile" not in table:
+        raise check.error(where, "give either 'csv' (a path CSV file) or 'profile' and "
+                                 "'waypoints' (with velocity_limit and acceleration_limit)")
+    profile = check.string(check.require(table, "profile", where), where, "profile")
+    if profile not in PROFILES:
+        raise check.error(where, f"unknown profile {profile!r}{did_you_mean(profile, [*PROFILES])}"
+                                 f"; expected one of {', '.join(map(repr, PROFILES))}")
+    w = check.matrix(check.require(table, "waypoints", where), where, "waypoints") * scale
+    n = w.shape[1]
+    vmax = _limit(check, check.require(table, "velocity_limit", where), where, "velocity_limit",
+                  n) * scale
+    amax = _limit(check, check.require(table, "acceleration_limit", where), where,
+                  "acceleration_limit", n) * scale
+    dwell: float | NDArray = 0.0
+    if "dwell" in table:
+        d = table["dwell"]
+        dwell = (check.vector(d, where, "dwell", w.shape[0]) if isinstance(d, list)
+                 else check.number(d, where, "dwell"))
+        if np.any(np.asarray(dwell) < 0):
+            raise check.error(where, f"'dwell' must be >= 0 s, got {np.asarray(dwell).tolist()}")
+    try:
+        return PROFILES[profile](w, dt, vmax, amax, dwell=dwell)
+    except StateError as exc:
+        raise check.error(where, str(exc)) from None
+
+
+def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray
+            ) -> tuple[NDArray, NDArray | None]:
+    where = "[wrench]"
+    check.check_keys(table, _WRENCH_KEYS, where)
+    times = check.vector(check.require(table, "times", where), where, "times")
+    if np.any(np.diff(times) <= 0):
+        k = int(np.argmax(np.diff(times) <= 0)) + 1
+        raise check.error(where, f"'times' must be strictly increasing: times[{k}] = "
+                                 f"{times[k]} follows {times[k - 1]}")
+    values = check.matrix(check.require(table, "values", where), where, "values", width=6,
+                          rows=times.size)
+    f_ext = np.empty((t.size, 6))
+    for c in range(6):
+        f_ext[:, c] = np.interp(t, times, values[:, c])
+    point = None
+    if "point" in table:
+        point = check.vector(table["point"], where, "point", 3)
+    return f_ext, point
+
+
+def loads_program(text: str, source: str = "<string>", base_dir: str | Path | None = None
+                  ) -> Program:
+    """Parse a program from a TOML string (format: ``docs/programs.md``).
+
+    Parameters
+    ----------
+    text : the TOML document.
+    source : a name for it in error messages (the file name).
+    base_dir : folder against which relative robot and CSV paths resolve; None: the current
+        folder.
+
+    Returns
+    -------
+    Program
+
+    Raises
+    ------
+    ProgramFileError
+        TOML syntax (with line and column), unknown keys (with a suggestion), missing keys,
+        wrong types and values; the message names ``source`` and the table and key at fault.
+    """
+    check = TomlCheck(source, ProgramFileError)
+    base = Path.cwd() if base_dir is None else Path(base_dir)
+    doc = check.parse(text)
+    check.check_keys(doc, _TOP_KEYS, "top level")
+    prog = check.table(check.require(doc, "program", "top level"), "top level", "program")
+    check.check_keys(prog, _PROGRAM_KEYS, "[program]")
+    default_name = Path(source).stem if source != "<string>" else "program"
+    name = check.string(prog.get("name", default_name), "[program]", "name")
+    robot = _robot(check, check.string(check.require(prog, "robot", "[program]"), "[program]",
+                                       "robot"), base)
+    dt = check.number(check.require(prog, "dt", "[program]"), "[program]", "dt")
+    if not dt > 0:
+        raise check.error("[program]", f"'dt' must be a time step > 0 s, got {dt}")
+    mode = prog.get("mode")
+    if mode is not None and mode not in MODES:
+        raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
+                                       f"got {mode!r}")
+    path = check.table(check.require(doc, "path", "top level"), "top level", "path")
+    t, q = _path(check, path, dt, base)
+    if q.shape[0] < 2:
+        raise check.error("[path]", "the program is a single cycle (all waypoints equal and no "
+                                    "dwell); give at least two distinct waypoints or a dwell")
+    f_ext = point = None
+    if "wrench" in doc:
+        f_ext, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"), t)
+    for a in (t, q, f_ext, point):
+        if a is not None:
+            a.setflags(write=False)
+    return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
+                   mode=mode, name=name, source=source)
+
+
+def load_program(path: str | Path) -> Program:
+    """Load a program file (TOML, format in ``docs/programs.md``).
+
+    Parameters
+    ----------
+    path : the ``.toml`` program file. Relative robot and CSV paths in it resolve against its
+        folder.
+
+    Returns
+    -------
+    Program
+        robot, dt [s], t (K,) [s], q_cmd (K, n) [rad | m], f_ext (K, 6) [N, N m] or None,
+        f_ext_point (3,) [m] or None, mode, name.
+
+    Raises
+    ------
+    ProgramFileError
+        Missing or unreadable file, TOML syntax error (line and column), unknown key (with a
+        did-you-mean suggestion), missing key, bad value; or an error in the path CSV it names.
+    """
+    p = Path(path)
+    return loads_program(read_text(p, "program file", ProgramFileError), source=str(p),
+                         base_dir=p.parent)
