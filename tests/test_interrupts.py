@@ -24,6 +24,7 @@ from test_output_files import LONG, leftovers, wait_for_table
 
 import mrnea.simulate as simulate_module
 from mrnea.model import Joint, Link, Robot
+from mrnea.report import write_report
 from mrnea.simulate import CHUNK, simulate
 
 
@@ -72,6 +73,19 @@ def test_an_interrupted_run_that_already_failed_says_not_achievable() -> None:
     assert res.achievable is False and res.summary()["achievable"] is False
     verdict = res.verdict()
     assert f"interrupted after {CHUNK} cycles" in verdict and "NOT ACHIEVABLE" in verdict
+
+
+def test_a_run_interrupted_before_its_first_chunk_has_a_valid_summary_and_report(
+        tmp_path: Path) -> None:
+    dt = 0.001
+    empty = simulate(pendulum(), ramp(10, dt), dt)._first(0)  # as if stopped in the first chunk
+    s = json.loads(empty.save_summary(tmp_path / "summary.json").read_text())
+    assert s["cycles"] == 0 and s["interrupted_after_cycles"] == 0 and s["achievable"] is None
+    html = write_report(empty, tmp_path / "report.html").read_text()
+    assert "interrupted after 0 cycles" in html and "No cycle was completed" in html
+    assert "verdict partial" in html
+    empty.to_csv(tmp_path / "cycles.csv")
+    assert (tmp_path / "cycles.csv").read_text().count("\n") == 1  # the header alone
 
 
 def test_an_interrupt_inside_a_chunks_write_keeps_whole_cycles(tmp_path: Path,
