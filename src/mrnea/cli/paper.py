@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from mrnea import robots
-from mrnea.cli.base import compile_notice, force_opt, main
+from mrnea.cli.base import checkpoint, compile_notice, force_opt, main
 from mrnea.io.writer import check_new
 
 
@@ -33,4 +33,5 @@ def fig3(out: str, force: bool) -> None:
     qdd = np.gradient(qd, dt, axis=0)
     with compile_notice():
         fig = make_fig3(robots.sdt(), t, q, qd, qdd)
+    checkpoint()  # interrupted while computing: write nothing
     click.echo(f"Fig. 3: {save_figure(fig, path, force, dpi=110)}")
