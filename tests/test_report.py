@@ -22,10 +22,11 @@ from matplotlib.figure import Figure
 from matplotlib.text import Text
 
 import mrnea
-import mrnea.report as report
-from mrnea import forward_dynamics, inverse_dynamics, mass_matrix_and_bias
+import mrnea.report.html as report_html
+from mrnea import OutputError, forward_dynamics, inverse_dynamics, mass_matrix_and_bias
 from mrnea.model import Link, Robot
 from mrnea.report import MAX_POINTS, fig3, plot_result, write_report
+from mrnea.report.drawing import envelope
 from mrnea.simulate import SimulationResult, simulate
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -147,7 +148,7 @@ def test_efforts_plot_limit_array_and_saturation(sdt: Robot, saturating: Simulat
     res = simulate(sdt.with_actuators(torque_speed=curves), program(), DT)
     assert np.ptp(res.limit[:, 1]) > 1.0  # cab_yaw's limit falls with speed
     for r in (res, saturating):
-        axes = [ax for ax in r.plot()["efforts"].axes if ax.get_title(loc="left")]
+        axes = [ax for ax in plot_result(r)["efforts"].axes if ax.get_title(loc="left")]
         assert len(axes) == r.robot.n
         for i, ax in enumerate(axes):
             ys = [line.get_ydata() for line in ax.get_lines()]
@@ -173,13 +174,13 @@ def test_envelope_keeps_extremes() -> None:
     y = rng.normal(size=t.size)
     y[123_457] = 50.0
     y[777_777] = -60.0
-    tt, yy = report._envelope(t, y)
+    tt, yy = envelope(t, y)
     assert yy.size <= MAX_POINTS + 4
     assert np.all(np.diff(tt) > 0)
     assert yy.max() == 50.0 and yy.min() == -60.0
     assert tt[0] == t[0] and tt[-1] == t[-1]
     short = np.arange(10.0)
-    assert report._envelope(short, short)[1] is short
+    assert envelope(short, short)[1] is short
 
 
 # --- fig3 ----------------------------------------------------------------------------------------
@@ -260,10 +261,8 @@ def test_report_refuses_to_overwrite(saturating: SimulationResult, tmp_path: Pat
                                      monkeypatch: pytest.MonkeyPatch) -> None:
     path = tmp_path / "report.html"
     path.write_text("keep me")
-    with pytest.raises(FileExistsError):
+    with pytest.raises(OutputError, match="exists"):
         write_report(saturating, path)
-    with pytest.raises(FileExistsError):
-        saturating.report(path)
     assert path.read_text() == "keep me"
     assert [q.name for q in tmp_path.iterdir()] == ["report.html"]
 
@@ -271,8 +270,8 @@ def test_report_refuses_to_overwrite(saturating: SimulationResult, tmp_path: Pat
     def boom(*_a: object, **_k: object) -> str:
         raise RuntimeError("render failed")
 
-    monkeypatch.setattr(report, "plot_result", lambda r: {"x": Figure()})
-    monkeypatch.setattr(report, "_png_data_uri", boom)
+    monkeypatch.setattr(report_html, "plot_result", lambda r: {"x": Figure()})
+    monkeypatch.setattr(report_html, "png_data_uri", boom)
     with pytest.raises(RuntimeError, match="render failed"):
         write_report(saturating, path, overwrite=True)
     assert path.read_text() == "keep me"
@@ -290,7 +289,7 @@ def test_report_escapes_names(saturating: SimulationResult, tmp_path: Path,
                                        for lk in rob.links],
                  gravity=rob.gravity, name=f"sdt{bad}", base=rob.base)
     res = dataclasses.replace(saturating, robot=evil, _summary={})
-    monkeypatch.setattr(report, "plot_result", lambda r: {})
+    monkeypatch.setattr(report_html, "plot_result", lambda r: {})
     path = write_report(res, tmp_path / "r.html")
     doc, p = parse(path)
     assert bad not in doc
@@ -303,7 +302,7 @@ def test_report_escapes_names(saturating: SimulationResult, tmp_path: Path,
 def test_report_interrupted_and_clamped(sdt: Robot, achievable: SimulationResult, tmp_path: Path,
                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """An interrupted, so far achievable run is amber; a position clamp names the joint range."""
-    monkeypatch.setattr(report, "plot_result", lambda r: {})
+    monkeypatch.setattr(report_html, "plot_result", lambda r: {})
     partial = dataclasses.replace(achievable, completed=False, _summary={})
     doc, _ = parse(write_report(partial, tmp_path / "partial.html"))
     assert 'class="verdict partial"' in doc and "INTERRUPTED" in doc

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import mrnea
-from mrnea.errors import StateError
+from mrnea.errors import OutputError, StateError
 from mrnea.model import Joint, Link, Robot, transform
 from mrnea.simulate import CHUNK, simulate
 
@@ -197,7 +197,7 @@ def test_outputs_never_overwrite_without_permission(tmp_path):
     res = simulate(robot, smooth_move([0.0, 0.0], [0.1, 0.1], 0.2, 0.01), 0.01)
     p = tmp_path / "cycles.csv"
     p.write_text("user data")
-    with pytest.raises(FileExistsError):
+    with pytest.raises(OutputError, match="exists"):
         res.to_csv(p)
     assert p.read_text() == "user data"
     res.to_csv(p, overwrite=True)
@@ -235,15 +235,17 @@ def test_streaming_writes_the_same_table_while_running(tmp_path):
     q_cmd = smooth_move([0.0, 0.0], [1.0, -1.0], 2.5 * CHUNK * dt, dt)
     seen = []
 
-    def progress(done, total):  # the rows done so far are already on disk
-        with open(tmp_path / "run.csv.partial", newline="") as fh:
+    def progress(done, total):  # the rows done so far are already on disk, in a private file
+        (tmp,) = [p for p in tmp_path.iterdir() if p.name != "run.csv"]
+        assert tmp.name.startswith(".run.csv.") and tmp.name.endswith(".tmp")
+        with open(tmp, newline="") as fh:
             seen.append(sum(1 for _ in fh) - 1)
 
     res = simulate(robot, q_cmd, dt, stream=tmp_path / "run.csv", progress=progress)
     assert seen[:2] == [CHUNK, 2 * CHUNK]
+    assert [p.name for p in tmp_path.iterdir()] == ["run.csv"]  # no temporary left
     assert (tmp_path / "run.csv").read_text() == res.to_csv(tmp_path / "after.csv").read_text()
-    assert not (tmp_path / "run.csv.partial").exists()
-    with pytest.raises(FileExistsError):
+    with pytest.raises(OutputError, match="exists"):
         simulate(robot, q_cmd, dt, stream=tmp_path / "run.csv")
 
 

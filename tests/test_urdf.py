@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mrnea.errors import ModelError, RobotFileError
+from mrnea.errors import ModelError, OutputError, RobotFileError
 from mrnea.io.dispatch import load_robot, load_robot_spec, resolve_robot
 from mrnea.io.urdf import UNBOUNDED, load_urdf, write_urdf
 from mrnea.model import Joint, Link, Robot, rotation_from_rpy, transform
@@ -520,7 +520,7 @@ def test_round_trip_extreme_values(tmp_path: Path) -> None:
 
 
 def test_write_into_missing_directory(tmp_path: Path) -> None:
-    with pytest.raises(RobotFileError, match="cannot write URDF"):
+    with pytest.raises(OutputError, match="cannot write"):
         write_urdf(handmade_robot(), tmp_path / "no" / "such" / "dir.urdf")
 
 

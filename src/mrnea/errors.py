@@ -38,6 +38,11 @@ class SingularMassMatrixError(MrneaError):
     """
 
 
+class OutputError(MrneaError):
+    """An output file cannot be written: it exists (and replacing it was not allowed), its place
+    is a directory, its folder is missing or not writable, or another run owns the folder."""
+
+
 class ModelWarning(UserWarning):
     """A robot description is valid but physically doubtful (an inertia that violates the
     triangle inequality, a massless moving link); mrnea goes on and says so."""

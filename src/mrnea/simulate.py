@@ -18,13 +18,13 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import io
 import json
 import os
-import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from mrnea.achievable import _mode
 from mrnea.dynamics import _array, _require_robot, _time_step
 from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea.io.writer import create
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
     CLAMP_VELOCITY,
@@ -48,6 +49,30 @@ _PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor"
               "tracking_error")
 FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
 CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
+
+
+class BearingLoads(NamedTuple):
+    """Each joint's reaction loads split for bearing design, per cycle: (K, n) arrays.
+
+    ``force`` and ``moment`` are the magnitudes of the reaction force [N] and moment [N m];
+    ``axial_*`` the magnitude of their component along the joint axis, ``radial_force`` and
+    ``bending_moment`` the magnitude of their component across it (joint frames, as
+    :attr:`SimulationResult.reaction`).
+    """
+
+    force: NDArray
+    axial_force: NDArray
+    radial_force: NDArray
+    moment: NDArray
+    axial_moment: NDArray
+    bending_moment: NDArray
+
+
+def _along_across(vec: NDArray, axes: NDArray) -> tuple[NDArray, NDArray]:
+    """|Component| of (K, n, 3) ``vec`` along each joint's unit axis (n, 3), |component| across."""
+    along = np.einsum("kij,ij->ki", vec, axes)
+    across = np.linalg.norm(vec - along[:, :, None] * axes[None], axis=2)
+    return np.abs(along), across
 
 
 @dataclass(frozen=True)
@@ -70,7 +95,8 @@ class SimulationResult:
     reaction : (K, n, 6) each joint's reaction wrench [f; n] in its joint frame
         (:func:`mrnea.joint_reactions`).
     tracking_error : q_cmd - q.
-    completed : False if the run was interrupted; the arrays then hold the cycles done.
+    completed : False if the run was interrupted; the arrays then hold the cycles done (K of
+        them) and the run is never reported achievable (see :attr:`achievable`).
     """
 
     robot: Robot
@@ -103,26 +129,42 @@ class SimulationResult:
         return self.t.shape[0]
 
     @property
-    def achievable(self) -> bool:
-        """True when the program ran with no saturated effort and no clamped command."""
-        return not (self.saturated.any() or self.position_clamped.any()
-                    or self.velocity_clamped.any())
+    def achievable(self) -> bool | None:
+        """True when the whole program ran with no saturated effort and no clamped command;
+        False when some cycle saturated or clamped; None when the run was interrupted before
+        any did (unknown: the rest of the program was not simulated)."""
+        if self.saturated.any() or self.position_clamped.any() or self.velocity_clamped.any():
+            return False
+        return True if self.completed else None
+
+    def bearing_loads(self) -> BearingLoads:
+        """The reaction loads of every cycle split along and across each joint's axis."""
+        axes = np.array([j.axis for j in self.robot.joints])  # unit axes, joint frames
+        f, m = self.reaction[:, :, :3], self.reaction[:, :, 3:]
+        f_axial, f_radial = _along_across(f, axes)
+        m_axial, m_bending = _along_across(m, axes)
+        return BearingLoads(np.linalg.norm(f, axis=2), f_axial, f_radial,
+                            np.linalg.norm(m, axis=2), m_axial, m_bending)
 
     def summary(self) -> dict[str, Any]:
         """The answers a designer wants, as plain JSON-ready data (SI units).
 
-        ``achievable``; ``first_infeasible`` (time, cycle, joint, reason, required vs available
-        effort) or None; per joint: time saturated [s], peak and RMS motor torque [N m], peak
-        joint-side effort, peak reaction force [N] and moment [N m] (magnitudes; axial and radial
-        split of the force along the joint axis), worst tracking error and when.
+        ``achievable`` (:attr:`achievable`: true, false, or null for an interrupted run that
+        exceeded no limit in the cycles it did); ``completed`` and ``interrupted_after_cycles``
+        (the number of cycles done if the run was interrupted, else null);
+        ``first_infeasible`` (time, cycle, joint, reason, required vs available effort) or None;
+        per joint: time saturated [s], peak and RMS motor torque [N m], peak joint-side effort,
+        peak reaction force [N] and moment [N m] (magnitudes; axial and radial split of the
+        force along the joint axis, bending moment), worst tracking error and when.
         """
         if self._summary:
             return self._summary
+        head = {"robot": self.robot.name, "achievable": self.achievable, "mode": self.mode,
+                "fd": self.fd, "dt": self.dt, "cycles": self.K,
+                "duration": float(self.K * self.dt), "completed": self.completed,
+                "interrupted_after_cycles": None if self.completed else self.K}
         if self.K == 0:  # interrupted before the first chunk ended
-            return {"robot": self.robot.name, "achievable": False, "mode": self.mode,
-                    "fd": self.fd, "dt": self.dt, "cycles": 0, "duration": 0.0,
-                    "completed": self.completed, "first_infeasible": None,
-                    "max_tracking_error": 0.0, "joints": []}
+            return {**head, "first_infeasible": None, "max_tracking_error": 0.0, "joints": []}
         names = self.robot.joint_names
         infeasible = self.saturated | self.position_clamped | self.velocity_clamped
         first = None
@@ -142,14 +184,7 @@ class SimulationResult:
                 "commanded_position": float(self.q_cmd[nxt, i]),
                 "position_limits": [float(self.robot.lower[i]), float(self.robot.upper[i])],
             }
-        axes = np.array([j.axis for j in self.robot.joints])  # joint-frame axes
-        f = self.reaction[:, :, :3]
-        m = self.reaction[:, :, 3:]
-        f_axial = np.abs(np.einsum("kij,ij->ki", f, axes))
-        f_radial = np.linalg.norm(f - np.einsum("ki,ij->kij", np.einsum("kij,ij->ki", f, axes),
-                                                axes), axis=2)
-        m_bending = np.linalg.norm(m - np.einsum("ki,ij->kij", np.einsum("kij,ij->ki", m, axes),
-                                                 axes), axis=2)
+        loads = self.bearing_loads()
         err = np.abs(self.tracking_error)
         joints = []
         for i, name in enumerate(names):
@@ -161,30 +196,30 @@ class SimulationResult:
                 "rms_motor_torque": float(np.sqrt(np.mean(self.tau_motor[:, i] ** 2))),
                 "peak_effort": float(np.abs(self.tau[:, i]).max()),
                 "effort_limit": float(self.robot.effort_limit[i]),
-                "peak_reaction_force": float(np.linalg.norm(f[:, i], axis=1).max()),
-                "peak_axial_force": float(f_axial[:, i].max()),
-                "peak_radial_force": float(f_radial[:, i].max()),
-                "peak_reaction_moment": float(np.linalg.norm(m[:, i], axis=1).max()),
-                "peak_bending_moment": float(m_bending[:, i].max()),
+                "peak_reaction_force": float(loads.force[:, i].max()),
+                "peak_axial_force": float(loads.axial_force[:, i].max()),
+                "peak_radial_force": float(loads.radial_force[:, i].max()),
+                "peak_reaction_moment": float(loads.moment[:, i].max()),
+                "peak_bending_moment": float(loads.bending_moment[:, i].max()),
                 "max_tracking_error": float(err[ke, i]),
                 "max_tracking_error_time": float(self.t[ke]),
             })
-        out = {
-            "robot": self.robot.name, "achievable": self.achievable, "mode": self.mode,
-            "fd": self.fd, "dt": self.dt, "cycles": self.K, "duration": float(self.K * self.dt),
-            "completed": self.completed, "first_infeasible": first,
-            "max_tracking_error": float(err.max()) if err.size else 0.0,
-            "joints": joints,
-        }
+        out = {**head, "first_infeasible": first,
+               "max_tracking_error": float(err.max()) if err.size else 0.0, "joints": joints}
         object.__setattr__(self, "_summary", out)
         return out
 
     def verdict(self) -> str:
-        """One line: achievable, or where and why not."""
+        """One line: achievable, or where and why not; an interrupted run says after how many
+        cycles, and is never called achievable."""
         s = self.summary()
-        head = "" if self.completed else "INTERRUPTED (partial result): "
+        head = ("" if self.completed else
+                f"INTERRUPTED (partial result): interrupted after {self.K} cycles; ")
         if self.K == 0:
             return f"{head}no cycle was completed."
+        if s["achievable"] is None:
+            return (f"{head}no limit exceeded in the {s['duration']:.3f} s simulated; whether the "
+                    "rest of the program is achievable is unknown.")
         if s["achievable"]:
             return (f"{head}ACHIEVABLE: {self.robot.name} follows the program "
                     f"({self.K} cycles, {s['duration']:.3f} s) within every limit.")
@@ -214,16 +249,26 @@ class SimulationResult:
         return cols
 
     def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
-        """Write the per-cycle table (one row per cycle, header row; pandas reads it)."""
-        with atomic_write(path, overwrite) as fh:
-            self._write_rows(csv.writer(fh), slice(None), header=True)
+        """Write the per-cycle table (one row per cycle, header row; pandas reads it).
+
+        Written through :func:`mrnea.io.writer.create`: whole or not at all, never through a
+        symbolic link; an existing file (or link) is replaced only with ``overwrite``, else
+        :class:`~mrnea.errors.OutputError`.
+        """
+        with create(path, overwrite, binary=True) as fh:
+            for k in range(0, max(self.K, 1), CHUNK):
+                fh.write(self._csv(slice(k, k + CHUNK), header=k == 0))
         return Path(path)
 
-    def _write_rows(self, writer: Any, rows: slice, header: bool = False) -> None:
+    def _csv(self, rows: slice, header: bool = False) -> bytes:
+        """The table's ``rows`` as UTF-8 CSV, after the header row if ``header``."""
+        buf = io.StringIO()
+        writer = csv.writer(buf)
         cols = self.columns(rows)
         if header:
             writer.writerow(cols)
         writer.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
+        return buf.getvalue().encode()
 
     def _derive(self, rows: slice, clamp: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed."""
@@ -240,52 +285,11 @@ class SimulationResult:
         return dataclasses.replace(self, **arrays, completed=False, _summary={})
 
     def save_summary(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
-        """Write :meth:`summary` as JSON (``summary.json``)."""
-        with atomic_write(path, overwrite) as fh:
+        """Write :meth:`summary` as JSON (``summary.json``), as :meth:`to_csv` writes."""
+        with create(path, overwrite) as fh:
             json.dump(self.summary(), fh, indent=2)
             fh.write("\n")
         return Path(path)
-
-    def plot(self, path: str | os.PathLike | None = None, overwrite: bool = False) -> Any:
-        """Matplotlib figures of the run (see :func:`mrnea.report.plot_result`)."""
-        from mrnea.report import plot_result
-
-        return plot_result(self, path, overwrite=overwrite)
-
-    def report(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
-        """One self-contained HTML report, verdict first (see :func:`mrnea.report.write_report`)."""
-        from mrnea.report import write_report
-
-        return write_report(self, path, overwrite=overwrite)
-
-
-class atomic_write:
-    """Open ``path`` for writing text so that it appears whole or not at all.
-
-    Refuses to replace an existing file unless ``overwrite``; writes to a temporary file in the
-    same folder and renames it into place on success.
-    """
-
-    def __init__(self, path: str | os.PathLike, overwrite: bool = False, newline: str = "") -> None:
-        self.path = Path(path)
-        if self.path.exists() and not overwrite:
-            raise FileExistsError(f"{self.path} exists; pass overwrite=True (CLI: --force)")
-        self.newline = newline
-
-    def __enter__(self) -> Any:
-        fd, self.tmp = tempfile.mkstemp(dir=self.path.parent or ".", prefix=f".{self.path.name}.")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(self.tmp, 0o666 & ~umask)  # as open() would create it, not mkstemp's 0600
-        self.fh = os.fdopen(fd, "w", newline=self.newline, encoding="utf-8")
-        return self.fh
-
-    def __exit__(self, exc_type: object, exc: object, tb: object) -> None:
-        self.fh.close()
-        if exc_type is None:
-            os.replace(self.tmp, self.path)
-        else:
-            os.unlink(self.tmp)
 
 
 def _per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray:
@@ -333,10 +337,13 @@ def simulate(
         ``catch_up * dt`` well below 1 (e.g. 10-50 1/s at dt = 5 ms).
     progress : called as ``progress(cycles_done, K)`` between compiled chunks.
     stream : a CSV path: the per-cycle table is written while the simulation runs, chunk by
-        chunk (the same table as :meth:`SimulationResult.to_csv`), for long runs; it is named
-        ``<stream>.partial`` until the run ends. ``overwrite`` allows replacing an existing file.
+        chunk (the same table as :meth:`SimulationResult.to_csv`), for long runs, to a private
+        temporary file in the same folder that is renamed to ``stream`` when the run ends or is
+        interrupted, and removed if it fails (:func:`mrnea.io.writer.create`). ``overwrite``
+        allows replacing an existing file or link (the link itself, never its target).
 
-    On KeyboardInterrupt the cycles done so far are returned with ``completed=False``.
+    On KeyboardInterrupt the cycles done so far are returned with ``completed=False``, and a
+    streamed table holds exactly those cycles.
     """
     code = _mode(mode)
     _require_robot(robot)
@@ -381,8 +388,9 @@ def simulate(
     clamp = zeros(np.int64)
     res.q[0], res.qd[0] = x0, v0
     m, act = robot.compiled, robot.compiled_actuators
-    done = 0
-    with _stream(stream, overwrite) as fh:
+    done = kept = 0  # cycles done, and the bytes of the streamed table that hold them
+    with contextlib.nullcontext() if stream is None else create(stream, overwrite,
+                                                                 binary=True) as fh:
         try:
             while done < K:
                 k1 = min(K, done + CHUNK)
@@ -394,31 +402,16 @@ def simulate(
                     _fail(robot, k, status, res.q[k], res.qd[k], dt)
                 rows = slice(done, k1)
                 res._derive(rows, clamp)
-                if fh is not None:  # on disk at once: a crash keeps the cycles done
-                    res._write_rows(csv.writer(fh), rows, header=done == 0)
+                if fh is not None:  # on disk at once: after a hard kill the temporary file
+                    fh.write(res._csv(rows, header=done == 0))  # keeps the cycles done
                     fh.flush()
-                done = k1
+                done, kept = k1, (0 if fh is None else fh.tell())  # one step: no interrupt between
                 if progress is not None:
                     progress(done, K)
         except KeyboardInterrupt:
-            pass
+            if fh is not None:  # it may have landed inside a chunk's write: keep whole cycles
+                fh.truncate(kept)
     return res if done == K else res._first(done)
-
-
-@contextlib.contextmanager
-def _stream(path: str | os.PathLike | None, overwrite: bool) -> Iterator[Any]:
-    """A text file ``<path>.partial`` for the streamed table, renamed to ``path`` when the run
-    ends or is interrupted; after a crash the ``.partial`` file keeps the cycles done."""
-    if path is None:
-        yield None
-        return
-    final = Path(path)
-    if final.exists() and not overwrite:
-        raise FileExistsError(f"{final} exists; pass overwrite=True (CLI: --force)")
-    partial = final.with_name(final.name + ".partial")
-    with open(partial, "w", newline="", encoding="utf-8") as fh:
-        yield fh
-    os.replace(partial, final)
 
 
 def _fail(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: float) -> None:

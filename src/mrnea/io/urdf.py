@@ -30,9 +30,7 @@ written (a curve's peak is written as the effort limit).
 from __future__ import annotations
 
 import math
-import os
 import sys
-import uuid
 import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -43,6 +41,7 @@ from numpy.typing import NDArray
 
 from mrnea.errors import ModelError, RobotFileError
 from mrnea.io.sidecar import apply_actuator_file
+from mrnea.io.writer import create
 from mrnea.model import (
     DEFAULT_GRAVITY,
     Joint,
@@ -500,7 +499,7 @@ def _fmt(*values: float) -> str:
 
 
 def write_urdf(robot: Robot, path: str | Path) -> Path:
-    """Write ``robot`` as a URDF file, atomically, overwriting ``path`` if it exists.
+    """Write ``robot`` as a URDF file, replacing ``path`` if it exists.
 
     The file has the base link, then per joint its ``<origin xyz rpy>`` (rpy [rad] from
     :func:`mrnea.model.rpy_from_rotation`), ``<axis>``, ``<limit>``, ``<dynamics damping
@@ -514,12 +513,19 @@ def write_urdf(robot: Robot, path: str | Path) -> Path:
     robot : Robot
         The robot to write.
     path : str or Path
-        The output file; its directory must exist.
+        The output file; its directory must exist. Written through
+        :func:`mrnea.io.writer.create`: whole or not at all; an existing file or symbolic link
+        at ``path`` is replaced (the link itself, never its target).
 
     Returns
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    OutputError
+        ``path`` is a directory or cannot be written (missing folder, permission...).
 
     Notes
     -----
@@ -576,18 +582,6 @@ def write_urdf(robot: Robot, path: str | Path) -> Path:
     text = ET.tostring(root, encoding="unicode")
     data = f'<?xml version="1.0" encoding="utf-8"?>\n{text}\n'.encode()
 
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-    except OSError as exc:
-        raise RobotFileError(f"{path}: cannot write URDF: {exc.strerror or exc}") from None
+    with create(path, overwrite=True, binary=True) as fh:
+        fh.write(data)
     return path

@@ -1,0 +1,37 @@
+"""``mrnea fig3``: the paper's figures, reproduced on the built-in SDT."""
+
+from __future__ import annotations
+
+import click
+import numpy as np
+
+from mrnea import robots
+from mrnea.cli.base import checkpoint, compile_notice, force_opt, main
+from mrnea.io.writer import check_new
+
+
+@main.command()
+@click.option("--out", default="fig3.png", show_default=True,
+              help="The file to write; its suffix names the format (.png, .pdf, .svg...; "
+                   "none: .png is appended).")
+@force_opt
+def fig3(out: str, force: bool) -> None:
+    """Reproduce the paper's Fig. 3 on the SDT: RNEA vs mRNEA torques, input vs FD accelerations.
+
+    The trajectory is the demo's training profile; its velocities and accelerations are the
+    positions' finite differences.
+    """
+    from mrnea.report import fig3 as make_fig3
+    from mrnea.report.drawing import figure_file, save_figure
+    from mrnea.robots.sdt_profile import training_profile
+
+    path, _ = figure_file(out)
+    check_new([path], force)  # before any work
+    dt = 0.005
+    t, q = training_profile(dt)
+    qd = np.gradient(q, dt, axis=0)
+    qdd = np.gradient(qd, dt, axis=0)
+    with compile_notice():
+        fig = make_fig3(robots.sdt(), t, q, qd, qdd)
+    checkpoint()  # interrupted while computing: write nothing
+    click.echo(f"Fig. 3: {save_figure(fig, path, force, dpi=110)}")

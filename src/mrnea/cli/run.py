@@ -1,0 +1,190 @@
+"""``mrnea demo``, ``mrnea simulate`` and ``mrnea check``: simulate a program and answer.
+
+``demo`` and ``simulate`` own their output folder for the run (:func:`mrnea.io.writer.own_folder`:
+a second run into the same folder refuses), refuse existing output files without ``--force``
+before any work, stream the per-cycle table to ``cycles.csv`` and then write ``summary.json``,
+the figures and ``report.html``. An interrupted run (Ctrl-C, SIGTERM) writes the same files for
+the cycles done, says so, and exits 130; so does ``check``, which writes nothing. The run stops
+at the end of the chunk of cycles it is computing (:func:`mrnea.cli.base.checkpoint`).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+import numpy as np
+
+from mrnea import robots
+from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
+    checkpoint,
+    compile_notice,
+    exit_interrupted,
+    fd_opt,
+    force_opt,
+    fresh_dir,
+    json_opt,
+    load_any,
+    main,
+    mode_opt,
+    program_args,
+    quiet_opt,
+)
+from mrnea.io import from_csv, load_program
+from mrnea.io.writer import check_new, own_folder
+from mrnea.model import Robot
+
+TABLE, SUMMARY, REPORT = "cycles.csv", "summary.json", "report.html"
+
+
+def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
+         f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool,
+         out: Path | None = None, force: bool = False):
+    """Simulate with a progress bar; with ``out``, stream the per-cycle table to cycles.csv.
+
+    A stop request (Ctrl-C, SIGTERM) ends the simulation after the current chunk of cycles: the
+    result then holds the cycles done (``completed`` False).
+    """
+    from mrnea.simulate import simulate
+
+    checkpoint()
+    K = q_cmd.shape[0]
+    show_bar = not quiet and K >= 20_000
+    with compile_notice(), click.progressbar(length=K, label="simulating", file=sys.stderr,
+                                             hidden=not show_bar) as bar:
+        last = [0]
+
+        def progress(done: int, total: int) -> None:
+            bar.update(done - last[0])
+            last[0] = done
+            checkpoint()  # raised here, simulate() keeps the cycles done
+
+        res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
+                       f_ext_point=f_ext_point, progress=progress,
+                       stream=None if out is None else out / TABLE, overwrite=force)
+    if not res.completed:
+        click.echo(f"mrnea: interrupted after {res.K} cycles; writing the partial result.",
+                   err=True)
+    return res
+
+
+def _outputs(out: Path, extra: tuple[str, ...] = ()) -> list[Path]:
+    """Every file a run writes into ``out`` (``extra``: more figures' names)."""
+    from mrnea.report import FIGURES
+
+    return [out / f for f in (TABLE, SUMMARY, REPORT, *(f"{n}.png" for n in (*FIGURES, *extra)))]
+
+
+def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None) -> Path:
+    from mrnea.report import plot_result, write_report
+    from mrnea.report.drawing import save_figure
+
+    res.save_summary(out / SUMMARY, overwrite=force)  # cycles.csv: streamed by _run
+    checkpoint()
+    plot_result(res, out, overwrite=force)
+    for name, fig in (extra_figures or {}).items():
+        checkpoint()
+        save_figure(fig, out / f"{name}.png", force, dpi=110)
+    checkpoint()
+    return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures)
+
+
+def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
+    if as_json:
+        s = dict(res.summary())
+        if report is not None:
+            s["report"] = str(report)
+        click.echo(json.dumps(s, indent=2))
+        return
+    if not quiet:
+        click.echo(res.verdict())
+        if report is not None:
+            click.echo(f"Report: {report}")
+
+
+@main.command()
+@click.option("--out", type=click.Path(file_okay=False), default=None,
+              help="Output folder [default: a fresh ./mrnea-demo].")
+@click.option("--dt", type=float, default=0.005, show_default=True, help="Cycle time [s].")
+@mode_opt
+@force_opt
+@quiet_opt
+@json_opt
+def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_json: bool) -> None:
+    """Simulate the built-in SDT's training profile and write the report.
+
+    The profile (spin-up, a fast cabin yaw turn, roll and pitch manoeuvres, spin-down) exceeds
+    the yaw drive's torque: the report shows where, by how much, and the loads the bearings see.
+    Writes report.html, PNG figures, cycles.csv and summary.json, and the paper's Fig. 3.
+    """
+    from mrnea.report import fig3
+    from mrnea.robots.sdt_profile import training_profile
+
+    robot = robots.sdt()
+    _, q_cmd = training_profile(dt)
+    with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
+        check_new(_outputs(folder, ("fig3",)), force)
+        res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
+        figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
+        report = _write_outputs(res, folder, force, figs)
+    _print_result(res, report, as_json, quiet)
+    if not res.completed:
+        exit_interrupted()
+
+
+def _load_program(robot: Robot, program: str, dt: float | None):
+    """(q_cmd, dt, f_ext, f_ext_point, mode) from a program .toml or a CSV file."""
+    if program.lower().endswith(".csv"):
+        if dt is None:
+            raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
+        _, q = from_csv(program, dt, n=robot.n)
+        return q, dt, None, None, None
+    prog = load_program(program)
+    if dt is not None and not np.isclose(dt, prog.dt):
+        raise click.UsageError(
+            f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
+    return prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode
+
+
+@main.command()
+@program_args
+@fd_opt
+@click.option("--out", type=click.Path(file_okay=False), default=None,
+              help="Output folder [default: a fresh ./mrnea-out].")
+@force_opt
+@quiet_opt
+@json_opt
+def simulate(robot: str, program: str, dt: float | None, mode: str, catch_up: float, fd: str,
+             out: str | None, force: bool, quiet: bool, as_json: bool) -> None:
+    """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json."""
+    rob = load_any(robot)
+    q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
+    with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
+        check_new(_outputs(folder), force)
+        res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
+                   force)
+        report = _write_outputs(res, folder, force)
+    _print_result(res, report, as_json, quiet)
+    if not res.completed:
+        exit_interrupted()
+
+
+@main.command()
+@program_args
+@quiet_opt
+@json_opt
+def check(robot: str, program: str, dt: float | None, mode: str, catch_up: float, quiet: bool,
+          as_json: bool) -> None:
+    """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input, 130: interrupted."""
+    rob = load_any(robot)
+    q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
+    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
+    _print_result(res, None, as_json, quiet)
+    if not res.completed:
+        exit_interrupted()
+    checkpoint()
+    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)

@@ -1,0 +1,203 @@
+"""The one way mrnea writes a file: whole or not at all, never through a link, never over a file
+it was not allowed to replace.
+
+Every output the package writes (the per-cycle table, ``summary.json``, figures, the HTML report,
+URDF exports) goes through :func:`create`:
+
+* the data go to a private temporary file in the destination's folder (an unpredictable name,
+  opened with ``O_CREAT | O_EXCL | O_NOFOLLOW``, so a link planted in the folder is never
+  followed), which is renamed into place when the block ends without an exception;
+* without ``overwrite`` the file is published by a hard link, which fails if anything exists
+  at the destination, a dangling symbolic link included: an existing file is never replaced,
+  not even by a second run that checked at the same instant;
+* with ``overwrite`` the destination is replaced by :func:`os.replace`, which replaces a
+  symbolic link itself, never the file it points to;
+* a destination that is a directory is an error, with or without ``overwrite``;
+* on any exception (KeyboardInterrupt included) the temporary file is removed;
+* the file gets the mode :func:`open` would give it (``0o666`` less the umask).
+
+:func:`check_new` refuses the same destinations before any work is done, and
+:func:`own_folder` makes a run the only writer of its output folder. Every failure is an
+:class:`~mrnea.errors.OutputError` naming the path. POSIX only (``O_NOFOLLOW``, ``flock``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import io
+import os
+import secrets
+import stat
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import IO, Any
+
+from mrnea.errors import OutputError
+
+LOCK_NAME = ".mrnea.lock"
+"""The lock file :func:`own_folder` keeps in an output folder while a run writes there."""
+
+_FLAGS = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+_NO_HARD_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK, errno.ENOSYS}
+
+
+def _refusal(path: Path, overwrite: bool) -> str | None:
+    """Why ``path`` may not be written (None if it may)."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        return f"{path}: cannot write: {exc.strerror}"
+    if stat.S_ISDIR(st.st_mode):
+        return f"{path} is a directory; name a file to write"
+    if overwrite:
+        return None
+    what = " (a symbolic link)" if stat.S_ISLNK(st.st_mode) else ""
+    return f"{path} exists{what}; pass overwrite=True (CLI: --force) to replace it"
+
+
+def check_new(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False) -> None:
+    """Refuse, before any work, the first of ``paths`` that :func:`create` would refuse.
+
+    Raises
+    ------
+    OutputError
+        A path is a directory, or exists (a symbolic link, dangling or not, included) and
+        ``overwrite`` is False.
+    """
+    for p in paths:
+        reason = _refusal(Path(p), overwrite)
+        if reason:
+            raise OutputError(reason)
+
+
+@contextlib.contextmanager
+def create(path: str | os.PathLike[str], overwrite: bool = False, *,
+           binary: bool = False) -> Iterator[IO[Any]]:
+    """Open a new file for writing at ``path``; it appears there, whole, when the block ends.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file to write. Its folder must exist.
+    overwrite : bool, default False
+        Replace an existing file or symbolic link at ``path`` (the link itself, never its
+        target). Without it anything existing at ``path`` is left untouched and the call fails.
+    binary : bool, default False
+        Yield a binary file object; otherwise a UTF-8 text one (no newline translation).
+
+    Yields
+    ------
+    file object
+        Writing to a private temporary file in ``path``'s folder. If the block raises, the
+        temporary file is removed and ``path`` is left as it was.
+
+    Raises
+    ------
+    OutputError
+        ``path`` is a directory, exists without ``overwrite``, or cannot be written (folder
+        missing, permission, disk full...).
+    """
+    path = Path(path)
+    check_new([path], overwrite)
+    tmp = path.with_name(f".{path.name[:40]}.{secrets.token_hex(8)}.tmp")
+    try:
+        fd = os.open(tmp, _FLAGS, 0o666)  # the umask applies, as with open()
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write: {exc.strerror}") from None
+    try:
+        raw = os.fdopen(fd, "wb")
+        fh = raw if binary else io.TextIOWrapper(raw, encoding="utf-8", newline="")
+        with fh:
+            yield fh
+            fh.flush()
+            os.fsync(fd)
+        _publish(tmp, path, overwrite)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+def _publish(tmp: Path, path: Path, overwrite: bool) -> None:
+    """Move the finished temporary file to ``path`` (see the module docstring)."""
+    if overwrite:
+        reason = _refusal(path, True)  # a directory may have appeared meanwhile
+        if reason:
+            raise OutputError(reason)
+        os.replace(tmp, path)
+        return
+    try:
+        os.link(tmp, path, follow_symlinks=False)  # fails if anything is at path
+    except FileExistsError:
+        raise OutputError(_refusal(path, False) or f"{path} exists") from None
+    except OSError as exc:
+        if exc.errno not in _NO_HARD_LINKS:
+            raise
+        # a file system without hard links: check, then rename (not atomic against a
+        # second writer, which own_folder excludes for a run's outputs)
+        check_new([path])
+        os.rename(tmp, path)
+
+
+@contextlib.contextmanager
+def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
+    """Make this process the only mrnea run writing into ``folder`` (created if missing).
+
+    An exclusive ``flock`` on ``folder/.mrnea.lock`` (opened without following a link) is held
+    for the block and the lock file removed at its end. The kernel releases the lock when a
+    process dies, so a run that was killed never blocks the next one (its lock file stays
+    behind, harmless).
+
+    Raises
+    ------
+    OutputError
+        ``folder`` cannot be created, or another run holds it.
+    """
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputError(f"{folder} exists and is not a folder") from None
+    except OSError as exc:
+        raise OutputError(f"{folder}: cannot create the output folder: {exc.strerror}") from None
+    lock = folder / LOCK_NAME
+    fd = _lock(folder, lock)
+    try:
+        yield folder
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(lock)  # while still holding it: see _lock
+        os.close(fd)
+
+
+def _lock(folder: Path, lock: Path) -> int:
+    """Open and lock ``lock``; retry if its holder removed it between our open and our lock."""
+    while True:
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC
+                         | os.O_NONBLOCK, 0o666)
+        except OSError as exc:
+            raise OutputError(f"{folder}: cannot lock the output folder ({lock.name}: "
+                              f"{exc.strerror})") from None
+        try:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                raise OutputError(f"{folder}: cannot lock the output folder ({lock.name} is not "
+                                  "a regular file)")
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            same = os.path.samestat(os.fstat(fd), os.lstat(lock))
+        except BlockingIOError:
+            os.close(fd)
+            raise OutputError(f"{folder}: another mrnea run is writing into this folder") from None
+        except FileNotFoundError:
+            same = False
+        except BaseException:
+            os.close(fd)
+            raise
+        if same:
+            return fd
+        os.close(fd)

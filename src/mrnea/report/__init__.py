@@ -1,0 +1,20 @@
+"""Figures and a self-contained HTML report of a simulation (paper Secs. II, IV and VI).
+
+* :func:`plot_result` (:mod:`mrnea.report.figures`) -- the four figures a designer reads after
+  :func:`mrnea.simulate.simulate`: ``"motion"``, ``"efforts"``, ``"reactions"``, ``"tracking"``
+  (names in :data:`FIGURES`).
+* :func:`fig3` (:mod:`mrnea.report.paper`) -- the paper's Fig. 3: joint torques by the RNEA and
+  by the mRNEA along a trajectory, and the input accelerations against forward dynamics.
+* :func:`write_report` (:mod:`mrnea.report.html`) -- one HTML file, verdict first, figures
+  embedded as PNG data URIs: no external resource, no JavaScript.
+
+Drawing helpers, decimation (:data:`MAX_POINTS`) and :func:`~mrnea.report.drawing.save_figure`
+are in :mod:`mrnea.report.drawing`; every file is written through :mod:`mrnea.io.writer`.
+"""
+
+from mrnea.report.drawing import MAX_POINTS
+from mrnea.report.figures import FIGURES, plot_result
+from mrnea.report.html import write_report
+from mrnea.report.paper import fig3
+
+__all__ = ["FIGURES", "MAX_POINTS", "fig3", "plot_result", "write_report"]

@@ -1,0 +1,244 @@
+"""The four figures a designer reads after :func:`mrnea.simulate.simulate` (paper Sec. VI).
+
+``"motion"`` (programmed vs achieved position, velocity, acceleration), ``"efforts"`` (joint
+effort and required effort against the speed-dependent limit, saturated intervals shaded, motor
+torque on the right-hand axis), ``"reactions"`` (joint reaction force and moment magnitudes with
+their axial/radial and bending parts, for bearing design) and ``"tracking"``. Long series are
+decimated to min/max envelopes (:mod:`mrnea.report.drawing`).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from mrnea.io.writer import check_new
+from mrnea.report.drawing import (
+    axes_grid,
+    fit_ylim,
+    fmt_number,
+    header,
+    joint_units,
+    peak,
+    plot_line,
+    save_figure,
+    shade,
+)
+
+if TYPE_CHECKING:
+    from mrnea.simulate import SimulationResult
+
+FIGURES = ("motion", "efforts", "reactions", "tracking")
+"""The names of :func:`plot_result`'s figures (and of their PNG files)."""
+
+_MIN_ERR = 1e-9  # tracking-error axes span at least ±_MIN_ERR [rad | m]
+_C_CMD, _C_ACT, _C_REQ, _C_LIM = "0.35", "C0", "C1", "C3"
+_C_SAT, _C_CLAMP = "#d62728", "#ff7f0e"
+
+
+def _first_time(result: SimulationResult) -> float | None:
+    fi = result.summary()["first_infeasible"]
+    return None if fi is None else float(fi["time"])
+
+
+def _motion_figure(r: SimulationResult) -> Figure:
+    n, t, units = r.robot.n, r.t, joint_units(r.robot)
+    fig, axs = axes_grid(n, 3, 14.0, 1.7)
+    t_first = _first_time(r)
+    clamp_seen = {"position": False, "velocity": False}
+    for i, (j, u) in enumerate(zip(r.robot.joints, units, strict=True)):
+        cols = (("position", "q", r.q_cmd, r.q, r.position_clamped),
+                ("velocity", "qd", r.qd_cmd, r.qd, r.velocity_clamped),
+                ("acceleration", "qdd", r.qdd_des, r.qdd, None))
+        for c, (what, key, prog, real, clamp) in enumerate(cols):
+            ax = axs[i, c]
+            if clamp is not None and shade(ax, t, clamp[:, i], r.dt, _C_CLAMP):
+                clamp_seen[what] = True
+            plot_line(ax, t, prog[:, i], color=_C_CMD, lw=1.0, ls="--")
+            plot_line(ax, t, real[:, i], color=_C_ACT, lw=1.2)
+            if t_first is not None:
+                ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
+            if key == "qdd":
+                fit_ylim(ax, [real[:, i]], [("programmed", prog[:, i])])
+            ax.set_title(f"{j.name}: {what}", fontsize="medium", loc="left")
+            sym = {"q": "q", "qd": "q̇", "qdd": "q̈"}[key]
+            ax.set_ylabel(f"{sym} [{u[key]}]")
+            ax.grid(True, alpha=0.3)
+    for ax in axs[-1]:
+        ax.set_xlabel("time t [s]")
+    handles: list[Any] = [
+        Line2D([], [], color=_C_CMD, ls="--", label="programmed (q_cmd, qd_cmd, qdd_des)"),
+        Line2D([], [], color=_C_ACT, label="achieved (q, qd, qdd)"),
+    ]
+    if t_first is not None:
+        handles.append(Line2D([], [], color=_C_SAT, ls=":", label="first infeasible instant"))
+    if any(clamp_seen.values()):
+        handles.append(Patch(color=_C_CLAMP, alpha=0.3, label="command clamped to a joint limit"))
+    header(fig, f"{r.robot.name}: programmed vs achieved motion", handles)
+    return fig
+
+
+def _efforts_figure(r: SimulationResult) -> Figure:
+    n, t, units = r.robot.n, r.t, joint_units(r.robot)
+    fig, axs = axes_grid(n, 1, 13.0, 1.8, right=1.0)
+    axs = axs[:, 0]
+    t_first = _first_time(r)
+    any_sat = False
+    for i, (j, u) in enumerate(zip(r.robot.joints, units, strict=True)):
+        ax = axs[i]
+        any_sat |= shade(ax, t, r.saturated[:, i], r.dt, _C_SAT)
+        lim = r.limit[:, i]
+        finite = np.isfinite(lim)
+        if finite.any():
+            lt, lv = t[finite], lim[finite]
+            plot_line(ax, lt, lv, color=_C_LIM, lw=1.0)
+            plot_line(ax, lt, -lv, color=_C_LIM, lw=1.0)
+        plot_line(ax, t, r.tau[:, i], color=_C_ACT, lw=1.3)
+        plot_line(ax, t, r.tau_required[:, i], color=_C_REQ, lw=1.0, ls="--")  # dashes on top
+        if t_first is not None:
+            ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
+        fit_ylim(ax, [r.tau[:, i]], [("required", r.tau_required[:, i]), ("limit", lim)])
+        G = float(r.robot.gear_ratio[i])
+        sec = ax.secondary_yaxis("right", functions=(lambda x, G=G: x / G,
+                                                     lambda x, G=G: x * G))
+        sec.set_ylabel(f"motor τ/G [{u['motor']}]\n(G = {G:g})", fontsize="small")
+        ax.set_ylabel(f"τ [{u['tau']}]")
+        sat_time = float(r.saturated[:, i].sum() * r.dt)
+        ax.set_title(f"{j.name}: joint effort (saturated {fmt_number(sat_time)} s)",
+                     fontsize="medium", loc="left")
+        ax.grid(True, alpha=0.3)
+    axs[-1].set_xlabel("time t [s]")
+    handles: list[Any] = [
+        Line2D([], [], color=_C_ACT, label="applied effort τ"),
+        Line2D([], [], color=_C_REQ, ls="--", label="required for the program τ_required"),
+        Line2D([], [], color=_C_LIM, label="± effort limit at current speed"),
+    ]
+    if any_sat:
+        handles.append(Patch(color=_C_SAT, alpha=0.3, label="saturated"))
+    if t_first is not None:
+        handles.append(Line2D([], [], color=_C_SAT, ls=":", label="first infeasible instant"))
+    header(fig, f"{r.robot.name}: joint efforts against actuator limits (joint side left, "
+            "motor side right)", handles)
+    return fig
+
+
+def _reactions_figure(r: SimulationResult) -> Figure:
+    n, t = r.robot.n, r.t
+    fig, axs = axes_grid(n, 2, 14.0, 1.7)
+    loads = r.bearing_loads()
+    for i, j in enumerate(r.robot.joints):
+        a, b = axs[i]
+        plot_line(a, t, loads.force[:, i], color="k", lw=1.3)
+        plot_line(a, t, loads.axial_force[:, i], color="C2", lw=1.0)
+        plot_line(a, t, loads.radial_force[:, i], color="C4", lw=1.0)
+        plot_line(b, t, loads.moment[:, i], color="k", lw=1.3)
+        plot_line(b, t, loads.axial_moment[:, i], color="C2", lw=1.0)
+        plot_line(b, t, loads.bending_moment[:, i], color="C4", lw=1.0)
+        a.set_title(f"{j.name}: reaction force (peak {fmt_number(peak(loads.force[:, i]))} N)",
+                    fontsize="medium", loc="left")
+        b.set_title(f"{j.name}: reaction moment (peak {fmt_number(peak(loads.moment[:, i]))} N m)",
+                    fontsize="medium", loc="left")
+        a.set_ylabel("force [N]")
+        b.set_ylabel("moment [N m]")
+        for ax in (a, b):
+            ax.set_ylim(bottom=0)
+            ax.grid(True, alpha=0.3)
+    for ax in axs[-1]:
+        ax.set_xlabel("time t [s]")
+    header(fig, f"{r.robot.name}: joint reaction loads (joint frames, for bearing design)", [
+        Line2D([], [], color="k", label="magnitude"),
+        Line2D([], [], color="C2", label="axial (along the joint axis)"),
+        Line2D([], [], color="C4", label="radial force / bending moment (across the axis)"),
+    ])
+    return fig
+
+
+def _tracking_figure(r: SimulationResult) -> Figure:
+    n, t, units = r.robot.n, r.t, joint_units(r.robot)
+    fig, axs = axes_grid(n, 1, 13.0, 1.4)
+    axs = axs[:, 0]
+    t_first = _first_time(r)
+    any_sat = False
+    for i, (j, u) in enumerate(zip(r.robot.joints, units, strict=True)):
+        ax = axs[i]
+        e = r.tracking_error[:, i]
+        any_sat |= shade(ax, t, r.saturated[:, i], r.dt, _C_SAT)
+        plot_line(ax, t, e, color=_C_ACT, lw=1.2)
+        ax.axhline(0.0, color="0.5", lw=0.6)
+        if t_first is not None:
+            ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
+        title = f"{j.name}: tracking error q_cmd - q"
+        if e.size:
+            k = int(np.argmax(np.abs(e)))
+            ax.plot([t[k]], [e[k]], "o", color=_C_SAT, ms=5)
+            title += (f" (max |e| = {fmt_number(abs(float(e[k])))} {u['q']} "
+                      f"at t = {fmt_number(float(t[k]))} s)")
+            if abs(float(e[k])) < _MIN_ERR:  # rounding noise: draw it as the flat line it is
+                ax.set_ylim(-_MIN_ERR, _MIN_ERR)
+        ax.set_title(title, fontsize="medium", loc="left")
+        ax.set_ylabel(f"e [{u['q']}]")
+        ax.grid(True, alpha=0.3)
+    axs[-1].set_xlabel("time t [s]")
+    handles: list[Any] = [Line2D([], [], color=_C_ACT, label="tracking error"),
+                          Line2D([], [], color=_C_SAT, marker="o", ls="", label="largest |error|")]
+    if any_sat:
+        handles.append(Patch(color=_C_SAT, alpha=0.3, label="effort saturated"))
+    header(fig, f"{r.robot.name}: tracking error (programmed - achieved position)", handles)
+    return fig
+
+
+
+def plot_result(result: SimulationResult, path: str | os.PathLike[str] | None = None,
+                overwrite: bool = False) -> dict[str, Figure]:
+    """The figures of a simulation run, optionally saved as PNG files.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run of :func:`mrnea.simulate.simulate` (possibly interrupted).
+    path : str or path-like, optional
+        A directory (created if missing). Each figure is written there as ``<name>.png``
+        through :func:`mrnea.io.writer.create` (whole or not at all, never through a link).
+    overwrite : bool, default False
+        Replace existing files (or links) of these names; otherwise OutputError, raised
+        before any figure is drawn.
+
+    Returns
+    -------
+    dict of str to matplotlib.figure.Figure
+        ``"motion"``: per joint, programmed (dashed) vs achieved position, velocity and
+        acceleration; clamped commands shaded. ``"efforts"``: per joint, applied effort
+        ``tau``, required effort ``tau_required`` (dashed) and ``±limit`` (the limit at the
+        current speed, so it follows a torque-speed curve), saturated intervals shaded, motor
+        torque ``tau / G`` on the right-hand axis. ``"reactions"``: per joint, magnitude, axial
+        and radial parts of the reaction force [N] and of the reaction moment [N m] (the
+        across-axis moment is the bending moment a bearing carries). ``"tracking"``: per joint,
+        ``q_cmd - q`` with its largest value marked.
+
+    Notes
+    -----
+    Series longer than :data:`MAX_POINTS` samples are drawn as min/max envelopes (see the module
+    docstring), so plotting stays fast for runs of 10^6 cycles. A one-cycle spike of required
+    effort or programmed acceleration (a velocity step in the program) is clipped so that it
+    does not flatten the rest; its peak is then written in the corner of the axes.
+    """
+    if path is not None:
+        check_new([Path(path) / f"{name}.png" for name in FIGURES], overwrite)
+    figs = {
+        "motion": _motion_figure(result),
+        "efforts": _efforts_figure(result),
+        "reactions": _reactions_figure(result),
+        "tracking": _tracking_figure(result),
+    }
+    if path is not None:
+        folder = Path(path)
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, fig in figs.items():
+            save_figure(fig, folder / f"{name}.png", overwrite)
+    return figs
