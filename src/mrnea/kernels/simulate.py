@@ -1,7 +1,8 @@
 """The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code.
 
-Usage: ``k, status = simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
-catch_up, k0, k1, q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``.
+Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run)``
+with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
+``run = (q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``.
 
 Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
 at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
@@ -15,33 +16,40 @@ program and keeps the lag), plus, with a position-loop gain ``catch_up`` > 0 [1/
 catch_up * (q_cmd[k] - q[k]): the velocity feed-forward and proportional position loop of a
 cascaded servo, which closes the lag exponentially (rate catch_up) once the limits allow.
 On entry q[k0], qd[k0] hold the state.
-Returns (-1, OK), or the cycle and status of a failure.
+Returns (k1, OK), or the cycle and status of a failure.
 """
 
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
-from mrnea.kernels.achievable import ENGINE_MRNEA, step
-from mrnea.kernels.common import ALLOC, OK, scratch
+from mrnea.kernels.achievable import step
+from mrnea.kernels.engines import ENGINE_MRNEA
+from mrnea.kernels.layout import ACHIEVABLE, ALLOC, scratch
 from mrnea.kernels.rnea import reactions_ws
+from mrnea.kernels.status import OK
 
 
 @nb.njit(**ALLOC)
-def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch_up, k0, k1,
-                    q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench):
+def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
+    model = compiled[0]
+    q_cmd, qd_cmd, fext, pe = program
+    q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench = run
     K, n = q_cmd.shape
-    ws = scratch(n, 3 * n + 9, 4)  # step uses S[:3n + 6], reactions S[0]; then the loop's vectors
-    q_next, qd_next, v = ws[2][3 * n + 6], ws[2][3 * n + 7], ws[2][3 * n + 8]
+    ws = scratch(n, ACHIEVABLE)  # step's, then the reactions'
+    nxt = np.empty((3, n))  # the next state and the velocity wanted over the next interval
+    q_next, qd_next, v = nxt[0], nxt[1], nxt[2]
     for k in range(k0, k1):
         last = k + 1 >= K
         for i in range(n):
             v[i] = 0.0 if last else qd_cmd[k + 1, i]  # the program ends at rest
             v[i] += catch_up * (q_cmd[k, i] - q[k, i])
-        status = step(model, act, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt,
-                      fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], tau_req[k],
-                      limit[k], sat[k], q_next, qd_next, clamp[k], ws)
+        cycle = ((qdd[k], tau[k], tau_req[k], limit[k], sat[k]), qdd_des[k], q_next, qd_next,
+                 clamp[k])
+        status = step(compiled, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt, fext[k],
+                      pe[k], mode, engine, cycle, ws)
         if status != OK:
             return k, status
         # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
@@ -52,4 +60,4 @@ def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch
         if not last:
             q[k + 1] = q_next
             qd[k + 1] = qd_next
-    return -1, OK
+    return k1, OK
