@@ -28,6 +28,7 @@ the offending one.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import Literal
 
 import numba as nb
@@ -37,7 +38,13 @@ from numpy.typing import ArrayLike, NDArray
 from mrnea import compiled, validate
 from mrnea.compiled import BY_ID
 from mrnea.kernels.aba import aba, aba_batch
-from mrnea.kernels.engines import fd_crba, fd_crba_batch, fd_walker_orin, fd_walker_orin_batch
+from mrnea.kernels.engines import (
+    ENGINE_CRBA,
+    ENGINE_WALKER_ORIN,
+    fd_crba,
+    fd_engine_batch,
+    fd_walker_orin,
+)
 from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, SCRATCH_T
 from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
@@ -92,8 +99,9 @@ class _Entry:
 
 _FD = {
     "mrnea": (_Entry(fd_mrnea, OUT1_T), fd_mrnea_batch),
-    "walker_orin": (_Entry(fd_walker_orin, OUT1_T), fd_walker_orin_batch),
-    "crba": (_Entry(fd_crba, OUT1_T), fd_crba_batch),
+    "walker_orin": (_Entry(fd_walker_orin, OUT1_T),
+                    partial(fd_engine_batch, engine=ENGINE_WALKER_ORIN)),
+    "crba": (_Entry(fd_crba, OUT1_T), partial(fd_engine_batch, engine=ENGINE_CRBA)),
     "aba": (_Entry(aba, OUT1_T), aba_batch),
 }
 _HB = {"mrnea": (_Entry(mrnea, OUT2_T, OUT1_T), mrnea_batch),
@@ -107,7 +115,7 @@ _FAST_MISS = (KeyError, AttributeError, TypeError)  # what sends a fast-path cal
 def _evaluate(
     robot: Robot,
     kernel: _Entry,
-    kernel_batch: nb.core.registry.CPUDispatcher,
+    kernel_batch: Callable[..., None],
     states: dict[str, ArrayLike],
     f_ext: ArrayLike | None,
     f_ext_point: ArrayLike | None,

@@ -5,8 +5,8 @@ u' (n,) by the paper's mRNEA (``ENGINE_MRNEA``, kernels/mrnea.py), Walker-Orin m
 (``ENGINE_WALKER_ORIN``, kernels/walker_orin.py) or CRBA with one Newton-Euler pass for the bias
 (``ENGINE_CRBA``, kernels/crba.py); ``status = fd_walker_orin(model, q, qd, tau, fext, pe, qdd,
 ws)`` and ``fd_crba`` solve ``H qdd = tau - u'`` (Eq. 2) on H and u' of those engines
-(``fd_mrnea``, the paper's, is in kernels/mrnea.py). ``ws``: a ``SOLVE`` scratch
-(kernels/layout.py).
+(``fd_mrnea``, the paper's, is in kernels/mrnea.py); ``fd_engine_batch(model, Q, QD, TAU, FEXT,
+PE, QDD, STATUS, engine)`` over a batch. ``ws``: a ``SOLVE`` scratch (kernels/layout.py).
 """
 
 from __future__ import annotations
@@ -62,26 +62,13 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd, ws):
 
 
 @nb.njit(**{**ALLOC, "parallel": True})
-def fd_walker_orin_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
-    """``fd_walker_orin`` over a batch; STATUS (B,) int64."""
+def fd_engine_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, engine):
+    """``fd_engine`` over a batch (``fd_walker_orin``, ``fd_crba`` by ``engine``): Q, QD, TAU,
+    QDD (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,) int64."""
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
         ws = scratch(n, SOLVE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
-            STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b],
-                                  ENGINE_WALKER_ORIN, ws)
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def fd_crba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
-    """``fd_crba`` over a batch; STATUS (B,) int64."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, SOLVE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b],
-                                  ENGINE_CRBA, ws)
+            STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], engine, ws)
