@@ -158,10 +158,9 @@ def achievable_step(
     qdd, tau, tau_req, limit, qdd_des, q_next, qd_next = (np.empty(n) for _ in range(7))
     sat = np.empty(n, dtype=np.bool_)
     clamp = np.empty(n, dtype=np.int64)
-    cycle = ((qdd, tau, tau_req, limit, sat), qdd_des, q_next, qd_next, clamp)
-    status = step((m, act), arrays["q"], arrays["qd"], arrays["q_next_cmd"],
-                  arrays["qd_next_cmd"], dt, fe, pe, code, ENGINE_MRNEA, cycle,
-                  entry_scratch(n, ACHIEVABLE))
+    status = step(m, act, arrays["q"], arrays["qd"], arrays["q_next_cmd"], arrays["qd_next_cmd"],
+                  dt, fe, pe, code, ENGINE_MRNEA, qdd_des, qdd, tau, tau_req, limit, sat, q_next,
+                  qd_next, clamp, entry_scratch(n, ACHIEVABLE))
     validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return StepResult(
         qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau), tau_required=tau_req,

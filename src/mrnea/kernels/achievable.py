@@ -1,9 +1,12 @@
 """Achievable accelerations: what the actuators can really do this cycle (paper Secs. II, V).
 
 Usage: ``status = achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, out)`` with
-``out = (qdd, tau, tau_req, limit, sat)``; ``status = step(compiled, q, qd, q_cmd, qd_cmd, dt, fext,
-pe, mode, engine, cycle, ws)`` with ``cycle = (out, qdd_des, q_next, qd_next, clamp)`` and ``ws`` an
-``ACHIEVABLE`` scratch (kernels/layout.py). ``compiled = (model, act)``.
+``compiled = (model, act)`` and ``out = (qdd, tau, tau_req, limit, sat)``; ``status =
+step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, qdd, tau, tau_req,
+limit, sat, q_next, qd_next, clamp, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch
+(kernels/layout.py). The kernels Python calls take tuples; the per-state kernels inside the
+batch and simulation loops (``achievable_ws``, ``step``) take their arrays one by one, which
+measured 3-6 % faster in the simulation loop (docs/design.md).
 
 The drive's law (kernels/drive.py): tau = H_a qdd + u'_a (Eqs. 42-43), the effort limit at speed
 and Coulomb friction at rest.
@@ -112,32 +115,33 @@ def _start_from_rest(act, qd, qdd_des, i, held, slip):
 
 @nb.njit(**ALLOC)
 def achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, out):
-    """``achievable_ws`` with its own scratch."""
-    return achievable_ws(compiled, q, qd, qdd_des, fext, pe, mode, engine, out,
-                         scratch(q.shape[0], ACHIEVABLE))
+    """``achievable_ws`` with its own scratch; ``compiled = (model, act)``, ``out = (qdd, tau,
+    tau_req, limit, sat)``."""
+    model, act = compiled
+    qdd, tau, tau_req, limit, sat = out
+    return achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
+                         limit, sat, scratch(q.shape[0], ACHIEVABLE))
 
 
 @nb.njit(**JIT)
-def achievable_ws(compiled, q, qd, qdd_des, fext, pe, mode, engine, out, ws):
+def achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
+                  sat, ws):
     """Achievable accelerations of one state (module docstring). Returns a status.
 
-    Fills ``out = (qdd, tau, tau_req, limit, sat)``: qdd (achievable), tau (effort applied, joint
-    side), tau_req (effort qdd_des needs), limit (effort limit at the current speed) and sat
-    (True where the joint is saturated). ``ws``: an ``ACHIEVABLE`` scratch (its
-    ``achievable_buffers``).
+    Fills qdd (achievable), tau (effort applied, joint side), tau_req (effort qdd_des needs),
+    limit (effort limit at the current speed) and sat (True where the joint is saturated).
+    ``ws``: an ``ACHIEVABLE`` scratch (its ``achievable_buffers``).
     """
     n = q.shape[0]
     if not finite(qdd_des):
         return NONFINITE
-    act = compiled[1]
-    qdd, tau, tau_req, limit, sat = out
     Ha, Hs, L, ua, slip, tau_cmd, fric, rhs, x, known, held, fixed, idx = achievable_buffers(ws, n)
     # slip: direction (+-1) of a joint starting from rest, its effort prescribed; tau_cmd: the
     # prescribed efforts; fric: Coulomb friction of joints starting from rest; known: 0/1,
     # acceleration prescribed (HYBRID, unsaturated); held: 0/1, effort prescribed, kept at rest
     # by static friction; fixed: 0/1, acceleration known this round (known or held); idx: the
     # unknowns' joint indices (_mixed_solve)
-    status = actuator_terms(compiled, q, qd, fext, pe, engine, Ha, ua, ws)
+    status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
 
@@ -205,7 +209,8 @@ def achievable_ws(compiled, q, qd, qdd_des, fext, pe, mode, engine, out, ws):
 
 
 @nb.njit(**JIT)
-def step(compiled, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, cycle, ws):
+def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
+         qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp, ws):
     """One interpolation cycle of Sec. II. Returns a status.
 
     Clamps the commanded velocity qd_cmd to +-velocity limit and, where the commanded next
@@ -214,15 +219,12 @@ def step(compiled, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, cycle, ws):
     computes the achievable accelerations and advances the state the way Sec. II describes the
     drives: the velocity changes to qd_next = qd + qdd dt and the speed controller holds it for
     dt, so q_next = q + qd_next dt. A feasible command is reproduced exactly (q_next = q_cmd when
-    qd_cmd = (q_cmd - q) / dt). Fills ``cycle = (out, qdd_des, q_next, qd_next, clamp)``: ``out``
-    as ``achievable_ws``'s, ``clamp`` the CLAMP_POSITION | CLAMP_VELOCITY flags per joint; the
-    caller's q_cmd and qd_cmd are not modified.
+    qd_cmd = (q_cmd - q) / dt). ``clamp`` gets CLAMP_POSITION | CLAMP_VELOCITY flags per joint;
+    the caller's q_cmd and qd_cmd are not modified.
     """
     n = q.shape[0]
     if not (finite(q_cmd) and finite(qd_cmd) and np.isfinite(dt)):
         return NONFINITE
-    act = compiled[1]
-    out, qdd_des, q_next, qd_next, clamp = cycle
     for i in range(n):
         flags = 0
         qc = q_cmd[i]  # read only: the caller's command is never modified
@@ -241,10 +243,10 @@ def step(compiled, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, cycle, ws):
             flags |= CLAMP_VELOCITY
         clamp[i] = flags
         qdd_des[i] = (vc - qd[i]) / dt
-    status = achievable_ws(compiled, q, qd, qdd_des, fext, pe, mode, engine, out, ws)
+    status = achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
+                           limit, sat, ws)
     if status != OK:
         return status
-    qdd = out[0]
     for i in range(n):
         qd_next[i] = qd[i] + qdd[i] * dt
         q_next[i] = q[i] + qd_next[i] * dt
@@ -256,11 +258,12 @@ def achievable_batch(compiled, Q, QD, QDD_DES, FEXT, PE, mode, engine, OUT, STAT
     """``achievable`` over a batch (B, n): OUT = (QDD, TAU, TAU_REQ, LIMIT, SAT), each (B, n);
     FEXT (B, 6), PE (B, 3), STATUS (B,)."""
     B, n = Q.shape
+    model, act = compiled
     QDD, TAU, TAU_REQ, LIMIT, SAT = OUT
     nc = n_chunks(B)
     for ch in nb.prange(nc):
         ws = scratch(n, ACHIEVABLE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
-            STATUS[b] = achievable_ws(compiled, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
-                                      engine, (QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b]), ws)
+            STATUS[b] = achievable_ws(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
+                                      engine, QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b], ws)

@@ -1,11 +1,11 @@
 """The drive: what an actuator adds to the rigid body, and what it can give (paper Eqs. 42-43).
 
-Usage: ``status = actuator_terms(compiled, q, qd, fext, pe, engine, Ha, ua, ws)`` fills H_a (n, n)
-and u'_a (n,); ``effort_limit(act, i, qd_i)``; the friction law at rest, ``static_friction``,
-``slips``, ``sliding_friction``. ``compiled = (model, act)``, the actuator array ``act`` (n, NACT)
-as kernels/layout.py describes it: per joint, joint side, gear ratio G (motor turns per joint
-turn), rotor inertia J_m (motor side), viscous friction F_v, Coulomb friction F_s, the
-torque-speed curve and the joint limits.
+Usage: ``status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)`` fills H_a
+(n, n) and u'_a (n,) (``actuator_terms_batch(compiled, ...)``, ``compiled = (model, act)``, over a
+batch); ``effort_limit(act, i, qd_i)``; the friction law at rest, ``static_friction``, ``slips``,
+``sliding_friction``. The actuator array ``act`` (n, NACT) as kernels/layout.py describes it:
+per joint, joint side, gear ratio G (motor turns per joint turn), rotor inertia J_m (motor
+side), viscous friction F_v, Coulomb friction F_s, the torque-speed curve and the joint limits.
 
 Actuator equation (Eqs. 42-43), joint side, on the rigid-body H and u' of one engine
 (kernels/engines.py)::
@@ -74,10 +74,9 @@ def add_drive(act, qd, Ha, ua):
 
 
 @nb.njit(**JIT)
-def actuator_terms(compiled, q, qd, fext, pe, engine, Ha, ua, ws):
+def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
     """H_a (n, n) and u'_a (n,) of Eqs. 42-43, the rigid-body part by ``engine``
     (kernels/engines.py); ``ws``: scratch (kernels/layout.py). Returns a status."""
-    model, act = compiled
     status = mass_matrix_bias(model, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
@@ -89,12 +88,13 @@ def actuator_terms(compiled, q, qd, fext, pe, engine, Ha, ua, ws):
 def actuator_terms_batch(compiled, Q, QD, FEXT, PE, engine, HA, UA, STATUS):
     """``actuator_terms`` over a batch: HA (B, n, n), UA (B, n), STATUS (B,)."""
     B, n = Q.shape
+    model, act = compiled
     nc = n_chunks(B)
     for ch in nb.prange(nc):
         ws = scratch(n, POSE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
-            STATUS[b] = actuator_terms(compiled, Q[b], QD[b], FEXT[b], PE[b], engine, HA[b],
+            STATUS[b] = actuator_terms(model, act, Q[b], QD[b], FEXT[b], PE[b], engine, HA[b],
                                        UA[b], ws)
 
 

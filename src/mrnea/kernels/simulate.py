@@ -2,7 +2,8 @@
 
 Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run)``
 with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
-``run = (q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``.
+``run = (q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``, unpacked once per call:
+the per-cycle ``step`` takes its arrays one by one (docs/design.md).
 
 Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
 at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
@@ -34,7 +35,7 @@ from mrnea.kernels.status import OK
 @nb.njit(**ALLOC)
 def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
-    model = compiled[0]
+    model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
     q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench = run
     K, n = q_cmd.shape
@@ -46,10 +47,9 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
         for i in range(n):
             v[i] = 0.0 if last else qd_cmd[k + 1, i]  # the program ends at rest
             v[i] += catch_up * (q_cmd[k, i] - q[k, i])
-        cycle = ((qdd[k], tau[k], tau_req[k], limit[k], sat[k]), qdd_des[k], q_next, qd_next,
-                 clamp[k])
-        status = step(compiled, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt, fext[k],
-                      pe[k], mode, engine, cycle, ws)
+        status = step(model, act, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt,
+                      fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], tau_req[k],
+                      limit[k], sat[k], q_next, qd_next, clamp[k], ws)
         if status != OK:
             return k, status
         # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
