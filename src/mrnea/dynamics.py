@@ -182,16 +182,16 @@ def mass_matrix_and_bias(
     ``"walker_orin"`` by Walker-Orin method 1 (n + 1 Newton-Euler passes), for comparison.
     Returns H, (n, n) or (B, n, n), and u', (n,) or (B, n). u' includes gravity and f_ext.
     """
-    kernel, kernel_batch = validate.choice("method", method, _HB)
     if f_ext is None and f_ext_point is None:
-        try:  # the fast path (module docstring)
+        try:  # the fast path (module docstring); an unknown method fails here, and below
             m, shape, ws, _ = BY_ID[id(robot)]
             if q.dtype is qd.dtype is _F64 and q.ndim == qd.ndim == 1:
                 H, u = np.empty(shape * 2), np.empty(shape)  # (n, n), (n,)
-                if kernel.free(m, q, qd, None, None, H, u, ws) == OK:
+                if _HB[method][0].free(m, q, qd, None, None, H, u, ws) == OK:
                     return H, u
         except _FAST_MISS:
             pass
+    kernel, kernel_batch = validate.choice("method", method, _HB)
     H, u = _evaluate(robot, kernel, kernel_batch, {"q": q, "qd": qd}, f_ext, f_ext_point,
                      lambda n: ((n, n), (n,)))
     return H, u
@@ -213,16 +213,16 @@ def forward_dynamics(
     bias), ``"aba"`` (articulated-body algorithm, O(n)). Returns qdd, (n,) or (B, n).
     Raises SingularMassMatrixError where H is not positive definite.
     """
-    kernel, kernel_batch = validate.choice("method", method, _FD)
     if f_ext is None and f_ext_point is None:
-        try:  # the fast path (module docstring)
+        try:  # the fast path (module docstring); an unknown method fails here, and below
             m, shape, ws, _ = BY_ID[id(robot)]
             if q.dtype is qd.dtype is tau.dtype is _F64 and q.ndim == qd.ndim == tau.ndim == 1:
                 qdd = np.empty(shape)
-                if kernel.free(m, q, qd, tau, None, None, qdd, ws) == OK:
+                if _FD[method][0].free(m, q, qd, tau, None, None, qdd, ws) == OK:
                     return qdd
         except _FAST_MISS:
             pass
+    kernel, kernel_batch = validate.choice("method", method, _FD)
     args = {"q": q, "qd": qd, "tau": tau}
     (qdd,) = _evaluate(robot, kernel, kernel_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
     return qdd

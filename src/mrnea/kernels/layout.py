@@ -78,7 +78,7 @@ NACT = 10
 # increments and decrements Numba would emit for each array argument and view (dozens per
 # state, contended between threads in a batch) are pure cost. Such a kernel must not return an
 # array (its caller would release a reference it never took): the helpers that return views
-# are VIEWS, compiled into their caller. No fastmath: NaN and inf checks must stay, and fused
+# are INTO_CALLER, compiled into their caller. No fastmath: NaN and inf checks must stay, and fused
 # multiply-adds (4-8 % faster, measured) would round differently from the same sums in NumPy.
 # ALLOC: a kernel that allocates (a scratch, or the comparison kernels' own arrays).
 JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy", "_nrt": False}
@@ -93,7 +93,10 @@ ALLOC = {**JIT, "_nrt": True}
 ENTRY = {**JIT, "nogil": False}
 ENTRY_ALLOC = {**ALLOC, "nogil": False}
 INLINE = JIT
-VIEWS = {"inline": "always"}
+# INTO_CALLER: compiled into the caller's code by Numba itself, whatever runtime the caller has:
+# the slot functions (they return views), and solve.solve_forward, whose call of its own made
+# forward dynamics 3 % slower (measured; LLVM did not inline it)
+INTO_CALLER = {"inline": "always"}
 
 # --- the types of the single-state entries (dynamics._Entry compiles them for exactly these) -----
 MODEL_T = nb.types.Array(nb.types.float64, 2, "C", readonly=True)  # the compiled model
@@ -149,7 +152,7 @@ def compile_actuators(robot: Robot) -> np.ndarray:
 POSE, REACTIONS, SOLVE, ACHIEVABLE = 0, 1, 2, 3
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
@@ -182,21 +185,21 @@ def entry_scratch(n: int, kind: int = SOLVE) -> tuple[np.ndarray, ...]:
     return getattr(new_scratch, "py_func", new_scratch)(n, *rows)
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def pose_buffers(ws, n):
     """R (n, 3, 3), o, z, c (n, 3), Ic (n, 3, 3): the kinematics pass's output slots."""
     T, V = ws[0], ws[1]
     return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:]
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def mrnea_buffers(ws, n):
     """e, d, E, M (n, 3) of the mRNEA pass (kernels/mrnea.py)."""
     V = ws[1]
     return V[3 * n:4 * n], V[4 * n:5 * n], V[5 * n:6 * n], V[6 * n:7 * n]
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def force_buffers(ws, n):
     """f, nm (n, 3): the Newton-Euler passes' forces and moments (kernels/rnea.py); the slots
     of mRNEA's e, d."""
@@ -204,20 +207,20 @@ def force_buffers(ws, n):
     return V[3 * n:4 * n], V[4 * n:5 * n]
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def effort_buffer(ws):
     """(n,): the efforts of the Newton-Euler pass under the joint reactions (not returned)."""
     return ws[2][0]
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def solve_buffers(ws, n):
     """H (n, n), its Cholesky factor L (n, n), u' (n,) and tau - u' (n,): forward dynamics."""
     S = ws[2]
     return S[:n], S[n:2 * n], S[2 * n], S[2 * n + 1]
 
 
-@nb.njit(**VIEWS)
+@nb.njit(**INTO_CALLER)
 def achievable_buffers(ws, n):
     """The achievable accelerations' buffers (kernels/achievable.py): H_a (n, n), the system of
     the unknown accelerations Hs (n, n) and its Cholesky factor L (n, n); the (n,) float rows

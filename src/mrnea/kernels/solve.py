@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite
-from mrnea.kernels.layout import JIT
+from mrnea.kernels.layout import INTO_CALLER, JIT
 from mrnea.kernels.status import OK, OVERFLOW
 
 PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
@@ -54,7 +54,7 @@ def cholesky_solve(H, rhs, L, x):
     return OK
 
 
-@nb.njit(**JIT)
+@nb.njit(**INTO_CALLER)
 def solve_forward(H, u, tau, L, rhs, qdd):
     """qdd (n,) from ``H qdd = tau - u'`` (Eq. 2), ``rhs`` (n,) and ``L`` (n, n) as scratch;
     returns OK, OVERFLOW, or the index of the failing pivot."""
