@@ -11,11 +11,13 @@ Conventions (the same as URDF's, so URDF files map one to one):
 * Inertials. Link mass [kg]; centre of mass ``com`` [m] in the link frame; inertia [kg m^2] about
   the centre of mass, in axes parallel to the link frame.
 * Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
-* Actuator fields per joint (joint side unless said otherwise): ``gear_ratio`` G (motor turns per
-  joint turn, in [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
+* Actuator fields per joint (joint side unless said otherwise; the list, with units and
+  meanings: :data:`ACTUATOR_FIELDS`): ``gear_ratio`` G (motor turns per joint turn, in
+  [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
   [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N], ``effort_limit`` [N m or N]
-  (``inf``: unlimited), ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited), ``lower``/``upper``
-  position limits [rad or m] (``-inf``/``inf``: none; always so for continuous joints).
+  (``inf``: unlimited); joint limits ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited),
+  ``lower``/``upper`` position limits [rad or m] (``-inf``/``inf``: none; always so for
+  continuous joints).
 * ``torque_speed`` (optional), joint side: ``(peak, corner_speed, no_load_speed)``. The effort
   limit is ``peak`` up to the corner speed, then the smaller of constant power
   ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
@@ -30,9 +32,7 @@ import dataclasses
 import math
 import numbers
 import re
-import warnings
-from collections.abc import Callable, Sequence
-from contextvars import ContextVar
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -40,7 +40,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError, ModelWarning
+from mrnea.errors import ModelError
+from mrnea.frozen import Frozen, warn
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
 
@@ -73,66 +74,6 @@ GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^
 
 
 _NOT_IN_XML = re.compile("[\x00-\x1f\x7f\ufffe\uffff\ud800-\udfff]")
-# True while a Robot, Joint or Link is rebuilt from a validated original (unpickling, copying):
-# the checks run again, the warnings the original's construction gave are not repeated
-_REBUILDING: ContextVar[bool] = ContextVar("mrnea_model_rebuilding", default=False)
-
-
-def _warn(message: str, stacklevel: int) -> None:
-    """A ModelWarning, unless an object is being rebuilt (``stacklevel`` as warnings.warn's)."""
-    if not _REBUILDING.get():
-        warnings.warn(message, ModelWarning, stacklevel=stacklevel + 1)
-
-
-def _rebuild(cls: Callable[..., Any], kwargs: dict[str, Any]) -> Any:
-    """``cls(**kwargs)``, validated, without repeating the original's warnings: how a Robot,
-    Joint or Link is unpickled, copied and deep-copied (``__reduce__``)."""
-    token = _REBUILDING.set(True)
-    try:
-        return cls(**kwargs)
-    finally:
-        _REBUILDING.reset(token)
-
-
-def _value(x: object) -> object:
-    """A hashable value of a field: arrays as (shape, entries) tuples."""
-    if isinstance(x, np.ndarray):
-        return (x.shape, tuple(x.ravel().tolist()))
-    return x
-
-
-class _ValueObject:
-    """Value equality, a cached hash and pickling through the constructor, for the immutable,
-    validated dataclasses Link and Joint: two are equal when every field is (arrays by value);
-    a copy, a deep copy or an unpickled one is built and validated by the constructor again, so
-    its arrays are read-only and checked like the original's."""
-
-    def _key(self) -> tuple:
-        try:
-            return self.__dict__["_cached_key"]
-        except KeyError:
-            key = tuple(_value(getattr(self, f.name)) for f in dataclasses.fields(self))
-            object.__setattr__(self, "_cached_key", key)
-            return key
-
-    def __eq__(self, other: object) -> bool:
-        if type(other) is not type(self):
-            return NotImplemented
-        return self is other or self._key() == other._key()
-
-    def __hash__(self) -> int:
-        try:
-            return self.__dict__["_cached_hash"]
-        except KeyError:
-            h = hash((type(self).__name__, self._key()))
-            object.__setattr__(self, "_cached_hash", h)
-            return h
-
-    def __reduce__(self) -> tuple:
-        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        return (_rebuild, (type(self), fields))
-
-
 def _check_name(name: object, kind: str) -> None:
     """A non-empty string without control characters (URDF/XML cannot hold them)."""
     if not isinstance(name, str) or not name:
@@ -213,14 +154,14 @@ def _check_inertia(inertia: NDArray, what: str) -> None:
     # a rigid body's principal moments satisfy I1 + I2 >= I3; CAD exports break it by rounding
     excess = eig[2] - eig[0] - eig[1]
     if excess > 1e-9 * max(float(eig[2]), 1e-300):
-        _warn(
+        warn(
             f"{what}: inertia violates the triangle inequality (principal moments "
             f"{eig.tolist()}: {eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g}); physically doubtful, "
             f"used as given", stacklevel=4)
 
 
 @dataclass(frozen=True, eq=False)
-class Link(_ValueObject):
+class Link(Frozen):
     """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com]."""
 
     name: str
@@ -243,7 +184,7 @@ class Link(_ValueObject):
 
 
 @dataclass(frozen=True, eq=False)
-class Joint(_ValueObject):
+class Joint(Frozen):
     """A joint moving ``child`` relative to ``parent``; see the module docstring for conventions."""
 
     name: str
@@ -329,7 +270,7 @@ class Joint(_ValueObject):
         return self.type == "prismatic"
 
 
-class Robot:
+class Robot(Frozen):
     """An immutable serial chain: ``joints[i]`` moves ``links[i]`` relative to ``links[i-1]``.
 
     Parameters
@@ -382,32 +323,17 @@ class Robot:
                 tail = (f"well-posed: it carries {', '.join(carried)}" if carried else
                         "nothing it carries has mass either, so H is singular and forward "
                         "dynamics will fail")
-                _warn(f"link '{lk.name}' is massless ({tail})", stacklevel=2)
+                warn(f"link '{lk.name}' is massless ({tail})", stacklevel=2)
         self._joints = joints
         self._links = links
         self._gravity = _frozen(gravity, (3,), f"robot '{name}': gravity")
         self._name = str(name)
         self._base = base
-        self._hash: int | None = None
 
-    # --- value semantics: equal by value, hashable, pickled and copied through the constructor ---
-    def _key(self) -> tuple:
-        return (self._name, self._base, self._joints, self._links, _value(self._gravity))
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Robot):
-            return NotImplemented
-        return self is other or self._key() == other._key()
-
-    def __hash__(self) -> int:
-        if self._hash is None:
-            self._hash = hash(("Robot", self._key()))
-        return self._hash
-
-    def __reduce__(self) -> tuple:
-        return (_rebuild, (Robot, {"joints": self._joints, "links": self._links,
-                                   "gravity": self._gravity, "name": self._name,
-                                   "base": self._base}))
+    def _state(self) -> dict[str, Any]:
+        """The constructor's arguments (Frozen: equality, hash, copies and pickling by value)."""
+        return {"joints": self._joints, "links": self._links, "gravity": self._gravity,
+                "name": self._name, "base": self._base}
 
     # --- read-only description ------------------------------------------------------------
     name = property(lambda self: self._name, doc="The robot's name.")
@@ -469,10 +395,10 @@ class Robot:
     def with_actuators(self, **fields: ArrayLike) -> Robot:
         """A copy with actuator fields replaced.
 
-        Keywords are any of ``effort_limit``, ``gear_ratio``, ``rotor_inertia``,
-        ``viscous_friction``, ``coulomb_friction``; each a scalar (all joints) or an ``(n,)``
-        sequence (per joint, root to tip). ``effort_limit`` sets a constant limit at every
-        speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
+        Keywords are any of :data:`ACTUATOR_FIELDS`. ``effort_limit``, ``gear_ratio``,
+        ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
+        or an ``(n,)`` sequence (per joint, root to tip). ``effort_limit`` sets a constant limit
+        at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
         """
@@ -514,10 +440,7 @@ class Robot:
         return self._replace(gravity=gravity)
 
     def _replace(self, **kw: object) -> Robot:
-        args = {"joints": self._joints, "links": self._links, "gravity": self._gravity,
-                "name": self._name, "base": self._base}
-        args.update(kw)
-        return Robot(**args)  # type: ignore[arg-type]
+        return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]
 
     # --- export ---------------------------------------------------------------------------------
     def to_urdf(self, path: str | Path) -> Path:
