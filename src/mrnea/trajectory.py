@@ -30,8 +30,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import _time_step
 from mrnea.errors import StateError
+from mrnea.validate import time_step
 
 __all__ = ["cycles", "quintic", "trapezoidal"]
 
@@ -232,7 +232,7 @@ def _through_waypoints(
     t0: float, dwell: ArrayLike, segment: Segment,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Check the arguments, time each segment with ``segment(dq, vmax, amax) -> (T, s)``, sample."""
-    dt = _time_step(dt)
+    dt = time_step(dt)
     t0 = _t0(t0)
     w = _waypoints(waypoints)
     W, n = w.shape
