@@ -107,8 +107,9 @@ def test_actuator_fields_are_one_list() -> None:
     lines = robot.describe().splitlines()
     assert lines[1].split()[-len(names):] == [f.symbol for f in ACTUATOR_FIELDS]
     j = robot.joints[1]
+    assert j.coulomb_pair == (13.58469, 7.654865)  # asymmetric: both magnitudes, 3 digits
     assert lines[3].split()[-len(names):] == [f"{getattr(j, f.name):.4g}" for f in
-                                              ACTUATOR_FIELDS[:-1]] + ["-"]
+                                              ACTUATOR_FIELDS[:-2]] + ["13.6/7.65", "-"]
     doc = (DOCS / "robot-format.md").read_text()
     section = doc.split("### Actuator fields", 1)[1].split("\n\n")[2]
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines()[2:]]
