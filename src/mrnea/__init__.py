@@ -7,7 +7,9 @@ the joint accelerations the real actuators can achieve and simulates the motion 
 from mrnea import robots
 from mrnea.dynamics import (
     forward_dynamics,
+    forward_kinematics,
     inverse_dynamics,
+    jacobian,
     joint_reactions,
     mass_matrix_and_bias,
 )
@@ -40,7 +42,9 @@ __all__ = [
     "StateError",
     "__version__",
     "forward_dynamics",
+    "forward_kinematics",
     "inverse_dynamics",
+    "jacobian",
     "joint_reactions",
     "load_program",
     "load_robot",
