@@ -232,3 +232,7 @@ def test_a_robot_that_cannot_move_gets_no_verdict(tmp_path):
         lines = res.stderr.strip().splitlines()
         assert lines[-1].startswith("mrnea: error:") and "'a', 'b'" in lines[-1]
         assert "no mass and no rotor inertia" in lines[-1] and "Traceback" not in res.stderr
+        # the model's warnings: once each, one line each, no source line
+        assert lines[:-1] == [f"mrnea: warning: link '{x}' is massless (nothing it carries has "
+                              "mass either, so H is singular and forward dynamics will fail)"
+                              for x in "ab"]

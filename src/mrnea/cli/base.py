@@ -5,6 +5,8 @@ Every command module (``run``, ``info``, ``paper``...) adds its commands to :dat
 
 Errors: an :class:`~mrnea.errors.MrneaError` (or an OSError) ends the command with one
 ``mrnea: error:`` line on stderr and exit code 2 (``--debug``: the traceback instead).
+Warnings (a :class:`~mrnea.errors.ModelWarning`, any UserWarning) print once each as one
+``mrnea: warning:`` line, without the source line Python would add.
 
 Interrupts: Ctrl-C (SIGINT) and SIGTERM are handled alike. The first one is a request that the
 command honours at its next :func:`checkpoint` (between two chunks of a simulation, between two
@@ -24,6 +26,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, NoReturn
@@ -111,11 +114,30 @@ def _stop_requests() -> Iterator[None]:
         _Stop.requested = False
 
 
+@contextlib.contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Within the block each warning of the UserWarning family prints once, as one
+    ``mrnea: warning:`` line (newlines folded), without a source line."""
+    seen: set[str] = set()
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: object = None, line: str | None = None) -> None:
+        text = " ".join(str(message).split())
+        if text not in seen:
+            seen.add(text)
+            click.echo(f"mrnea: warning: {text}", err=True)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", UserWarning)
+        warnings.showwarning = show
+        yield
+
+
 class _Group(click.Group):
     """Turns input errors into one line on stderr and exit code 2, interrupts into exit 130."""
 
     def invoke(self, ctx: click.Context) -> object:
-        with _stop_requests():
+        with _stop_requests(), _warnings_as_lines():
             try:
                 result = super().invoke(ctx)
                 checkpoint()  # a request after the command's last checkpoint
