@@ -31,11 +31,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.achievable import MODES
-from mrnea.actuators import actuator_mass_matrix_and_bias, motor_torque
+from mrnea.actuators import motor_torque
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
+from mrnea.kernels.drive import actuator_terms
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
+from mrnea.kernels.layout import POSE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
@@ -365,9 +367,12 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     """Refuse, before the run, a robot whose actuated mass matrix H_a is singular at the start
     (a joint that moves no mass and no rotor inertia: the cycle's accelerations are undefined,
     and no verdict can be given): SingularMassMatrixError naming the joint and the links."""
-    Ha, _ = actuator_mass_matrix_and_bias(robot, q0, np.zeros(robot.n))
     n = robot.n
-    j = cholesky_solve(Ha, np.zeros(n), np.empty((n, n)), np.empty(n))
+    m, _, _, act = compiled.of(robot)
+    Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
+    actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
+                   entry_scratch(n, POSE))  # one thread: no worker threads left spinning
+    j = cholesky_solve(Ha, zero, np.empty((n, n)), np.empty(n))
     if j == OK:
         return
     joint = robot.joints[j]

@@ -70,7 +70,7 @@ def _program(r: SimulationResult, i: int) -> dict[str, Any]:
              "unlimited" if math.isinf(j.effort_limit) else "limited")
     ratio: NDArray = np.zeros_like(req)
     if drive == "limited":
-        with np.errstate(divide="ignore"):  # a zero limit (beyond the no-load speed): inf
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf (or 0 / 0)
             ratio = np.where(req > 0.0, req / lim, 0.0)
     kr = int(np.argmax(ratio))
     over = np.flatnonzero(req > lim)

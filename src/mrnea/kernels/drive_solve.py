@@ -83,8 +83,10 @@ from mrnea.kernels.status import CYCLE_LIMIT, OK
 PAPER, HYBRID = 0, 1  # how the drives meet their limits (module docstring)
 MULT_TOL = 1e-12  # a multiplier this close (relative) to its interval counts as inside
 SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held there
-INTO = {**JIT, "inline": "always"}  # the active set, compiled into solve_cycle (a call of its
-# own, with 18 array arguments, cost about 200 ns: measured on the prototype)
+# compiled into the caller: the active set into solve_cycle, solve_cycle into step and
+# achievable_ws. As calls of their own (17 array arguments) they cost 0.1-0.25 us a cycle in
+# paper mode (measured: docs/design.md)
+INTO = {**JIT, "inline": "always"}
 
 
 @nb.njit(**INLINE)
@@ -139,7 +141,7 @@ def _start(v0, nb_, i, bp):
     return 2 * k
 
 
-@nb.njit(**JIT)
+@nb.njit(**INTO)
 def solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req, sat,
                 stuck, ws):
     """Solve one cycle exactly (module docstring). Returns OK, the joint index of a failed

@@ -39,7 +39,6 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.achievable import step
-from mrnea.kernels.common import chunk, n_chunks
 from mrnea.kernels.drive import drive_effort, effort_limit, wanted_friction
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import ACHIEVABLE, ALLOC, FNEG, FPOS, POSE, scratch
@@ -78,26 +77,24 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
     return k1, OK
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
+@nb.njit(**ALLOC)
 def program_requirement(compiled, program, dt, k0, k1, out, status):
     """The program's own requirement (module docstring) in cycles k0 <= k < k1: out = (req,
-    limit), each (K, n) [N m | N], joint side; status (K,) per cycle."""
+    limit), each (K, n) [N m | N], joint side; status (K,) per cycle. One thread, as the loop:
+    a parallel kernel's worker threads would compete with the loop for the cores."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
     req, limit = out
     K, n = q_cmd.shape
-    nc = n_chunks(k1 - k0)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        qdd_des = np.empty(n)
-        lo, hi = chunk(ch, nc, k1 - k0)
-        for k in range(k0 + lo, k0 + hi):
-            for i in range(n):
-                v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]  # the program ends at rest
-                qdd_des[i] = (v - qd_cmd[k, i]) / dt
-            status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws)
-            for i in range(n):
-                v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
-                h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])
-                req[k, i] = h + wanted_friction(h, v, act[i, FPOS], act[i, FNEG])
-                limit[k, i] = effort_limit(act, i, qd_cmd[k, i])
+    ws = scratch(n, POSE)
+    qdd_des = np.empty(n)
+    for k in range(k0, k1):
+        for i in range(n):
+            v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]  # the program ends at rest
+            qdd_des[i] = (v - qd_cmd[k, i]) / dt
+        status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws)
+        for i in range(n):
+            v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
+            h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])
+            req[k, i] = h + wanted_friction(h, v, act[i, FPOS], act[i, FNEG])
+            limit[k, i] = effort_limit(act, i, qd_cmd[k, i])
