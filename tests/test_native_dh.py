@@ -417,7 +417,7 @@ def test_native_dh_form_errors() -> None:
 
 
 def test_native_unreadable_file(tmp_path) -> None:
-    with pytest.raises(RobotFileError, match="missing.toml: robot file not found"):
+    with pytest.raises(RobotFileError, match=r"missing\.toml: robot file not found"):
         load_native(tmp_path / "missing.toml")
     bad = tmp_path / "latin1.toml"
     bad.write_bytes(b"[robot]\nname = \"\xe9\"\n")

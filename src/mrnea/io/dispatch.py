@@ -49,6 +49,8 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
         Unsupported suffix (the message lists the supported ones), or any error of the reader.
     """
     path = as_path(path, "path", RobotFileError)
+    if path.is_dir():
+        raise RobotFileError(f"{path}: cannot read robot file: it is a directory")
     suffix = path.suffix.lower()
     allowed = {".urdf": ("tip", "actuators"), ".xml": ("tip", "actuators"),
                ".toml": ("actuators",)}.get(suffix, ())
@@ -75,7 +77,10 @@ def load_builtin(name: str) -> Robot:
     RobotFileError
         If ``name`` is not a built-in robot.
     """
-    if not isinstance(name, str) or name not in BUILTIN_ROBOTS:
+    if not isinstance(name, str):
+        raise RobotFileError(f"name: expected a built-in robot's name (str), got "
+                             f"{type(name).__name__}")
+    if name not in BUILTIN_ROBOTS:
         raise RobotFileError(
             f"unknown built-in robot {quote(name)}; available: {', '.join(BUILTIN_ROBOTS)}")
     resource = resources.files("mrnea").joinpath("robots", "data", f"{name}.toml")

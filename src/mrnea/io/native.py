@@ -39,7 +39,7 @@ import numpy as np
 from mrnea.errors import ModelError, RobotFileError, quote
 from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
-from mrnea.io.source import read_text
+from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck
 from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot, transform
 
@@ -206,5 +206,7 @@ def load_native(path: str | Path, actuators: str | Path | None = None) -> Robot:
         If the file cannot be read or is malformed; the message names the file and the joint or
         link at fault (TOML syntax errors give line and column).
     """
+    if actuators is not None:
+        actuators = as_path(actuators, "actuators", RobotFileError)
     robot = loads_native(read_text(path, "robot file", RobotFileError), source=str(path))
     return robot if actuators is None else apply_actuator_file(robot, actuators)

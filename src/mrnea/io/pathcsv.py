@@ -99,10 +99,11 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
 
 
 def _check_header(path: Path, line: int, header: list[str], n: int | None) -> None:
+    """The header row's shape (its text is never quoted: the file may not be a CSV at all)."""
     if len(header) < 2:
         raise ProgramFileError(
             f"{path}: line {line}: the header row needs a time column and at least one "
-            f"joint column, got {len(header)} column: {quote(header[0])}")
+            f"joint column, got {len(header)} column (is this a path CSV file?)")
     if n is not None and len(header) != n + 1:
         raise ProgramFileError(
             f"{path}: line {line}: expected {n + 1} columns (time + {n} joints), the "
@@ -111,9 +112,8 @@ def _check_header(path: Path, line: int, header: list[str], n: int | None) -> No
         parse_number(header[0])
     except ValueError:
         return
-    raise ProgramFileError(
-        f"{path}: line {line}: the first row must be a header (e.g. t,q1,q2,...), got "
-        f"numbers: {quote(header[0])}, ...")
+    raise ProgramFileError(f"{path}: line {line}: the first row must be a header (e.g. "
+                           "t,q1,q2,...), got numbers")
 
 
 def from_csv(

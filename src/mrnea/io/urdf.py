@@ -402,6 +402,8 @@ def load_urdf(
     if tip is not None and not isinstance(tip, str):
         raise RobotFileError(f"tip: expected a link name (str) or None, got "
                              f"{type(tip).__name__} {quote(tip)}")
+    if actuators is not None:
+        actuators = as_path(actuators, "actuators", RobotFileError)
     rd = _Reader(path)
     root = rd.parse_root()
     robot_name = root.get("name") or path.stem
