@@ -28,7 +28,8 @@ MALFORMED = Path(__file__).resolve().parent / "malformed"
 
 # spellings Python's float() reads as a number, which the grammar refuses
 LOOSE = ["1_0", "1_000.5", "\uff11", "\u0661\u0662", "\u0663.\u0665", " 1", "1 ", "\t1", "1\n",
-         "\u00a01", "nan", "NaN", "-nan", "Infinity", "-Infinity", "INF", "iNf", "+Infinity", "1e1_0", "0_1"]
+         "\u00a01", "nan", "NaN", "-nan", "Infinity", "-Infinity", "INF", "iNf", "+Infinity",
+         "1e1_0", "0_1"]
 # not numbers for anyone
 GARBAGE = ["", "+", "-", ".", "e5", "1e", "1e+", "0x10", "1,5", "1.0.0", "--1", "1 0", "1kg",
            "\u00bd", "1e5.5", "\u221e", "inf inf", "'1'"]
