@@ -6,11 +6,13 @@ Every error mrnea raises on bad input is a subclass of :class:`MrneaError`, itse
 Messages quote what the user gave through two helpers, so that no input, however large, makes a
 message large: :func:`quote` (one value, its ``repr`` cut to :data:`QUOTE_LIMIT` characters),
 :func:`shorten` (a name, cut the same way) and :func:`listing` (a list of names: the first
-:data:`LIST_LIMIT`, then "and N more").
+:data:`LIST_LIMIT`, then "and N more"); :func:`clip` shortens what a message built elsewhere
+quoted whole.
 """
 
 from __future__ import annotations
 
+import re
 import reprlib
 from collections.abc import Iterable
 
@@ -31,6 +33,10 @@ def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
     """
     if isinstance(value, (str, bytes)):
         text = repr(value[:limit + 1])
+        if len(text) > limit:  # cut inside the quotes: 'abc...'
+            text = repr(value[:limit - 5])
+            text = text[:-1][:limit - 4] + "..." + text[-1]
+        return text
     else:
         try:
             text = _REPR.repr(value)
@@ -46,6 +52,17 @@ def listing(items: Iterable[object], limit: int = LIST_LIMIT, sep: str = ", ") -
     shown = [shorten(str(x)) for x in items[:limit]]
     more = len(items) - len(shown)
     return sep.join(shown) + (f" and {more} more" if more > 0 else "")
+
+
+# a name quoted whole: after a space or "(", before a colon, space, comma or ")"
+_LONG_QUOTE = re.compile(f"(?<=[ (])'([^'\\n]{{{QUOTE_LIMIT - 1},}})'(?=[:;,) ]|$)")
+
+
+def clip(message: str) -> str:
+    """``message`` with every quoted text longer than :data:`QUOTE_LIMIT` shortened: for a
+    message built elsewhere that quotes a name whole (``joint 'x...x': axis is zero``) before a
+    reader adds its file and element to it."""
+    return _LONG_QUOTE.sub(lambda m: quote(m.group(1)), message)
 
 
 def shorten(text: str, limit: int = QUOTE_LIMIT) -> str:

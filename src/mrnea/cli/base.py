@@ -39,7 +39,7 @@ import click
 import numpy as np
 from numba.core import event as numba_event
 
-from mrnea.errors import MrneaError, quote
+from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import load_robot_spec
 from mrnea.io.source import parse_number
 from mrnea.model import Robot
@@ -99,7 +99,7 @@ def one_line(text: str) -> str:
 
 def fail(message: str) -> NoReturn:
     """End the command with one ``mrnea: error:`` line and exit code 2."""
-    click.echo(f"mrnea: error: {one_line(message)}", err=True)
+    click.echo(f"mrnea: error: {one_line(clip(message))}", err=True)
     sys.exit(EXIT_BAD_INPUT)
 
 

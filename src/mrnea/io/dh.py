@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError, listing, quote
+from mrnea.errors import ModelError, clip, listing, quote
 from mrnea.model import JOINT_TYPES, Joint, Link
 
 CONVENTIONS = ("standard", "modified")
@@ -245,7 +245,7 @@ def dh_joint_chain(
         try:
             lk = Link(lname, mass=r.mass, com=r.com, inertia=r.inertia)
         except ModelError as exc:
-            raise ModelError(f"{label}: {exc}") from None
+            raise ModelError(clip(f"{label}: {exc}")) from None
         R = to_link[:3, :3]
         com = R @ lk.com + to_link[:3, 3]
         inertia = R @ lk.inertia @ R.T

@@ -7,6 +7,7 @@ never the other way round.
 
 from __future__ import annotations
 
+import os
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -49,8 +50,9 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
         Unsupported suffix (the message lists the supported ones), or any error of the reader.
     """
     path = as_path(path, "path", RobotFileError)
-    if path.is_dir():
-        raise RobotFileError(f"{path}: cannot read robot file: it is a directory")
+    if os.path.isdir(path):
+        raise RobotFileError(f"{path}: cannot read robot file: it is a directory, not a regular "
+                             "file")
     suffix = path.suffix.lower()
     allowed = {".urdf": ("tip", "actuators"), ".xml": ("tip", "actuators"),
                ".toml": ("actuators",)}.get(suffix, ())

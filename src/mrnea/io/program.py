@@ -10,6 +10,7 @@ CSV path by :mod:`mrnea.io.pathcsv`; the robot is a built-in name or a robot fil
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,7 +113,7 @@ _WRENCH_KEYS = ("times", "values", "point")
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
     source = resolve_robot(value, base_dir)
-    if source not in BUILTIN_ROBOTS and not Path(source).is_file():
+    if source not in BUILTIN_ROBOTS and not os.path.isfile(source):
         raise check.error("[program]", f"robot {quote(value)} is neither a built-in robot "
                                        f"({', '.join(BUILTIN_ROBOTS)}) nor an existing robot "
                                        f"file (looked for {quote(source)})")

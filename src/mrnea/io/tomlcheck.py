@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import MrneaError, listing, quote
+from mrnea.errors import MrneaError, clip, listing, quote
 from mrnea.io.source import read_text
 
 __all__ = ["MAX_DEPTH", "TomlCheck", "did_you_mean", "read_text", "type_name"]
@@ -61,8 +61,8 @@ class TomlCheck:
 
     def error(self, where: str, what: str) -> MrneaError:
         """The error ``<source>: <where>: <what>`` (``<source>: <what>`` without ``where``)."""
-        return self._error(f"{self.source}: {where}: {what}" if where else
-                           f"{self.source}: {what}")
+        return self._error(clip(f"{self.source}: {where}: {what}" if where else
+                                f"{self.source}: {what}"))
 
     def parse(self, text: str) -> dict[str, Any]:
         """The document, or an error with tomllib's message, line and column; a document

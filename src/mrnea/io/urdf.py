@@ -46,6 +46,7 @@ from mrnea.errors import (
     OutputError,
     RobotFileError,
     StateError,
+    clip,
     listing,
     quote,
     shorten,
@@ -148,7 +149,7 @@ class _Reader:
         self.path = path
 
     def error(self, message: str) -> RobotFileError:
-        return RobotFileError(f"{self.path}: {message}")
+        return RobotFileError(clip(f"{self.path}: {message}"))
 
     # --- attribute helpers ----------------------------------------------------------------
     def required(self, elem: ET.Element, attr: str, what: str) -> str:

@@ -254,7 +254,7 @@ def figure_file(path: str | os.PathLike[str]) -> tuple[Path, str]:
     path = Path(path)
     fmt = path.suffix[1:].lower()
     if not fmt:
-        if path.is_dir():
+        if os.path.isdir(path):
             raise OutputError(f"{path} is a directory; name the figure file to write")
         return path.with_name(f"{path.name}.png"), "png"
     if fmt not in FORMATS:
