@@ -195,3 +195,30 @@ def test_cli_waypoint_program_of_5e8_cycles(tmp_path: Path) -> None:
         "acceleration_limit = 1\n")
     one_error_line(mrnea("simulate", "sdt", tmp_path / "huge.toml", "--out", tmp_path / "o"),
                    "huge.toml", "[path]", "5e+08 cycles", "needs about")
+
+
+# --- a long chain's figures -----------------------------------------------------------------------
+def test_a_long_chains_figures_draw_twelve_joints() -> None:
+    """40 joints, effort limits that some exceed: each figure has 12 rows of axes, those of the
+    first infeasible joint and the joints that exceeded a limit most often, and says so."""
+    from mrnea.report import plot_result
+    from mrnea.report.drawing import MAX_JOINTS
+    from mrnea.report.figures import shown_joints
+
+    robot = random_chain(np.random.default_rng(3), 40).with_actuators(
+        effort_limit=[1e6] * 35 + [0.5] * 5)
+    K = 50
+    res = simulate(robot, np.linspace(0.0, 0.05, K)[:, None] * np.ones(40), 0.01)
+    bad = (res.saturated | res.position_clamped | res.velocity_clamped).sum(axis=0)
+    shown = shown_joints(res)
+    assert len(shown) == MAX_JOINTS == 12 and shown == sorted(shown)
+    first = robot.joint_names.index(res.summary()["first_infeasible"]["joint"])
+    assert first in shown
+    assert 0 < np.count_nonzero(bad) <= 12 and set(np.flatnonzero(bad)) <= set(shown)
+    start = time.perf_counter()
+    figs = plot_result(res)
+    assert time.perf_counter() - start < 30.0
+    for name, fig in figs.items():
+        rows = {round(ax.get_position().y0, 6) for ax in fig.axes if ax.get_title(loc="left")}
+        assert len(rows) == MAX_JOINTS, name
+        assert "12 of 40 joints" in fig._suptitle.get_text(), name
