@@ -64,34 +64,35 @@ class _Parsed(HTMLParser):
         self.text.append(data)
 
 
-def test_figures_render_hostile_names(tmp_path: Path, result) -> None:
-    figs = plot_result(result, tmp_path / "figs")
-    for name in figs:
-        data = (tmp_path / "figs" / f"{name}.png").read_bytes()
-        assert data[:8] == b"\x89PNG\r\n\x1a\n"
+def test_figure_titles_escape_math_text(result) -> None:
+    figs = plot_result(result)  # drawn (and so parsed as text) in the tests below
     titles = [ax.get_title(loc="left") for ax in figs["motion"].axes]
-    assert any("a\\$\\frac\\$1" in t for t in titles)  # escaped, so drawn as written
+    assert any("a\\$\\frac\\$1" in t for t in titles)  # escaped: drawn as written
+    assert "\\$robot\\$" in figs["motion"]._suptitle.get_text()
 
 
-@pytest.mark.parametrize("chunk", range(0, len(NAMES), 6))
-def test_the_report_escapes_and_keeps_every_name(tmp_path: Path, chunk: int) -> None:
-    names = NAMES[chunk:chunk + 6]
-    robot = _robot(names, "<script>robot</script>")
+def test_the_report_draws_escapes_and_keeps_every_name(tmp_path: Path) -> None:
+    """Every name in one robot: the report renders its figures (12 joints each) to PNG and
+    lists every joint in its tables."""
+    robot = _robot(NAMES, "<script>robot</script> $\\frac$")
     res = simulate(robot, np.linspace(0.0, 0.5, 30)[:, None] * np.ones(robot.n), 0.01)
     path = write_report(res, tmp_path / "report.html")
     page = path.read_text(encoding="utf-8")
     parsed = _Parsed()
     parsed.feed(page)
     assert "script" not in parsed.tags  # the report has no script: any would come from a name
+    assert page.count("data:image/png;base64,") == 4
     text = "".join(parsed.text)
-    for name in names:
+    for name in NAMES:
         assert f"joint {name}" in text, name
-    assert "<script>robot</script>" in text
+    assert "<script>robot</script> $\\frac$" in text
 
 
 def test_a_cli_run_with_hostile_names_writes_every_file(tmp_path: Path) -> None:
+    names = ["a$\\frac$1", "$\\alpha_{1}^{2}$", "<script>alert(1)</script>", "名前",
+             "\U0001f916 robot", "x" * 300]
     lines = ['[robot]', 'name = "$\\\\frac$ <script>x</script>"']
-    for k, name in enumerate(NAMES):
+    for k, name in enumerate(names):
         esc = name.replace("\\", "\\\\").replace('"', '\\"')
         lines += ["[[joint]]", f'name = "j {esc}"', 'type = "revolute"',
                   f'origin = {{ xyz = [{0.0 if k == 0 else 0.1}, 0.0, 0.0] }}',
@@ -99,7 +100,7 @@ def test_a_cli_run_with_hostile_names_writes_every_file(tmp_path: Path) -> None:
                   "[joint.link]", f'name = "l {esc}"', "mass = 1.0", "com = [0.05, 0.0, 0.0]",
                   "inertia = { ixx = 1e-3, iyy = 1e-3, izz = 1e-3 }"]
     (tmp_path / "robot.toml").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    n = len(NAMES)
+    n = len(names)
     header = "t," + ",".join(f"q{k}" for k in range(n))
     rows = [f"{t}," + ",".join(f"{0.01 * t:.4f}" for _ in range(n)) for t in range(4)]
     (tmp_path / "path.csv").write_text("\n".join([header, *rows]) + "\n")
@@ -110,7 +111,7 @@ def test_a_cli_run_with_hostile_names_writes_every_file(tmp_path: Path) -> None:
     assert res.returncode in (0, 1), res.stderr
     assert "Traceback" not in res.stderr and "warning" not in res.stderr, res.stderr
     summary = json.loads(res.stdout)
-    assert [j["joint"] for j in summary["joints"]] == [f"j {name}" for name in NAMES]
+    assert [j["joint"] for j in summary["joints"]] == [f"j {name}" for name in names]
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["cycles.csv", "summary.json", "report.html", "motion.png", "efforts.png",
          "reactions.png", "tracking.png"])
