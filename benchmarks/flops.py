@@ -140,10 +140,10 @@ def _instrument() -> dict:
     """Patch the kernel modules (this process only) and return the forward-dynamics kernels."""
     if os.environ.get("NUMBA_DISABLE_JIT") != "1":
         sys.exit("flops.py needs NUMBA_DISABLE_JIT=1 (run.py sets it)")
-    from mrnea.kernels import aba, common, crba, rnea, solve, walker_orin
+    from mrnea.kernels import aba, common, crba, engines, layout, rnea, solve, walker_orin
     from mrnea.kernels import mrnea as mr
 
-    mods = (aba, common, crba, mr, rnea, solve, walker_orin)
+    mods = (aba, common, crba, engines, layout, mr, rnea, solve, walker_orin)
     shim = _CountingNumpy()
     for mod in mods:
         mod.np = shim
@@ -176,8 +176,8 @@ def _instrument() -> dict:
         return local
 
     sys.settrace(tracer)
-    return {"mrnea": mr.fd_mrnea, "walker_orin": walker_orin.fd_walker_orin,
-            "crba": crba.fd_crba, "aba": aba.aba}
+    return {"mrnea": mr.fd_mrnea, "walker_orin": engines.fd_walker_orin,
+            "crba": engines.fd_crba, "aba": aba.aba}
 
 
 def _as_flops(a) -> np.ndarray:
@@ -188,17 +188,18 @@ def _as_flops(a) -> np.ndarray:
 def count(kernel, robot, rng: np.random.Generator) -> dict:
     """Flops (per stage) and transcendental calls of one forward-dynamics call."""
     n = robot.n
-    model = _as_flops(robot.compiled)
+    from mrnea.kernels.layout import compile_model, entry_scratch
+    from mrnea.kernels.status import OK
+
+    model = _as_flops(compile_model(robot))
     q, qd, tau = (_as_flops(x) for x in rng.uniform(-1.0, 1.0, (3, n)))
     qdd = _flops(n)
     COUNT.flops.clear()
     COUNT.trig.clear()
     COUNT.line_stage = "other"
-    from mrnea.kernels.common import entry_scratch
-
     ws = entry_scratch(n)  # arrays of Flops: the kernel modules' np is the counting one
     status = kernel(model, q, qd, tau, None, None, qdd, ws)  # free motion, as the public call
-    assert status == -1, f"kernel status {status}"
+    assert status == OK, f"kernel status {status}"
     return {"flops": dict(COUNT.flops), "trig": dict(COUNT.trig),
             "total": sum(COUNT.flops.values()), "trig_total": sum(COUNT.trig.values())}
 

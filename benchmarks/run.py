@@ -51,12 +51,12 @@ import simloop
 from timing import SPREAD, compare
 
 import mrnea
+from mrnea import compiled
 from mrnea.dynamics import _FD, forward_dynamics, inverse_dynamics, mass_matrix_and_bias
 from mrnea.kernels.aba import aba as k_aba
-from mrnea.kernels.crba import fd_crba
+from mrnea.kernels.engines import fd_crba, fd_walker_orin
 from mrnea.kernels.mrnea import fd_mrnea
 from mrnea.kernels.mrnea import mrnea as k_mrnea
-from mrnea.kernels.walker_orin import fd_walker_orin
 from mrnea.robots.sdt_profile import training_profile
 from mrnea.simulate import simulate
 
@@ -617,13 +617,12 @@ def kernel_times(case: models.Case, cfg: Config) -> dict:
     typing every argument), and the public call (adds the wrapper); for mRNEA also the pass
     alone (H and u')."""
     robot = case.robot
-    n, model = robot.n, robot.compiled
+    model, (n,), ws, _ = compiled.of(robot)  # the arrays and scratch the public call uses
     rng = np.random.default_rng(SEED)
     Q, QD, TAU = rng.uniform(-1.0, 1.0, (3, 64, robot.n))
     qdd = np.empty(n)
     H, u = np.empty((n, n)), np.empty(n)
     reps = 1000
-    ws = robot._scratch
     c = {("kernel", m): (lambda k=k: _repeat(k, model, Q, QD, TAU, None, None, qdd, ws, reps))
          for m, k in KERNELS.items()}
     c[("kernel", "mrnea pass")] = lambda: _repeat_pass(model, Q, QD, None, None, H, u, ws, reps)

@@ -15,6 +15,7 @@ from conftest import random_chain
 
 import mrnea
 from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea.kernels.layout import compile_model
 
 N = 4
 FD_METHODS = ("mrnea", "walker_orin", "crba", "aba")
@@ -142,7 +143,7 @@ def test_unknown_mass_matrix_method(robot, method) -> None:
 @pytest.mark.parametrize("fn", FUNCTIONS)
 @pytest.mark.parametrize("bad", ["ur5", None, 3.0, "compiled"])
 def test_robot_is_not_a_robot(robot, fn: str, bad) -> None:
-    not_robot = robot.compiled if bad == "compiled" else bad
+    not_robot = compile_model(robot) if bad == "compiled" else bad
     kw = {a: np.zeros(N) for a in _state_args(fn)}
     with names_argument("robot"):
         getattr(mrnea, fn)(not_robot, **kw)
@@ -310,20 +311,24 @@ def test_free_motion_entry_equals_a_zero_wrench(robot, fn: str) -> None:
             np.testing.assert_array_equal(x, y)
 
 
-def test_threads_share_the_robots_scratch(robot) -> None:
-    """Single-state calls from several Python threads on one Robot (one shared scratch, safe
-    because the entries hold the GIL) give the results of the same calls made in turn."""
+def test_threads_share_the_entry_scratch(robot) -> None:
+    """Single-state calls from several Python threads on two Robots of the same n (one shared
+    scratch per n, safe because the entries hold the GIL) give the results of the same calls
+    made in turn."""
     import threading
 
     rng = np.random.default_rng(9)
     Q, QD, TAU = rng.uniform(-2, 2, (3, 200, N))
-    expect = [mrnea.forward_dynamics(robot, Q[b], QD[b], TAU[b]) for b in range(200)]
-    expect_h = [mrnea.mass_matrix_and_bias(robot, Q[b], QD[b])[0] for b in range(200)]
+    robots = (robot, robot.with_gravity((1.0, 2.0, -9.0)))
+    expect = [[(mrnea.forward_dynamics(r, Q[b], QD[b], TAU[b]),
+                mrnea.mass_matrix_and_bias(r, Q[b], QD[b])[0]) for b in range(200)]
+              for r in robots]
     results: dict[int, list] = {}
 
     def work(k: int) -> None:
-        results[k] = [(mrnea.forward_dynamics(robot, Q[b], QD[b], TAU[b]),
-                       mrnea.mass_matrix_and_bias(robot, Q[b], QD[b])[0]) for b in range(200)]
+        r = robots[k % 2]
+        results[k] = [(mrnea.forward_dynamics(r, Q[b], QD[b], TAU[b]),
+                       mrnea.mass_matrix_and_bias(r, Q[b], QD[b])[0]) for b in range(200)]
 
     threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
     for t in threads:
@@ -332,5 +337,5 @@ def test_threads_share_the_robots_scratch(robot) -> None:
         t.join()
     for k in range(4):
         for b, (qdd, H) in enumerate(results[k]):
-            np.testing.assert_array_equal(qdd, expect[b])
-            np.testing.assert_array_equal(H, expect_h[b])
+            np.testing.assert_array_equal(qdd, expect[k % 2][b][0])
+            np.testing.assert_array_equal(H, expect[k % 2][b][1])

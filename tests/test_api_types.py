@@ -206,6 +206,14 @@ def test_a_wrong_type_is_a_named_error(env, name: str) -> None:
     assert not failures, "\n".join(failures)
 
 
+@pytest.mark.parametrize("arg", ["dt", "catch_up"])
+def test_simulate_refuses_numbers_given_as_text(env, arg: str) -> None:
+    """``"0.001"`` is text, not a time step or a gain (Python's float() would take it)."""
+    kw = {"dt": 0.01, "catch_up": 0.0, arg: "0.001"}
+    with pytest.raises(MrneaError, match=arg):
+        mrnea.simulate.simulate(env["robot"], np.zeros((3, 4)), **kw)
+
+
 # --- known gaps (strict xfails: they fail once fixed; then drop the mark) -------------------------
 @pytest.mark.xfail(strict=True, reason="model.py reads numbers with float(), which takes text "
                                        "and bytes: Link(mass='1_0') is a 10 kg link")
@@ -213,15 +221,6 @@ def test_a_wrong_type_is_a_named_error(env, name: str) -> None:
 def test_model_fields_refuse_text(value: object) -> None:
     with pytest.raises(MrneaError, match="mass"):
         mrnea.Link("l", mass=value)
-
-
-@pytest.mark.xfail(strict=True, reason="simulate's dt and catch_up are read with float(), "
-                                       "which takes text")
-@pytest.mark.parametrize("arg", ["dt", "catch_up"])
-def test_simulate_refuses_numbers_given_as_text(env, arg: str) -> None:
-    kw = {"dt": 0.01, "catch_up": 0.0, arg: "0.001"}
-    with pytest.raises(MrneaError, match=arg):
-        mrnea.simulate.simulate(env["robot"], np.zeros((3, 4)), **kw)
 
 
 @pytest.mark.xfail(strict=True, reason="SimulationResult.columns indexes with rows as given")

@@ -23,7 +23,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import mrnea
+from mrnea import compiled
 from mrnea.kernels.crba import crba
+from mrnea.kernels.layout import compile_model
 
 TOL_REF = 1e-9  # against the naive reference
 TOL_SELF = 1e-10  # between our algorithms
@@ -85,7 +87,7 @@ def test_mass_matrix_algorithms_agree(chain, with_fext: bool) -> None:
     H_m, u_m = mrnea.mass_matrix_and_bias(robot, s["q"], s["qd"], fe, pe, method="mrnea")
     H_w, u_w = mrnea.mass_matrix_and_bias(robot, s["q"], s["qd"], fe, pe, method="walker_orin")
     H_c = np.empty((robot.n, robot.n))
-    crba(robot.compiled, s["q"], H_c)
+    crba(compile_model(robot), s["q"], H_c)
     assert rel_err(H_m, H_w) <= TOL_SELF
     assert rel_err(H_m, H_c) <= TOL_SELF
     assert rel_err(u_m, u_w) <= TOL_SELF
@@ -233,8 +235,10 @@ def test_inputs_are_not_modified(chain, B) -> None:
         mrnea.forward_dynamics(robot, q, qd, tau, fe, pe, method=method)
     for k, v in s.items():
         np.testing.assert_array_equal(v, copies[k], err_msg=k)
-    # the robot's compiled model is read-only too, and unchanged
-    assert not robot.compiled.flags.writeable
+    # the robot's compiled arrays are read-only too, and unchanged
+    m, _, _, act = compiled.of(robot)
+    assert not m.flags.writeable and not act.flags.writeable
+    np.testing.assert_array_equal(m, compile_model(robot))
 
 
 # --- the paper's Section IV example in spirit: the SDT along a smooth trajectory ------------------

@@ -7,9 +7,11 @@ import pytest
 from conftest import random_chain
 
 import mrnea
-from mrnea.kernels.common import entry_scratch
+from mrnea.kernels.layout import NOCOM, NOPOS, compile_model, entry_scratch
+from mrnea.kernels.mrnea import fd_mrnea, mrnea_full
 from mrnea.kernels.mrnea import mrnea as mrnea_kernel
-from mrnea.kernels.mrnea import mrnea_full
+from mrnea.kernels.rnea import reactions, rnea
+from mrnea.kernels.status import OK
 
 
 @pytest.mark.parametrize("n, frac", [(1, 0.0), (2, 0.5), (6, 0.0), (7, 0.3), (15, 0.5)])
@@ -21,8 +23,9 @@ def test_symmetric_fill_equals_the_papers_full_form(n, frac):
         fe, pe = rng.normal(size=6), rng.normal(size=3)
         H, u = np.empty((n, n)), np.empty(n)
         Hf, uf = np.empty((n, n)), np.empty(n)
-        assert mrnea_kernel(robot.compiled, q, qd, fe, pe, H, u, entry_scratch(n)) == -1
-        assert mrnea_full(robot.compiled, q, qd, fe, pe, Hf, uf, entry_scratch(n)) == -1
+        m = compile_model(robot)
+        assert mrnea_kernel(m, q, qd, fe, pe, H, u, entry_scratch(n)) == OK
+        assert mrnea_full(m, q, qd, fe, pe, Hf, uf, entry_scratch(n)) == OK
         scale = np.abs(Hf).max()
         assert np.abs(H - Hf).max() <= 1e-13 * scale
         assert np.abs(Hf - Hf.T).max() <= 1e-13 * scale  # the paper's a3 gives the same upper
@@ -37,8 +40,8 @@ def test_sdt_full_form():
     Hf, uf = np.empty((4, 4)), np.empty(4)
     z6, z3 = np.zeros(6), np.zeros(3)
     ws = entry_scratch(robot.n)
-    mrnea_kernel(robot.compiled, q, qd, z6, z3, H, u, ws)
-    mrnea_full(robot.compiled, q, qd, z6, z3, Hf, uf, ws)
+    mrnea_kernel(compile_model(robot), q, qd, z6, z3, H, u, ws)
+    mrnea_full(compile_model(robot), q, qd, z6, z3, Hf, uf, ws)
     assert np.abs(H - Hf).max() <= 1e-13 * np.abs(Hf).max()
 
 
@@ -60,13 +63,9 @@ def _with_zero_offsets(robot: mrnea.Robot) -> mrnea.Robot:
 def test_specialised_kernels_equal_the_general_path(n, frac):
     """Skipping the terms of zero offsets (NOPOS, NOCOM; Sec. IV's simplification) changes no
     bit of any result: the specialised model against ``compile_model(specialise=False)``."""
-    from mrnea.kernels.common import NOCOM, NOPOS, compile_model
-    from mrnea.kernels.mrnea import fd_mrnea
-    from mrnea.kernels.rnea import reactions, rnea
-
     rng = np.random.default_rng(100 + n)
     robot = _with_zero_offsets(random_chain(rng, n, frac))
-    special, general = robot.compiled, compile_model(robot, specialise=False)
+    special, general = compile_model(robot), compile_model(robot, specialise=False)
     assert special[1:, NOPOS].sum() + special[1:, NOCOM].sum() > 0
     assert not general[:, [NOPOS, NOCOM]].any()
     for _ in range(10):
@@ -77,10 +76,10 @@ def test_specialised_kernels_equal_the_general_path(n, frac):
             H, u, tau, qdd, W = (np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n),
                                  np.empty((n, 6)))
             ws = entry_scratch(n)
-            assert mrnea_kernel(m, q, qd, fe, pe, H, u, ws) == -1
-            assert rnea(m, q, qd, x, fe, pe, tau, ws) == -1
-            assert reactions(m, q, qd, x, fe, pe, W, ws) == -1
+            assert mrnea_kernel(m, q, qd, fe, pe, H, u, ws) == OK
+            assert rnea(m, q, qd, x, fe, pe, tau, ws) == OK
+            assert reactions(m, q, qd, x, fe, pe, W, ws) == OK
             status = fd_mrnea(m, q, qd, x, fe, pe, qdd, ws)  # a degenerate chain may be singular
-            results.append((H, u, tau, W, qdd if status == -1 else status))
+            results.append((H, u, tau, W, qdd if status == OK else status))
         for a, b in zip(*results, strict=True):
             np.testing.assert_array_equal(a, b)

@@ -14,7 +14,7 @@ Modes (docs/achievable.md explains when each models a real drive):
   limit, every other joint keeps its desired acceleration and takes the effort that needs; the
   saturated set grows one joint at a time, worst first (an active set, at most n rounds).
 
-Coulomb friction at rest and the actuator convention: :mod:`mrnea.kernels.achievable` and
+Coulomb friction at rest and the actuator convention: :mod:`mrnea.kernels.drive` and
 :mod:`mrnea.actuators`. Efforts are joint side [N m | N]; ``tau_motor = tau / G``.
 """
 
@@ -26,23 +26,23 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import _array, _check, _inputs, _require_robot, _time_step
-from mrnea.errors import StateError
+from mrnea import compiled, validate
+from mrnea.actuators import motor_torque
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
     CLAMP_VELOCITY,
-    ENGINE_MRNEA,
     HYBRID,
     PAPER,
     achievable,
     achievable_batch,
     step,
 )
-from mrnea.kernels.common import scratch
+from mrnea.kernels.engines import ENGINE_MRNEA
+from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 from mrnea.model import Robot
 
 Mode = Literal["hybrid", "paper"]
-_MODES = {"paper": PAPER, "hybrid": HYBRID}
+MODES = {"hybrid": HYBRID, "paper": PAPER}
 
 
 @dataclass(frozen=True)
@@ -97,13 +97,6 @@ class StepResult(AchievableResult):
     velocity_clamped: NDArray[np.bool_] = None  # type: ignore[assignment]
 
 
-def _mode(mode: str) -> int:
-    try:
-        return _MODES[mode]
-    except (KeyError, TypeError):
-        raise StateError(f"mode: unknown {mode!r}; expected 'hybrid' or 'paper'") from None
-
-
 def achievable_accelerations(
     robot: Robot,
     q: ArrayLike,
@@ -118,21 +111,21 @@ def achievable_accelerations(
     q, qd, qdd_des: (n,) or (B, n). f_ext, f_ext_point as in :mod:`mrnea.dynamics` (the wrench
     the last link exerts on its environment). Effort limits are taken at the current speed qd.
     """
-    code = _mode(mode)
+    code = validate.choice("mode", mode, MODES)
     args = {"q": q, "qd": qd, "qdd_des": qdd_des}
-    batched, (q, qd, qdd_des), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
-    m, act = robot.compiled, robot.compiled_actuators
-    qdd, tau, tau_req, limit = (np.empty_like(q) for _ in range(4))
-    sat = np.empty(q.shape, dtype=np.bool_)
+    batched, (q, qd, qdd_des), fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)
+    m, _, _, act = compiled.of(robot)
+    out = (np.empty_like(q), np.empty_like(q), np.empty_like(q), np.empty_like(q),
+           np.empty(q.shape, dtype=np.bool_))  # qdd, tau, tau_req, limit, sat
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
-        achievable_batch(m, act, q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, qdd, tau, tau_req,
-                         limit, sat, status)
+        achievable_batch((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out,
+                         status)
     else:
-        status = achievable(m, act, q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, qdd, tau, tau_req,
-                            limit, sat)
-    _check(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
-    return AchievableResult(qdd=qdd, tau=tau, tau_motor=tau / robot.gear_ratio,
+        status = achievable((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out)
+    validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    qdd, tau, tau_req, limit, sat = out
+    return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau),
                             tau_required=tau_req, saturated=sat,
                             margin=limit - np.abs(tau), limit=limit)
 
@@ -156,36 +149,24 @@ def achievable_step(
     the state as the paper's speed-controlled drives do: ``qd_next = qd + qdd dt`` and
     ``q_next = q + qd_next dt`` (the velocity is held over the cycle). dt [s] > 0.
     """
-    code = _mode(mode)
-    _require_robot(robot)
-    dt = _time_step(dt)
-    n = robot.n
-    arrays = {k: _array(v, k, n) for k, v in
-              {"q": q, "qd": qd, "q_next_cmd": q_next_cmd, "qd_next_cmd": qd_next_cmd}.items()}
-    if any(a.ndim != 1 for a in arrays.values()):
-        raise StateError(f"achievable_step takes one state: arrays of shape ({n},)")
-    _, (q, qd), fe, pe = _inputs(robot, {"q": arrays["q"], "qd": arrays["qd"]}, f_ext,
-                                 f_ext_point)
-    if fe.ndim != 1 or pe.ndim != 1:
-        raise StateError("achievable_step takes one state: f_ext (6,), f_ext_point (3,)")
-    m, act = robot.compiled, robot.compiled_actuators
-    out = {k: np.empty(n) for k in ("qdd_des", "qdd", "tau", "tau_req", "limit", "q_next",
-                                    "qd_next")}
+    code = validate.choice("mode", mode, MODES)
+    validate.require_robot(robot)
+    dt = validate.time_step(dt)
+    states = {"q": q, "qd": qd, "q_next_cmd": q_next_cmd, "qd_next_cmd": qd_next_cmd}
+    arrays, fe, pe = validate.one_state(robot, states, f_ext, f_ext_point, "achievable_step")
+    (m, _, _, act), n = compiled.of(robot), robot.n
+    qdd, tau, tau_req, limit, qdd_des, q_next, qd_next = (np.empty(n) for _ in range(7))
     sat = np.empty(n, dtype=np.bool_)
     clamp = np.empty(n, dtype=np.int64)
-    status = step(m, act, q, qd, arrays["q_next_cmd"], arrays["qd_next_cmd"], dt, fe, pe, code,
-                  ENGINE_MRNEA,
-                  out["qdd_des"], out["qdd"], out["tau"], out["tau_req"], out["limit"], sat,
-                  out["q_next"], out["qd_next"], clamp, scratch(n, 3 * n + 6, 4))
-    _check(robot, status, {**arrays, "f_ext": f_ext, "f_ext_point": f_ext_point})
-    q_cmd = np.clip(arrays["q_next_cmd"], robot.lower, robot.upper)
-    qd_cmd = qd + out["qdd_des"] * dt
-    tau = out["tau"]
+    status = step(m, act, arrays["q"], arrays["qd"], arrays["q_next_cmd"], arrays["qd_next_cmd"],
+                  dt, fe, pe, code, ENGINE_MRNEA, qdd_des, qdd, tau, tau_req, limit, sat, q_next,
+                  qd_next, clamp, entry_scratch(n, ACHIEVABLE))
+    validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return StepResult(
-        qdd=out["qdd"], tau=tau, tau_motor=tau / robot.gear_ratio,
-        tau_required=out["tau_req"], saturated=sat, margin=out["limit"] - np.abs(tau),
-        limit=out["limit"], q_next=out["q_next"], qd_next=out["qd_next"],
-        qdd_des=out["qdd_des"], q_cmd=q_cmd, qd_cmd=qd_cmd,
+        qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau), tau_required=tau_req,
+        saturated=sat, margin=limit - np.abs(tau), limit=limit, q_next=q_next, qd_next=qd_next,
+        qdd_des=qdd_des, q_cmd=np.clip(arrays["q_next_cmd"], robot.lower, robot.upper),
+        qd_cmd=arrays["qd"] + qdd_des * dt,
         position_clamped=(clamp & CLAMP_POSITION) != 0,
         velocity_clamped=(clamp & CLAMP_VELOCITY) != 0,
     )

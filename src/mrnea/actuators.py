@@ -1,14 +1,15 @@
 """The actuator model: gear, rotor inertia, friction and effort limits (paper Eqs. 42-43).
 
-Per joint, joint side unless said otherwise: gear ratio G (motor turns per joint turn), rotor
-inertia J_m [kg m^2, motor side], viscous friction F_v, Coulomb friction F_s, effort limit
-(constant, or a torque-speed curve: see :class:`mrnea.model.Joint`), velocity and position
-limits. The convention, exactly::
+Per joint, joint side unless said otherwise (the fields: :data:`mrnea.model.ACTUATOR_FIELDS`):
+gear ratio G (motor turns per joint turn), rotor inertia J_m [kg m^2, motor side], viscous
+friction F_v, Coulomb friction F_s, effort limit (constant, or a torque-speed curve: see
+:class:`mrnea.model.Joint`), velocity and position limits. The convention, exactly::
 
     tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + F_s sign(qd) = H_a qdd + u'_a
 
-``tau`` is the joint-side effort; the motor torque is ``tau / G``. The functions here are the
-actuator-side forms; :mod:`mrnea.dynamics` is the rigid-body model alone.
+``tau`` is the joint-side effort; the motor torque is ``tau / G`` (:func:`motor_torque`). The
+law itself, in compiled code, including Coulomb friction at rest: :mod:`mrnea.kernels.drive`;
+the functions here are its Python side. :mod:`mrnea.dynamics` is the rigid-body model alone.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import _check, _inputs
-from mrnea.kernels.achievable import ENGINE_MRNEA, actuator_terms_batch, effort_limit
+from mrnea import compiled, validate
+from mrnea.kernels.drive import actuator_terms_batch, effort_limit
+from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.model import Robot
 
 
@@ -33,16 +35,16 @@ def actuator_mass_matrix_and_bias(
     One state or a batch, as :func:`mrnea.mass_matrix_and_bias`; sign(0) = 0.
     """
     args = {"q": q, "qd": qd}
-    batched, (q, qd), fe, pe = _inputs(robot, args, f_ext, f_ext_point)
-    m, act, n = robot.compiled, robot.compiled_actuators, robot.n
+    batched, (q, qd), fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)
+    (m, _, _, act), n = compiled.of(robot), robot.n
     Q, QD = (q, qd) if batched else (q[None], qd[None])
     FE, PE = (fe, pe) if batched else (fe[None], pe[None])
     H = np.empty((Q.shape[0], n, n))
     u = np.empty((Q.shape[0], n))
     status = np.empty(Q.shape[0], dtype=np.int64)
-    actuator_terms_batch(m, act, Q, QD, FE, PE, ENGINE_MRNEA, H, u, status)
-    _check(robot, status if batched else int(status[0]),
-           {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
+    actuator_terms_batch((m, act), Q, QD, FE, PE, ENGINE_MRNEA, H, u, status)
+    validate.check_status(robot, status if batched else int(status[0]),
+                          {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return (H, u) if batched else (H[0], u[0])
 
 
@@ -62,15 +64,13 @@ def actuator_efforts(
 
 def effort_limits_at(robot: Robot, qd: ArrayLike) -> NDArray[np.float64]:
     """Each joint's effort limit [N m | N] at joint speed qd, (n,) or (B, n)."""
-    _, (qd,), _, _ = _inputs(robot, {"qd": qd}, None, None)
-    if not np.isfinite(qd).all():
-        _check(robot, -2, {"qd": qd})
-    act = robot.compiled_actuators
+    _, (qd,), _, _ = validate.inputs(robot, {"qd": qd}, None, None)
+    act = compiled.of(robot)[3]
     flat = np.atleast_2d(qd)
     out = np.array([[effort_limit(act, i, row[i]) for i in range(robot.n)] for row in flat])
     return out.reshape(np.shape(qd))
 
 
 def motor_torque(robot: Robot, tau: ArrayLike) -> NDArray[np.float64]:
-    """Motor-side torque ``tau / G`` of joint-side efforts tau, (n,) or (B, n)."""
+    """Motor-side torque ``tau / G`` of joint-side efforts tau, (n,) or (B, n) [N m]."""
     return np.asarray(tau, dtype=float) / robot.gear_ratio

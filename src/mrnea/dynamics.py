@@ -15,35 +15,41 @@ The caller's arrays are never modified. Errors are :class:`mrnea.errors.StateErr
 unknown method) and :class:`mrnea.errors.SingularMassMatrixError`.
 
 The fast path. A single state of one-dimensional float64 ndarrays without a wrench goes straight
-to a kernel's compiled ``free`` entry (:class:`_Entry`): at n = 6 the kernel takes about 2 us, so
-every check in Python counts. The wrapper checks only what the entry cannot (dtype and ndim:
-the entry would read another dtype or ndim wrongly); the kernel checks the lengths (status SIZE)
-and finiteness. Anything else (lists, a batch, a wrong length, NaN, a non-Robot, which fails
-with AttributeError or the entry's TypeError) takes the validated path, :func:`_evaluate`,
-which converts the inputs or names the offending one.
+to a kernel's compiled ``free`` entry (:class:`_Entry`), on the robot's compiled arrays and the
+scratch :mod:`mrnea.compiled` keeps: at n = 6 the kernel takes about 2 us, so every check in
+Python counts. The wrapper checks only what the entry cannot (dtype and ndim: the entry would
+read another dtype or ndim wrongly); the kernel checks the lengths (status SIZE) and
+finiteness. Anything else (lists, a batch, a wrong length, NaN, a Robot not compiled yet or a
+non-Robot, which fail with KeyError, AttributeError or the entry's TypeError) takes the
+validated path, :func:`_evaluate`, which converts the inputs (:mod:`mrnea.validate`) or names
+the offending one.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import Literal
 
 import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea import compiled, validate
+from mrnea.compiled import BY_ID
 from mrnea.kernels.aba import aba, aba_batch
-from mrnea.kernels.common import NONFINITE, OK, OVERFLOW
-from mrnea.kernels.crba import fd_crba, fd_crba_batch
+from mrnea.kernels.engines import (
+    ENGINE_CRBA,
+    ENGINE_WALKER_ORIN,
+    fd_crba,
+    fd_engine_batch,
+    fd_walker_orin,
+)
+from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, SCRATCH_T
 from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
-from mrnea.kernels.walker_orin import (
-    fd_walker_orin,
-    fd_walker_orin_batch,
-    walker_orin,
-    walker_orin_batch,
-)
+from mrnea.kernels.status import OK
+from mrnea.kernels.walker_orin import walker_orin, walker_orin_batch
 from mrnea.model import Robot
 
 Method = Literal["mrnea", "walker_orin", "crba", "aba"]
@@ -54,8 +60,8 @@ class _Entry:
 
     Numba's dispatcher types every argument on every call to pick the compiled version; at this
     size that costs about a third of a call. The public functions check what the entry cannot
-    (the fast path in the module docstring, or :func:`_inputs`), so they call an entry
-    directly: ``free`` takes ``fext=None, pe=None`` (no external wrench: Numba compiles that
+    (the fast path in the module docstring, or :func:`mrnea.validate.inputs`), so they call an
+    entry directly: ``free`` takes ``fext=None, pe=None`` (no external wrench: Numba compiles that
     case without reading either, and two fewer arrays cross from Python), ``call`` takes both
     arrays.
     ``Dispatcher.compile`` compiles an entry (or loads it from Numba's disk cache) on its first
@@ -66,14 +72,14 @@ class _Entry:
 
     def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type) -> None:
         py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT
-        states = [_IN] * (py_func.__code__.co_argcount - 4 - len(outputs))
+        states = [IN_T] * (py_func.__code__.co_argcount - 4 - len(outputs))
         self._kernel = kernel
         if hasattr(kernel, "compile"):
             none = nb.types.none
             self.call = self._first(
-                "call", nb.types.int64(_MODEL, *states, _IN, _IN, *outputs, _SCRATCH))
+                "call", nb.types.int64(MODEL_T, *states, IN_T, IN_T, *outputs, SCRATCH_T))
             self.free = self._first(
-                "free", nb.types.int64(_MODEL, *states, none, none, *outputs, _SCRATCH))
+                "free", nb.types.int64(MODEL_T, *states, none, none, *outputs, SCRATCH_T))
         else:
             self.call = self.free = kernel
 
@@ -88,130 +94,25 @@ class _Entry:
         return first
 
 
-# the signatures: the compiled model, inputs of any layout, outputs as allocated here
-_MODEL = nb.types.Array(nb.types.float64, 2, "C", readonly=True)
-_IN = nb.types.Array(nb.types.float64, 1, "A")
-_OUT1 = nb.types.Array(nb.types.float64, 1, "C")
-_OUT2 = nb.types.Array(nb.types.float64, 2, "C")
-_SCRATCH = nb.types.Tuple((nb.types.Array(nb.types.float64, 3, "C"), _OUT2, _OUT2,
-                           nb.types.Array(nb.types.int64, 2, "C")))  # Robot._scratch
-
 _FD = {
-    "mrnea": (_Entry(fd_mrnea, _OUT1), fd_mrnea_batch),
-    "walker_orin": (_Entry(fd_walker_orin, _OUT1), fd_walker_orin_batch),
-    "crba": (_Entry(fd_crba, _OUT1), fd_crba_batch),
-    "aba": (_Entry(aba, _OUT1), aba_batch),
+    "mrnea": (_Entry(fd_mrnea, OUT1_T), fd_mrnea_batch),
+    "walker_orin": (_Entry(fd_walker_orin, OUT1_T),
+                    partial(fd_engine_batch, engine=ENGINE_WALKER_ORIN)),
+    "crba": (_Entry(fd_crba, OUT1_T), partial(fd_engine_batch, engine=ENGINE_CRBA)),
+    "aba": (_Entry(aba, OUT1_T), aba_batch),
 }
-_HB = {"mrnea": (_Entry(mrnea, _OUT2, _OUT1), mrnea_batch),
-       "walker_orin": (_Entry(walker_orin, _OUT2, _OUT1), walker_orin_batch)}
-_RNEA = _Entry(rnea, _OUT1)
-_REACTIONS = _Entry(reactions, _OUT2)
+_HB = {"mrnea": (_Entry(mrnea, OUT2_T, OUT1_T), mrnea_batch),
+       "walker_orin": (_Entry(walker_orin, OUT2_T, OUT1_T), walker_orin_batch)}
+_RNEA = _Entry(rnea, OUT1_T)
+_REACTIONS = _Entry(reactions, OUT2_T)
 _F64 = np.dtype(np.float64)
-_ND = np.ndarray
-_ZERO_WRENCH = np.zeros(6)
-_ZERO_POINT = np.zeros(3)
-
-
-def _array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
-    """``x`` as a float64 array of shape (width,) or (B, width), all finite."""
-    try:
-        a = np.asarray(x)
-    except (TypeError, ValueError):
-        raise StateError(f"{name}: not a numeric array: {x!r}") from None
-    if a.dtype.kind not in "biuf":
-        raise StateError(f"{name}: expected real numbers, got an array of {a.dtype}")
-    # a C-contiguous, writable float64 array: the kernels are compiled for exactly that
-    a = np.require(a, dtype=np.float64, requirements=["C", "W"])
-    if a.ndim not in (1, 2) or a.shape[-1] != width or (a.ndim == 2 and a.shape[0] == 0):
-        raise StateError(f"{name}: expected shape ({width},) or (B, {width}), got {a.shape}")
-    if not np.isfinite(a).all():
-        bad = np.argwhere(~np.isfinite(a))[0]
-        raise StateError(f"{name}: contains NaN or inf (first at index {tuple(bad.tolist())})")
-    return a
-
-
-def _time_step(dt: object) -> float:
-    """dt [s] as a float: a finite number > 0 (a bool is not a time step)."""
-    if isinstance(dt, bool):
-        raise StateError(f"dt: not a number: {dt!r}")
-    try:
-        dt = float(dt)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise StateError(f"dt: not a number: {dt!r}") from None
-    if not (np.isfinite(dt) and dt > 0):
-        raise StateError(f"dt: must be a finite time step > 0 s, got {dt}")
-    return dt
-
-
-def _require_robot(robot: object) -> None:
-    if not isinstance(robot, Robot):
-        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
-
-
-def _inputs(
-    robot: Robot,
-    states: dict[str, ArrayLike],
-    f_ext: ArrayLike | None,
-    f_ext_point: ArrayLike | None,
-) -> tuple[bool, list[NDArray], NDArray, NDArray]:
-    """Validate and broadcast. Returns (batched, states, fext, pe); batched arrays are 2-D."""
-    _require_robot(robot)
-    n = robot.n
-    arrays = [_array(v, k, n) for k, v in states.items()]
-    fe = _ZERO_WRENCH if f_ext is None else _array(f_ext, "f_ext", 6)
-    pe = _ZERO_POINT if f_ext_point is None else _array(f_ext_point, "f_ext_point", 3)
-    all_ = [*arrays, fe, pe]
-    if all(a.ndim == 1 for a in all_):
-        return False, arrays, fe, pe
-    sizes = {a.shape[0] for a in all_ if a.ndim == 2}
-    if len(sizes) > 1:
-        names = [*states, "f_ext", "f_ext_point"]
-        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(names, all_, strict=True))
-        raise StateError(f"batch sizes differ: {shapes}")
-    B = sizes.pop()
-    out = [a if a.ndim == 2 else np.repeat(a[None], B, axis=0) for a in all_]
-    return True, out[:-2], out[-2], out[-1]
-
-
-def _method(method: str, table: dict) -> tuple:
-    """``table[method]``; a StateError for a method the table does not hold."""
-    try:
-        return table[method]
-    except (KeyError, TypeError):  # TypeError: an unhashable value
-        raise StateError(
-            f"method: unknown {method!r}; expected one of {', '.join(map(repr, table))}"
-        ) from None
-
-
-def _check(robot: Robot, status: int | NDArray, states: dict[str, NDArray]) -> None:
-    """Raise the error a kernel status reports (NONFINITE, or a failed pivot of H)."""
-    batched = isinstance(status, np.ndarray)
-    st = np.atleast_1d(status)
-    if not (st != OK).any():
-        return
-    if np.any(st == NONFINITE):
-        for k, v in states.items():
-            width = 6 if k == "f_ext" else 3 if k == "f_ext_point" else robot.n
-            _array(v, k, width)
-    if np.any(st == OVERFLOW):
-        b = int(np.flatnonzero(st == OVERFLOW)[0])
-        where = f"state {b}: " if batched else ""
-        raise MrneaError(
-            f"{where}the result is not finite although every input is: the state or the "
-            f"robot '{robot.name}' holds values too large for float64 arithmetic")
-    b = int(np.flatnonzero(st >= 0)[0])
-    where = f"state {b}: " if batched else ""
-    raise SingularMassMatrixError(
-        f"{where}the mass matrix H is singular or not positive definite (pivot of joint "
-        f"'{robot.joint_names[int(st[b])]}'); is a moving link, with everything it carries, "
-        f"massless?"
-    )
+_FAST_MISS = (KeyError, AttributeError, TypeError)  # what sends a fast-path call to _evaluate
 
 
 def _evaluate(
     robot: Robot,
     kernel: _Entry,
-    kernel_batch: nb.core.registry.CPUDispatcher,
+    kernel_batch: Callable[..., None],
     states: dict[str, ArrayLike],
     f_ext: ArrayLike | None,
     f_ext_point: ArrayLike | None,
@@ -220,8 +121,8 @@ def _evaluate(
     """The validated path every public function shares: check and broadcast the inputs, run
     the single-state kernel or the batch kernel, raise what its status reports. ``shapes(n)``:
     the outputs' shapes for one state (a batch prepends B). Returns the outputs."""
-    batched, arrays, fe, pe = _inputs(robot, states, f_ext, f_ext_point)
-    m = robot.compiled
+    batched, arrays, fe, pe = validate.inputs(robot, states, f_ext, f_ext_point)
+    m, _, ws, _ = compiled.of(robot)
     if batched:
         B = arrays[0].shape[0]
         outputs = [np.empty((B, *shape)) for shape in shapes(robot.n)]
@@ -230,11 +131,11 @@ def _evaluate(
     else:
         outputs = [np.empty(shape) for shape in shapes(robot.n)]
         if f_ext is None:  # a point without a force changes nothing
-            status = kernel.free(m, *arrays, None, None, *outputs, robot._scratch)
+            status = kernel.free(m, *arrays, None, None, *outputs, ws)
         else:
-            status = kernel.call(m, *arrays, fe, pe, *outputs, robot._scratch)
+            status = kernel.call(m, *arrays, fe, pe, *outputs, ws)
     if batched or status != OK:
-        _check(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
+        validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return outputs
 
 
@@ -252,11 +153,12 @@ def inverse_dynamics(
     """
     if f_ext is None and f_ext_point is None:
         try:  # the fast path (module docstring)
+            m, shape, ws, _ = BY_ID[id(robot)]
             if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
-                tau = np.empty(robot._shape)
-                if _RNEA.free(robot.compiled, q, qd, qdd, None, None, tau, robot._scratch) == OK:
+                tau = np.empty(shape)
+                if _RNEA.free(m, q, qd, qdd, None, None, tau, ws) == OK:
                     return tau
-        except (AttributeError, TypeError):
+        except _FAST_MISS:
             pass
     args = {"q": q, "qd": qd, "qdd": qdd}
     (tau,) = _evaluate(robot, _RNEA, rnea_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
@@ -277,16 +179,16 @@ def mass_matrix_and_bias(
     ``"walker_orin"`` by Walker-Orin method 1 (n + 1 Newton-Euler passes), for comparison.
     Returns H, (n, n) or (B, n, n), and u', (n,) or (B, n). u' includes gravity and f_ext.
     """
-    kernel, kernel_batch = _method(method, _HB)
     if f_ext is None and f_ext_point is None:
-        try:  # the fast path (module docstring)
+        try:  # the fast path (module docstring); an unknown method fails here, and below
+            m, shape, ws, _ = BY_ID[id(robot)]
             if q.dtype is qd.dtype is _F64 and q.ndim == qd.ndim == 1:
-                n = robot.n
-                H, u = np.empty((n, n)), np.empty(n)
-                if kernel.free(robot.compiled, q, qd, None, None, H, u, robot._scratch) == OK:
+                H, u = np.empty(shape * 2), np.empty(shape)  # (n, n), (n,)
+                if _HB[method][0].free(m, q, qd, None, None, H, u, ws) == OK:
                     return H, u
-        except (AttributeError, TypeError):
+        except _FAST_MISS:
             pass
+    kernel, kernel_batch = validate.choice("method", method, _HB)
     H, u = _evaluate(robot, kernel, kernel_batch, {"q": q, "qd": qd}, f_ext, f_ext_point,
                      lambda n: ((n, n), (n,)))
     return H, u
@@ -308,15 +210,16 @@ def forward_dynamics(
     bias), ``"aba"`` (articulated-body algorithm, O(n)). Returns qdd, (n,) or (B, n).
     Raises SingularMassMatrixError where H is not positive definite.
     """
-    kernel, kernel_batch = _method(method, _FD)
     if f_ext is None and f_ext_point is None:
-        try:  # the fast path (module docstring)
+        try:  # the fast path (module docstring); an unknown method fails here, and below
+            m, shape, ws, _ = BY_ID[id(robot)]
             if q.dtype is qd.dtype is tau.dtype is _F64 and q.ndim == qd.ndim == tau.ndim == 1:
-                qdd = np.empty(robot._shape)
-                if kernel.free(robot.compiled, q, qd, tau, None, None, qdd, robot._scratch) == OK:
+                qdd = np.empty(shape)
+                if _FD[method][0].free(m, q, qd, tau, None, None, qdd, ws) == OK:
                     return qdd
-        except (AttributeError, TypeError):
+        except _FAST_MISS:
             pass
+    kernel, kernel_batch = validate.choice("method", method, _FD)
     args = {"q": q, "qd": qd, "tau": tau}
     (qdd,) = _evaluate(robot, kernel, kernel_batch, args, f_ext, f_ext_point, lambda n: ((n,),))
     return qdd
@@ -341,12 +244,12 @@ def joint_reactions(
     """
     if f_ext is None and f_ext_point is None:
         try:  # the fast path (module docstring)
+            m, shape, ws, _ = BY_ID[id(robot)]
             if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
-                out = np.empty((robot.n, 6))
-                ws = robot._scratch
-                if _REACTIONS.free(robot.compiled, q, qd, qdd, None, None, out, ws) == OK:
+                out = np.empty((*shape, 6))
+                if _REACTIONS.free(m, q, qd, qdd, None, None, out, ws) == OK:
                     return out
-        except (AttributeError, TypeError):
+        except _FAST_MISS:
             pass
     args = {"q": q, "qd": qd, "qdd": qdd}
     (out,) = _evaluate(robot, _REACTIONS, reactions_batch, args, f_ext, f_ext_point,

@@ -11,11 +11,13 @@ Conventions (the same as URDF's, so URDF files map one to one):
 * Inertials. Link mass [kg]; centre of mass ``com`` [m] in the link frame; inertia [kg m^2] about
   the centre of mass, in axes parallel to the link frame.
 * Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
-* Actuator fields per joint (joint side unless said otherwise): ``gear_ratio`` G (motor turns per
-  joint turn, in [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
+* Actuator fields per joint (joint side unless said otherwise; the list, with units and
+  meanings: :data:`ACTUATOR_FIELDS`): ``gear_ratio`` G (motor turns per joint turn, in
+  [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
   [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N], ``effort_limit`` [N m or N]
-  (``inf``: unlimited), ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited), ``lower``/``upper``
-  position limits [rad or m] (``-inf``/``inf``: none; always so for continuous joints).
+  (``inf``: unlimited); joint limits ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited),
+  ``lower``/``upper`` position limits [rad or m] (``-inf``/``inf``: none; always so for
+  continuous joints).
 * ``torque_speed`` (optional), joint side: ``(peak, corner_speed, no_load_speed)``. The effort
   limit is ``peak`` up to the corner speed, then the smaller of constant power
   ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
@@ -30,33 +32,48 @@ import dataclasses
 import math
 import numbers
 import re
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from functools import cached_property
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError, ModelWarning, quote
+from mrnea.errors import ModelError, quote
+from mrnea.frozen import Frozen, warn
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
+
+
+class ActuatorField(NamedTuple):
+    """One actuator field of a :class:`Joint`: its name, the symbol tables use, unit, meaning."""
+
+    name: str
+    symbol: str
+    unit: str
+    meaning: str
+
+
+# The actuator fields, in one list: the keywords of Robot.with_actuators, the columns of
+# Robot.describe, the actuator array of the kernels (kernels/layout.py compile_actuators) and the
+# table of docs/robot-format.md (a test checks that the two agree). Adding a field starts here.
 ACTUATOR_FIELDS = (
-    "effort_limit",
-    "gear_ratio",
-    "rotor_inertia",
-    "viscous_friction",
-    "coulomb_friction",
-    "torque_speed",
+    ActuatorField("effort_limit", "effort", "N m or N",
+                  "joint-side effort limit (inf: unlimited); with a torque-speed curve, its peak"),
+    ActuatorField("gear_ratio", "G", "-", "motor turns per joint turn, in [1e-6, 1e6]"),
+    ActuatorField("rotor_inertia", "J_m", "kg m^2", "rotor inertia, motor side"),
+    ActuatorField("viscous_friction", "F_v", "N m s/rad or N s/m", "viscous friction, joint side"),
+    ActuatorField("coulomb_friction", "F_s", "N m or N", "Coulomb friction, joint side"),
+    ActuatorField("torque_speed", "curve", "N m or N, rad/s or m/s",
+                  "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
+                  "the effort limit falls (None, '-' in tables: a constant limit)"),
 )
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
 
 
 _NOT_IN_XML = re.compile("[\x00-\x1f\x7f\ufffe\uffff\ud800-\udfff]")
-
-
 def _check_name(name: object, kind: str) -> None:
     """A non-empty string without control characters (URDF/XML cannot hold them)."""
     if not isinstance(name, str) or not name:
@@ -137,14 +154,14 @@ def _check_inertia(inertia: NDArray, what: str) -> None:
     # a rigid body's principal moments satisfy I1 + I2 >= I3; CAD exports break it by rounding
     excess = eig[2] - eig[0] - eig[1]
     if excess > 1e-9 * max(float(eig[2]), 1e-300):
-        warnings.warn(
+        warn(
             f"{what}: inertia violates the triangle inequality (principal moments "
             f"{eig.tolist()}: {eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g}); physically doubtful, "
-            f"used as given", ModelWarning, stacklevel=4)
+            f"used as given", stacklevel=4)
 
 
 @dataclass(frozen=True, eq=False)
-class Link:
+class Link(Frozen):
     """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com]."""
 
     name: str
@@ -167,7 +184,7 @@ class Link:
 
 
 @dataclass(frozen=True, eq=False)
-class Joint:
+class Joint(Frozen):
     """A joint moving ``child`` relative to ``parent``; see the module docstring for conventions."""
 
     name: str
@@ -253,7 +270,7 @@ class Joint:
         return self.type == "prismatic"
 
 
-class Robot:
+class Robot(Frozen):
     """An immutable serial chain: ``joints[i]`` moves ``links[i]`` relative to ``links[i-1]``.
 
     Parameters
@@ -306,14 +323,17 @@ class Robot:
                 tail = (f"well-posed: it carries {', '.join(carried)}" if carried else
                         "nothing it carries has mass either, so H is singular and forward "
                         "dynamics will fail")
-                warnings.warn(f"link '{lk.name}' is massless ({tail})", ModelWarning,
-                              stacklevel=2)
+                warn(f"link '{lk.name}' is massless ({tail})", stacklevel=2)
         self._joints = joints
         self._links = links
         self._gravity = _frozen(gravity, (3,), f"robot '{name}': gravity")
         self._name = str(name)
         self._base = base
-        self._shape = (len(joints),)  # (n,): one state (q, qd, qdd or tau), for the API fast path
+
+    def _state(self) -> dict[str, Any]:
+        """The constructor's arguments (Frozen: equality, hash, copies and pickling by value)."""
+        return {"joints": self._joints, "links": self._links, "gravity": self._gravity,
+                "name": self._name, "base": self._base}
 
     # --- read-only description ------------------------------------------------------------
     name = property(lambda self: self._name, doc="The robot's name.")
@@ -375,18 +395,19 @@ class Robot:
     def with_actuators(self, **fields: ArrayLike) -> Robot:
         """A copy with actuator fields replaced.
 
-        Keywords are any of ``effort_limit``, ``gear_ratio``, ``rotor_inertia``,
-        ``viscous_friction``, ``coulomb_friction``; each a scalar (all joints) or an ``(n,)``
-        sequence (per joint, root to tip). ``effort_limit`` sets a constant limit at every
-        speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
+        Keywords are any of :data:`ACTUATOR_FIELDS`. ``effort_limit``, ``gear_ratio``,
+        ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
+        or an ``(n,)`` sequence (per joint, root to tip). ``effort_limit`` sets a constant limit
+        at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
         """
-        unknown = set(fields) - set(ACTUATOR_FIELDS)
+        names = [f.name for f in ACTUATOR_FIELDS]
+        unknown = set(fields) - set(names)
         if unknown:
             raise ModelError(
                 f"with_actuators: unknown field(s) {sorted(unknown)}; "
-                f"expected some of {list(ACTUATOR_FIELDS)}"
+                f"expected some of {names}"
             )
         n = self.n
 
@@ -439,36 +460,9 @@ class Robot:
         return self._replace(gravity=gravity)
 
     def _replace(self, **kw: object) -> Robot:
-        args = {"joints": self._joints, "links": self._links, "gravity": self._gravity,
-                "name": self._name, "base": self._base}
-        args.update(kw)
-        return Robot(**args)  # type: ignore[arg-type]
+        return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]
 
-    # --- compiled form and export ---------------------------------------------------------
-    @cached_property
-    def compiled_actuators(self) -> NDArray[np.float64]:
-        """The flat ``(n, NACT)`` actuator array of kernels/achievable.py."""
-        from mrnea.kernels.achievable import compile_actuators
-
-        return compile_actuators(self)
-
-    @cached_property
-    def compiled(self) -> NDArray[np.float64]:
-        """The flat ``(n + 1, NCOL)`` array the kernels read (layout: kernels/common.py)."""
-        from mrnea.kernels.common import compile_model
-
-        return compile_model(self)
-
-    @cached_property
-    def _scratch(self) -> tuple[NDArray[np.float64], ...]:
-        """Scratch memory of the single-state dynamics calls (kernels/common.py
-        ``entry_scratch``): a per-call workspace, as a Pinocchio user keeps one Data per Model,
-        not state. Every kernel writes a slot before it reads it, and the entry kernels that use
-        it hold the GIL (kernels/common.py ENTRY), so one per Robot serves every thread."""
-        from mrnea.kernels.common import entry_scratch
-
-        return entry_scratch(self.n)
-
+    # --- export ---------------------------------------------------------------------------------
     def to_urdf(self, path: str | Path) -> Path:
         """Write this robot as a URDF file (actuator fields as limit/dynamics/transmission)."""
         from mrnea.io.urdf import write_urdf
@@ -479,16 +473,20 @@ class Robot:
         return f"Robot(name={self._name!r}, n={self.n}, joints={list(self.joint_names)})"
 
     def describe(self) -> str:
-        """A human-readable table of joints, links, limits and actuators."""
+        """A human-readable table of joints, links, limits and actuators (one column per field of
+        ACTUATOR_FIELDS, headed by its symbol), a header line and one row per joint."""
+        head = (f"{'joint':<16}{'type':<11}{'link':<16}{'mass kg':>10}{'lower':>9}{'upper':>9}"
+                f"{'vel lim':>9}")
         rows = [f"{self._name}: {self.n} moving joints, base '{self._base}', "
                 f"gravity {self._gravity.tolist()} m/s^2",
-                f"{'joint':<16}{'type':<11}{'link':<16}{'mass kg':>10}{'lower':>9}{'upper':>9}"
-                f"{'vel lim':>9}{'effort':>11}{'G':>8}{'J_m':>9}{'F_v':>9}{'F_s':>9}"]
+                head + "".join(f"{f.symbol:>11}" for f in ACTUATOR_FIELDS)]
         for j, lk in zip(self._joints, self._links, strict=True):
-            rows.append(
-                f"{j.name:<16.16}{j.type:<11}{lk.name:<16.16}{lk.mass:>10.4g}{j.lower:>9.3g}"
-                f"{j.upper:>9.3g}{j.velocity_limit:>9.3g}{j.effort_limit:>11.4g}"
-                f"{j.gear_ratio:>8.4g}{j.rotor_inertia:>9.3g}{j.viscous_friction:>9.3g}"
-                f"{j.coulomb_friction:>9.3g}"
-            )
+            row = (f"{j.name:<16.16}{j.type:<11}{lk.name:<16.16}{lk.mass:>10.4g}{j.lower:>9.3g}"
+                   f"{j.upper:>9.3g}{j.velocity_limit:>9.3g}")
+            for f in ACTUATOR_FIELDS:
+                v = getattr(j, f.name)
+                text = ("-" if v is None else "/".join(f"{x:.3g}" for x in v)
+                        if isinstance(v, tuple) else f"{v:.4g}")
+                row += f"{text:>11}"
+            rows.append(row)
         return "\n".join(rows)

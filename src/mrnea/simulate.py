@@ -29,19 +29,15 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.achievable import _mode
-from mrnea.dynamics import _array, _require_robot, _time_step
-from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea import compiled, validate
+from mrnea.achievable import MODES
+from mrnea.actuators import motor_torque
+from mrnea.errors import StateError
 from mrnea.io.writer import create
-from mrnea.kernels.achievable import (
-    CLAMP_POSITION,
-    CLAMP_VELOCITY,
-    ENGINE_CRBA,
-    ENGINE_MRNEA,
-    ENGINE_WALKER_ORIN,
-)
-from mrnea.kernels.common import NONFINITE, OVERFLOW
+from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
+from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.simulate import simulate_cycles
+from mrnea.kernels.status import OK
 from mrnea.model import Robot
 from mrnea.resources import require_memory
 
@@ -273,7 +269,7 @@ class SimulationResult:
 
     def _derive(self, rows: slice, clamp: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed."""
-        self.tau_motor[rows] = self.tau[rows] / self.robot.gear_ratio
+        self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
         self.tracking_error[rows] = self.q_cmd[rows] - self.q[rows]
         self.position_clamped[rows] = (clamp[rows] & CLAMP_POSITION) != 0
@@ -291,17 +287,6 @@ class SimulationResult:
             json.dump(self.summary(), fh, indent=2)
             fh.write("\n")
         return Path(path)
-
-
-def _per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray:
-    if x is None:
-        return np.zeros((K, width))
-    a = _array(x, name, width)
-    if a.ndim == 1:
-        return np.ascontiguousarray(np.broadcast_to(a, (K, width)))
-    if a.shape[0] != K:
-        raise StateError(f"{name}: expected ({width},) or ({K}, {width}) rows, got {a.shape}")
-    return np.ascontiguousarray(a)
 
 
 def simulate(
@@ -346,34 +331,25 @@ def simulate(
     On KeyboardInterrupt the cycles done so far are returned with ``completed=False``, and a
     streamed table holds exactly those cycles.
     """
-    code = _mode(mode)
-    _require_robot(robot)
-    try:
-        engine = FD_ENGINES[fd]
-    except (KeyError, TypeError):
-        raise StateError(f"fd: unknown {fd!r}; expected one of {', '.join(FD_ENGINES)}") from None
-    dt = _time_step(dt)
-    if progress is not None and not callable(progress):
-        raise StateError(f"progress: expected a callable or None, got {progress!r}")
-    try:
-        catch_up = float(catch_up)
-    except (TypeError, ValueError):
-        raise StateError(f"catch_up: not a number: {catch_up!r}") from None
-    if not (0 <= catch_up and catch_up * dt < 1):
-        raise StateError(f"catch_up: needs 0 <= catch_up < 1/dt = {1 / dt:g} 1/s, got {catch_up}")
+    code = validate.choice("mode", mode, MODES)
+    validate.require_robot(robot)
+    engine = validate.choice("fd", fd, FD_ENGINES)
+    dt = validate.time_step(dt)
+    validate.callable_or_none(progress, "progress")
+    catch_up = validate.catch_up(catch_up, dt)
     n = robot.n
-    Qc = _array(q_cmd, "q_cmd", n)
+    Qc = validate.array(q_cmd, "q_cmd", n)
     if Qc.ndim != 2 or Qc.shape[0] < 2:
         raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")
     _require_memory(Qc.shape[0], n)
     Qc = np.ascontiguousarray(Qc)
     K = Qc.shape[0]
-    x0 = Qc[0] if q0 is None else _array(q0, "q0", n)
-    v0 = np.zeros(n) if qd0 is None else _array(qd0, "qd0", n)
+    x0 = Qc[0] if q0 is None else validate.array(q0, "q0", n)
+    v0 = np.zeros(n) if qd0 is None else validate.array(qd0, "qd0", n)
     if x0.ndim != 1 or v0.ndim != 1:
         raise StateError(f"q0, qd0: expected shape ({n},)")
-    FE = _per_cycle(f_ext, K, 6, "f_ext")
-    PE = _per_cycle(f_ext_point, K, 3, "f_ext_point")
+    FE = validate.per_cycle(f_ext, K, 6, "f_ext")
+    PE = validate.per_cycle(f_ext_point, K, 3, "f_ext_point")
     Vc = np.empty_like(Qc)
     Vc[0] = v0
     Vc[1:] = np.diff(Qc, axis=0) / dt
@@ -389,19 +365,20 @@ def simulate(
         reaction=np.zeros((K, n, 6)), tracking_error=zeros())
     clamp = zeros(np.int64)
     res.q[0], res.qd[0] = x0, v0
-    m, act = robot.compiled, robot.compiled_actuators
+    m, _, _, act = compiled.of(robot)
+    program = (Qc, Vc, FE, PE)
+    run = (res.q, res.qd, res.qdd_des, res.qdd, res.tau, res.tau_required, res.limit,
+           res.saturated, clamp, res.reaction)
     done = kept = 0  # cycles done, and the bytes of the streamed table that hold them
     with contextlib.nullcontext() if stream is None else create(stream, overwrite,
                                                                  binary=True) as fh:
         try:
             while done < K:
                 k1 = min(K, done + CHUNK)
-                k, status = simulate_cycles(
-                    m, act, Qc, Vc, dt, FE, PE, code, engine, catch_up, done, k1, res.q, res.qd,
-                    res.qdd_des, res.qdd, res.tau, res.tau_required, res.limit, res.saturated,
-                    clamp, res.reaction)
-                if status != -1:
-                    _fail(robot, k, status, res.q[k], res.qd[k], dt)
+                k, status = simulate_cycles((m, act), program, dt, code, engine,
+                                            catch_up, done, k1, run)
+                if status != OK:
+                    validate.check_cycle(robot, k, status, res.q[k], res.qd[k], dt)
                 rows = slice(done, k1)
                 res._derive(rows, clamp)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
@@ -424,13 +401,3 @@ def _require_memory(K: int, n: int) -> None:
     require_memory(8.0 * K * (32 * n + 12), f"simulating {K:.3g} cycles of {n} joints",
                    "use a coarser dt or a shorter program, or split the program and simulate "
                    "the parts one after another", StateError)
-
-
-def _fail(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: float) -> None:
-    if status in (NONFINITE, OVERFLOW):
-        raise MrneaError(
-            f"cycle {k} (t = {k * dt:.6g} s): the state became non-finite (q = {q.tolist()}, "
-            f"qd = {qd.tolist()}); check the program and the robot's limits")
-    raise SingularMassMatrixError(
-        f"cycle {k} (t = {k * dt:.6g} s): the mass matrix is singular (pivot of joint "
-        f"'{robot.joint_names[status]}') at q = {q.tolist()}")

@@ -31,9 +31,9 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import _time_step
 from mrnea.errors import StateError, quote
 from mrnea.resources import require_memory
+from mrnea.validate import time_step
 
 __all__ = ["cycles", "quintic", "trapezoidal"]
 
@@ -140,7 +140,7 @@ def cycles(duration: float | NDArray, dt: float) -> NDArray[np.int64]:
         Beyond :data:`MAX_CYCLES` (a program that long is a mistake: a tiny dt or limit), or
         arguments that are not numbers.
     """
-    dt = _time_step(dt)
+    dt = time_step(dt)
     k = np.ceil(_numbers(duration, "duration") / dt - CYCLE_TOL).clip(0)
     if not (np.all(np.isfinite(k)) and np.all(k <= MAX_CYCLES)):
         raise StateError(
@@ -263,7 +263,7 @@ def _through_waypoints(
     t0: float, dwell: ArrayLike, segment: Segment,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Check the arguments, time each segment with ``segment(dq, vmax, amax) -> (T, s)``, sample."""
-    dt = _time_step(dt)
+    dt = time_step(dt)
     t0 = _t0(t0)
     w = _waypoints(waypoints)
     W, n = w.shape

@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.dynamics import _time_step
 from mrnea.errors import ProgramFileError, StateError, quote
 from mrnea.io.source import MAX_CSV_SIZE, as_path, parse_number, read_text
 from mrnea.resources import format_bytes, require_memory
 from mrnea.trajectory import cycles, require_path_memory
+from mrnea.validate import time_step
 
 __all__ = ["from_csv", "read_table", "resample"]
 
@@ -154,7 +154,7 @@ def from_csv(
     StateError
         Bad ``dt`` or ``n``.
     """
-    dt = _time_step(dt)
+    dt = time_step(dt)
     if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1):
         raise StateError(f"n: expected a number of joints >= 1 or None, got {n!r}")
     p = as_path(path, "path", ProgramFileError)

@@ -7,6 +7,9 @@ never blocks the reader and a device (``/dev/zero``, ``/dev/random``) is refused
 until memory runs out; the size is checked again on the open file, and at most the limit plus
 one byte is ever read.
 
+XML (:func:`refused_prolog`): a document whose prolog has a DTD with declarations (entities) is
+refused before any parser expands them.
+
 Numbers (:func:`parse_number`): one grammar for every number written as text (URDF attributes,
 CSV cells, the command line's options), ASCII decimal or scientific notation::
 
@@ -27,10 +30,12 @@ import os
 import re
 import stat
 from pathlib import Path
+from xml.parsers import expat
 
 from mrnea.errors import MrneaError, quote
 
-__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "parse_number", "read_bytes", "read_text"]
+__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "parse_number", "read_bytes", "read_text",
+           "refused_prolog"]
 
 MAX_FILE_SIZE = 16 * 2**20
 """Largest robot, sidecar or program file read (16 MiB: a 1000-joint robot in TOML is 0.2 MB)."""
@@ -174,3 +179,45 @@ def parse_number(text: str, allow_inf: bool = False) -> float:
                          + (" (an unbounded limit is written inf)" if allow_inf else ""))
     raise ValueError(f"not a number: {quote(text)} (numbers are written in ASCII decimal or "
                      "scientific notation, e.g. 1.5, -2, 3e-4)")
+
+
+class _Declaration(Exception):
+    """Raised inside expat's handlers: the document has a DTD with declarations."""
+
+
+class _RootReached(Exception):
+    """Raised inside expat's handlers: the prolog (where a DTD can be) is over."""
+
+
+def refused_prolog(data: bytes) -> str | None:
+    """Why an XML document's prolog is refused (None: it is not): URDF needs no DTD, and the
+    declarations of an internal subset are what lets a small file expand into a huge one
+    (entities) or read other files (external entities). Expat reads the prolog only: it stops
+    at the root element. A document in an encoding expat does not know (ElementTree decodes
+    those through Python's codecs) is searched for the declarations' ASCII spelling instead."""
+    parser = expat.ParserCreate()
+
+    def doctype(name: str, sysid: str | None, pubid: str | None, internal: int) -> None:
+        if internal:
+            raise _Declaration("it has a DOCTYPE with an internal subset (declarations)")
+
+    def entity(*args: object) -> None:
+        raise _Declaration("it declares entities")
+
+    def root(*args: object) -> None:
+        raise _RootReached
+
+    parser.StartDoctypeDeclHandler = doctype
+    parser.EntityDeclHandler = entity
+    parser.UnparsedEntityDeclHandler = entity
+    parser.StartElementHandler = root
+    try:
+        parser.Parse(data, True)
+    except _Declaration as exc:
+        return f"{exc} at line {parser.CurrentLineNumber}"
+    except _RootReached:
+        return None
+    except (expat.ExpatError, LookupError, ValueError):  # the XML parser reports these
+        if re.search(rb"<!\s*(ENTITY|DOCTYPE[^>]*\[)", data):
+            return "it declares entities or has a DOCTYPE with an internal subset"
+    return None

@@ -36,7 +36,6 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
-from xml.parsers import expat
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,7 +51,7 @@ from mrnea.errors import (
     shorten,
 )
 from mrnea.io.sidecar import apply_actuator_file
-from mrnea.io.source import as_path, parse_number, read_bytes
+from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
 from mrnea.io.writer import create
 from mrnea.model import (
     DEFAULT_GRAVITY,
@@ -75,48 +74,6 @@ UNBOUNDED = sys.float_info.max
 #: separate files), a 1000-joint chain about 1 MB.
 MAX_URDF_SIZE = 16 * 2**20
 _XML_SPACE = re.compile("[ \t\n\r]+")  # what separates numbers in an attribute
-
-
-class _Declaration(Exception):
-    """Raised inside expat's handlers: the document has a DTD with declarations."""
-
-
-class _RootReached(Exception):
-    """Raised inside expat's handlers: the prolog (where a DTD can be) is over."""
-
-
-def _check_prolog(data: bytes) -> str | None:
-    """Why the document's prolog is refused (None: it is not): URDF needs no DTD, and the
-    declarations of an internal subset are what lets a small file expand into a huge one
-    (entities) or read other files (external entities). Expat reads the prolog only: it stops
-    at the root element. A document in an encoding expat does not know (ElementTree decodes
-    those through Python's codecs) is searched for the declarations' ASCII spelling instead."""
-    parser = expat.ParserCreate()
-
-    def doctype(name: str, sysid: str | None, pubid: str | None, internal: int) -> None:
-        if internal:
-            raise _Declaration("it has a DOCTYPE with an internal subset (declarations)")
-
-    def entity(*args: object) -> None:
-        raise _Declaration("it declares entities")
-
-    def root(*args: object) -> None:
-        raise _RootReached
-
-    parser.StartDoctypeDeclHandler = doctype
-    parser.EntityDeclHandler = entity
-    parser.UnparsedEntityDeclHandler = entity
-    parser.StartElementHandler = root
-    try:
-        parser.Parse(data, True)
-    except _Declaration as exc:
-        return f"{exc} at line {parser.CurrentLineNumber}"
-    except _RootReached:
-        return None
-    except (expat.ExpatError, LookupError, ValueError):  # the XML parser reports these
-        if re.search(rb"<!\s*(ENTITY|DOCTYPE[^>]*\[)", data):
-            return "it declares entities or has a DOCTYPE with an internal subset"
-    return None
 
 
 @dataclass
@@ -209,7 +166,7 @@ class _Reader:
         data = read_bytes(self.path, "robot file", RobotFileError, MAX_URDF_SIZE)
         if not data.strip():
             raise self.error("file is empty")
-        refused = _check_prolog(data)
+        refused = refused_prolog(data)
         if refused is not None:
             raise self.error(f"refused: {refused}; URDF needs no DTD, and XML entities can "
                              "expand a small file into a huge one or read other files")

@@ -18,29 +18,29 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import (
-    ALLOC,
-    ENTRY_ALLOC,
-    JIT,
-    MASS,
-    NONFINITE,
-    OK,
-    OVERFLOW,
-    PRISMATIC,
-    SIZE,
-    TYPE,
     add,
     chunk,
     cross,
     finite,
     kinematics,
     n_chunks,
-    pose_buffers,
-    scratch,
     sized,
     tip_point,
     vec,
     wrench,
 )
+from mrnea.kernels.layout import (
+    ALLOC,
+    ENTRY_ALLOC,
+    JIT,
+    MASS,
+    POSE,
+    PRISMATIC,
+    TYPE,
+    pose_buffers,
+    scratch,
+)
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
@@ -66,7 +66,7 @@ def _force_cross(v, f, out):
 @nb.njit(**ENTRY_ALLOC)
 def aba(model, q, qd, tau, fext, pe, qdd, ws):
     """Forward dynamics of one state by the articulated-body algorithm (module docstring);
-    the link poses go to the scratch ``ws`` (kernels/common.py), the spatial quantities to arrays
+    the link poses go to the scratch ``ws`` (kernels/layout.py), the spatial quantities to arrays
     of its own."""
     if not sized(model, q, qd, tau):
         return SIZE
@@ -125,7 +125,7 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
         pA[n - 1, 3 + a] += fe[a]
 
     # pass 2, tip to base: articulated inertias and bias forces
-    status = -1
+    status = OK  # or the tipmost joint whose D_i is not positive
     for i in range(n - 1, -1, -1):
         scale_i = 0.0
         for a in range(6):
@@ -139,7 +139,7 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
             D[i] += S[i, a] * U[i, a]
             sp += S[i, a] * pA[i, a]
         if not D[i] > 1e-13 * scale_i:
-            if status < 0:
+            if status == OK:
                 status = i
             D[i] = 1.0
         u[i] = tau[i] - sp
@@ -155,7 +155,7 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
                 pA[i - 1, a] += acc
                 for b in range(6):
                     IA[i - 1, a, b] += IA[i, a, b]
-    if status >= 0:
+    if status != OK:
         return status
 
     # pass 3, base to tip: accelerations
@@ -180,7 +180,7 @@ def aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
-        ws = scratch(n, 0, 0)
+        ws = scratch(n, POSE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

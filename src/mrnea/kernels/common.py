@@ -1,33 +1,10 @@
-"""What every kernel shares: the compiled model layout, 3-vector helpers and the kinematics pass.
-
-Compiled model (``Robot.compiled``): one float64 array of shape ``(n + 1, NCOL)``.
-Row 0 holds the gravity vector in ``[0:3]``; row ``i + 1`` describes joint ``i`` and link ``i``::
-
-    TYPE        0 revolute (and continuous), 1 prismatic
-    ROT  (9)    origin rotation A, parent link frame -> joint frame, row-major
-    POS  (3)    origin translation [m], parent link frame
-    AXIS (3)    unit joint axis a, joint frame
-    MASS        link mass [kg]
-    COM  (3)    centre of mass [m], link frame
-    INER (9)    inertia about the centre of mass [kg m^2], link-frame axes, row-major
-    ROTB (9)    A [a]x     precomputed so that the link's rotation relative to its parent,
-    ROTC (9)    A [a]x^2   A Rot(a, q) = A + sin(q) A [a]x + (1 - cos(q)) A [a]x^2 (Rodrigues)
-    ZAX  (3)    A a, the joint axis in the parent link frame
-    NOPOS       1 for a revolute joint whose POS is exactly zero: o_i is the parent's origin
-    NOCOM       1 where COM is exactly zero: the centre of mass is the link frame's origin
-
-NOPOS and NOCOM are the specialisation the paper's Sec. IV makes by hand for the SDT: terms with
-a zero offset vanish, and the kernels skip them (``compile_model(robot, specialise=False)``
-leaves both flags at 0 and so runs every term: the general path the tests compare with).
+"""What every kernel shares: 3-vector and 3x3 algebra on tuples, the kinematics pass, the
+batch kernels' chunks and the entries' checks. The layout of the compiled model, of the scratch
+and the Numba options are in ``layout.py``.
 
 Every kernel works in base coordinates, as the paper does: ``R[i]`` (3, 3) is link i's orientation,
 ``o[i]`` (3,) its frame origin (a point on joint i's axis), ``z[i]`` (3,) joint i's unit axis,
 ``c[i]`` (3,) its centre of mass and ``Ic[i]`` (3, 3) its inertia about the centre of mass.
-
-Scratch memory (:func:`scratch`): the single-state entry kernels take the scratch the Robot
-keeps for them (:func:`entry_scratch`, ``Robot._scratch``), the ``*_ws`` forms take one from
-their caller. Batch kernels allocate one scratch per chunk of states (:func:`n_chunks`), the
-simulation loop one per run: nothing on the hot path allocates.
 
 3-vectors inside kernels are tuples ``(x, y, z)``: Numba keeps them in registers, so the
 equations read as written and allocate nothing.
@@ -35,121 +12,24 @@ equations read as written and allocate nothing.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numba as nb
 import numpy as np
 
-if TYPE_CHECKING:
-    from mrnea.model import Robot
-
-TYPE, ROT, POS, AXIS, MASS, COM, INER, ROTB, ROTC, ZAX, NOPOS, NOCOM = (
-    0, 1, 10, 13, 16, 17, 20, 29, 38, 47, 50, 51)
-NCOL = 52
-PRISMATIC = 1.0
-
-# Kernel status codes: OK, NONFINITE (an input holds NaN or inf), OVERFLOW (finite inputs gave a
-# result that is not finite: values too large for float64), SIZE (a state array's length is not
-# the model's n: the single-state entries check it, so that the public wrapper need not); a value
-# >= 0 is the index of the joint whose pivot of H (or articulated inertia) is not positive.
-OK = -1
-NONFINITE = -2
-OVERFLOW = -3
-SIZE = -4
-
-# Numba options, set in one place: compiled code is cached on disk next to the sources.
-# JIT: a kernel that allocates nothing runs without reference counting ("_nrt": False). Every
-# array it sees belongs to a caller that holds it for the whole call, so the atomic
-# increments and decrements Numba would emit for each array argument and view (dozens per
-# state, contended between threads in a batch) are pure cost. Such a kernel must not return an
-# array (its caller would release a reference it never took): the helpers that return views
-# are VIEWS, compiled into their caller. No fastmath: NaN and inf checks must stay, and fused
-# multiply-adds (4-8 % faster, measured) would round differently from the same sums in NumPy.
-# ALLOC: a kernel that allocates (a scratch, or the comparison kernels' own arrays).
-JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy", "_nrt": False}
-ALLOC = {**JIT, "_nrt": True}
-# ENTRY: a single-state kernel the public API calls from Python (dynamics._Entry), on the scratch
-# the Robot keeps for them (``entry_scratch``, model.Robot._scratch). It keeps the GIL: that is
-# what makes one scratch per Robot safe to share between Python threads, and a call of a few
-# microseconds gains nothing from releasing it (releasing and retaking cost about 0.1 us,
-# measured). It allocates nothing, so its arguments are unboxed without Numba's runtime (about
-# 40 ns an array less). ENTRY_ALLOC: the same for the comparison kernels (ABA, CRBA,
-# Walker-Orin), which allocate arrays of their own. Batch and simulation kernels release the GIL.
-ENTRY = {**JIT, "nogil": False}
-ENTRY_ALLOC = {**ALLOC, "nogil": False}
-INLINE = JIT
-VIEWS = {"inline": "always"}
-
-
-def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
-    """Flatten a validated Robot into the ``(n + 1, NCOL)`` array described above.
-
-    ``specialise=False`` keeps the NOPOS and NOCOM flags at 0 (every term is computed).
-    """
-    m = np.zeros((robot.n + 1, NCOL))
-    m[0, :3] = robot.gravity
-    for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True), start=1):
-        A = j.origin[:3, :3]
-        ax = np.asarray(j.axis, dtype=float)
-        K = np.array([[0.0, -ax[2], ax[1]], [ax[2], 0.0, -ax[0]], [-ax[1], ax[0], 0.0]])
-        m[i, TYPE] = PRISMATIC if j.is_prismatic else 0.0
-        m[i, ROT:ROT + 9] = A.ravel()
-        m[i, POS:POS + 3] = j.origin[:3, 3]
-        m[i, AXIS:AXIS + 3] = ax
-        m[i, MASS] = lk.mass
-        m[i, COM:COM + 3] = lk.com
-        m[i, INER:INER + 9] = lk.inertia.ravel()
-        m[i, ROTB:ROTB + 9] = (A @ K).ravel()
-        m[i, ROTC:ROTC + 9] = (A @ K @ K).ravel()
-        m[i, ZAX:ZAX + 3] = A @ ax
-        if specialise:
-            m[i, NOPOS] = float(not j.is_prismatic and not np.any(j.origin[:3, 3]))
-            m[i, NOCOM] = float(not np.any(lk.com))
-    m.setflags(write=False)
-    return m
-
-
-@nb.njit(**ALLOC)
-def scratch(n, s_rows, i_rows):
-    """Scratch memory for one state of an n-joint robot: the tuple ``(T, V, S, I)`` of 3x3
-    matrices T (2n, 3, 3), 3-vectors V (7n, 3), s_rows rows of n floats S and i_rows rows of n
-    ints I (each kernel's docstring says which rows it uses). The 3x3 and 3-vector buffers
-    have fixed slots, first-axis slices (no copy, no reshape): the pose (:func:`pose_buffers`),
-    then either mRNEA's sums (:func:`mrnea_buffers`) or the Newton-Euler forces
-    (:func:`force_buffers`). Allocation costs time by the byte, so each caller asks for what it
-    uses.
-    """
-    return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
-            np.empty((max(i_rows, 1), n), dtype=np.int64))
-
-
-def entry_scratch(n):
-    """A scratch every single-state entry kernel can use (the largest asks for 2n + 2 rows),
-    made by ``scratch``'s own source in Python: the Robot's first call compiles nothing more."""
-    return getattr(scratch, "py_func", scratch)(n, 2 * n + 2, 0)
-
-
-@nb.njit(**VIEWS)
-def pose_buffers(ws, n):
-    """R, o, z, c, Ic: the kinematics pass's output slots in the scratch ``ws``."""
-    T, V = ws[0], ws[1]
-    return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:]
-
-
-@nb.njit(**VIEWS)
-def mrnea_buffers(ws, n):
-    """e, d, E, M (n, 3) of the mRNEA pass (kernels/mrnea.py)."""
-    V = ws[1]
-    return V[3 * n:4 * n], V[4 * n:5 * n], V[5 * n:6 * n], V[6 * n:7 * n]
-
-
-@nb.njit(**VIEWS)
-def force_buffers(ws, n):
-    """f, nm (n, 3): the Newton-Euler passes' forces and moments (kernels/rnea.py); the slots
-    of mRNEA's e, d."""
-    V = ws[1]
-    return V[3 * n:4 * n], V[4 * n:5 * n]
-
+from mrnea.kernels.layout import (
+    COM,
+    INER,
+    INLINE,
+    JIT,
+    NOCOM,
+    NOPOS,
+    POS,
+    PRISMATIC,
+    ROT,
+    ROTB,
+    ROTC,
+    TYPE,
+    ZAX,
+)
 
 # --- 3-vector algebra on tuples -----------------------------------------------------------------
 
@@ -326,12 +206,6 @@ def n_chunks(B):
     threads share no memory but their outputs: up to 64, enough to balance the load of up to 16
     threads (a constant: Numba cannot cache a kernel that asks for the thread count)."""
     return min(B, 64)
-
-
-@nb.njit(**ALLOC)
-def workspace(n):
-    """R, o, z, c, Ic in a new scratch (for the comparison kernels, which allocate per call)."""
-    return pose_buffers(scratch(n, 0, 0), n)
 
 
 @nb.njit(**INLINE)

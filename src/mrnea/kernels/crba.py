@@ -1,6 +1,7 @@
 """CRBA: the composite-rigid-body algorithm for H (Featherstone, RBDA Sec. 6.2), base coordinates.
 
-Usage: ``crba(model, q, H)`` fills ``H`` (n, n).
+Usage: ``crba(model, q, H)`` fills ``H`` (n, n); ``crba_bias(model, q, qd, fext, pe, H, u, ws)``
+adds the bias u' of one Newton-Euler pass (forward dynamics through it: kernels/engines.py).
 
 The composite body j is link j and everything it carries: mass M_j, centre of mass C_j, inertia
 Ic_j about C_j, accumulated tip to base. A unit acceleration of joint j, everything else at rest,
@@ -16,40 +17,33 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import (
-    ALLOC,
-    ENTRY_ALLOC,
-    MASS,
-    NONFINITE,
-    OK,
-    OVERFLOW,
-    PRISMATIC,
-    SIZE,
-    TYPE,
     add,
-    chunk,
     cross,
     dot,
     finite,
-    force_buffers,
     kinematics,
     mv,
-    n_chunks,
-    pose_buffers,
     scale,
-    scratch,
-    sized,
     sub,
     vec,
-    workspace,
+)
+from mrnea.kernels.layout import (
+    ALLOC,
+    MASS,
+    PRISMATIC,
+    TYPE,
+    force_buffers,
+    pose_arrays,
+    pose_buffers,
 )
 from mrnea.kernels.rnea import newton_euler
-from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
 
 @nb.njit(**ALLOC)
 def crba(model, q, H):
     """The mass matrix H (n, n) of one state."""
-    R, o, z, c, Ic = workspace(q.shape[0])
+    R, o, z, c, Ic = pose_arrays(q.shape[0])
     kinematics(model, q, R, o, z, c, Ic)
     composite(model, o, z, c, Ic, H)
 
@@ -110,39 +104,3 @@ def composite(model, o, z, c, Ic, H):
                 h = dot(zi, add(Nc, cross(sub(Cc, vec(o, i)), F)))
             H[i, j] = h
             H[j, i] = h
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def crba_batch(model, Q, H):
-    """``crba`` over a batch: Q (B, n), H (B, n, n)."""
-    for b in nb.prange(Q.shape[0]):
-        crba(model, Q[b], H[b])
-
-
-@nb.njit(**ENTRY_ALLOC)
-def fd_crba(model, q, qd, tau, fext, pe, qdd, ws):
-    """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
-    if not sized(model, q, qd, tau):
-        return SIZE
-    if not finite(tau):
-        return NONFINITE
-    n = q.shape[0]
-    H = np.empty((n, n))
-    u = np.empty(n)
-    status = crba_bias(model, q, qd, fext, pe, H, u, ws)
-    if status != OK:
-        return status
-    status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
-    return status if status != OK or finite(qdd) else OVERFLOW
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def fd_crba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
-    """``fd_crba`` over a batch; STATUS (B,) int64."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, 0, 0)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = fd_crba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

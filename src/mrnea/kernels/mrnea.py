@@ -25,9 +25,9 @@ the backward pass is a 3 x n coefficient matrix times qdd plus a 3-vector (Eqs. 
 * Sec. IV's simplification for a given robot: where p*_i = 0 (joint i+1 revolute with a zero
   origin offset: consecutive axes intersect in o_i) the a2/a3 terms and p*_i x E_{i+1} vanish, and
   where l_i = 0 (the centre of mass at o_i) the l_i x e terms do; the model's NOPOS/NOCOM flags
-  (kernels/common.py) skip them, and the tests check the result is bit-for-bit the general one.
+  (kernels/layout.py) skip them, and the tests check the result is bit-for-bit the general one.
 
-``ws`` is a scratch (kernels/common.py ``scratch``). ``mrnea`` and ``fd_mrnea`` are the
+``ws`` is a scratch (kernels/layout.py). ``mrnea`` and ``fd_mrnea`` are the
 single-state entries (they check the state's lengths, status SIZE); ``mrnea_ws`` and
 ``fd_mrnea_ws``, which do not, are what the batch kernels and the simulation loop call.
 
@@ -43,39 +43,41 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import (
-    ALLOC,
-    ENTRY,
-    JIT,
-    MASS,
-    NOCOM,
-    NONFINITE,
-    NOPOS,
-    OK,
-    OVERFLOW,
-    PRISMATIC,
-    SIZE,
-    TYPE,
     add,
     chunk,
     cross,
     dot,
     finite,
     kinematics,
-    mrnea_buffers,
     mv,
     n_chunks,
-    pose_buffers,
     put,
     scale,
-    scratch,
     sized,
     sub,
     tip_point,
     vec,
     wrench,
 )
+from mrnea.kernels.layout import (
+    ALLOC,
+    ENTRY,
+    JIT,
+    MASS,
+    NOCOM,
+    NOPOS,
+    POSE,
+    PRISMATIC,
+    SOLVE,
+    TYPE,
+    mrnea_buffers,
+    pose_buffers,
+    scratch,
+    solve_buffers,
+)
 from mrnea.kernels.rnea import link_forces
-from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.solve import solve_forward
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**ENTRY)
@@ -84,7 +86,7 @@ def mrnea(model, q, qd, fext, pe, H, u, ws):
 
     Rows are formed tip to base with n'_ia1 and n'_ia2 (h_ik, k <= i); the upper triangle is
     h_ik = h_ki (H is symmetric), so n'_ia3 is not formed: :func:`mrnea_full` forms it.
-    ``ws``: a scratch (kernels/common.py ``entry_scratch``).
+    ``ws``: a scratch (kernels/layout.py ``entry_scratch``).
     """
     if not sized(model, q, qd, qd):
         return SIZE
@@ -104,7 +106,7 @@ def mrnea_full(model, q, qd, fext, pe, H, u, ws):
 
 @nb.njit(**JIT)
 def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
-    """:func:`mrnea` (``full``: :func:`mrnea_full`) on the scratch ``ws`` (kernels/common.py)."""
+    """:func:`mrnea` (``full``: :func:`mrnea_full`) on the scratch ``ws`` (kernels/layout.py)."""
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
@@ -180,7 +182,7 @@ def mrnea_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
-        ws = scratch(n, 0, 0)
+        ws = scratch(n, POSE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = mrnea_ws(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b], False, ws)
@@ -191,20 +193,15 @@ def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
     """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
 
     Returns OK, NONFINITE, or the index of the pivot where H is not positive definite.
-    Scratch rows: S[:n] H, S[n:2n] its Cholesky factor L, S[2n] u', S[2n + 1] tau - u'.
+    Scratch: a ``SOLVE`` one (kernels/layout.py ``solve_buffers``: H, L, u', tau - u').
     """
     if not finite(tau):
         return NONFINITE
-    n = q.shape[0]
-    S = ws[2]
-    H, L, u, rhs = S[:n], S[n:2 * n], S[2 * n], S[2 * n + 1]
+    H, L, u, rhs = solve_buffers(ws, q.shape[0])
     status = mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
     if status != OK:
         return status
-    for i in range(n):
-        rhs[i] = tau[i] - u[i]
-    status = cholesky_solve(H, rhs, L, qdd)
-    return status if status != OK or finite(qdd) else OVERFLOW
+    return solve_forward(H, u, tau, L, rhs, qdd)
 
 
 @nb.njit(**ENTRY)
@@ -221,7 +218,7 @@ def fd_mrnea_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
-        ws = scratch(n, 2 * n + 2, 0)
+        ws = scratch(n, SOLVE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = fd_mrnea_ws(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

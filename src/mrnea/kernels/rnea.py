@@ -1,7 +1,7 @@
 """RNEA: recursive Newton-Euler inverse dynamics in base coordinates (paper Eqs. 4-19, 32-33).
 
 Usage: ``rnea(model, q, qd, qdd, fext, pe, tau, ws)`` fills ``tau`` (n,) with the joint efforts
-and the scratch ``ws``'s (kernels/common.py) f, nm (n, 3): the force
+and the scratch ``ws``'s (kernels/layout.py) f, nm (n, 3): the force
 and moment that link i-1 exerts on link i through joint i, in base coordinates, the moment taken
 about the joint's point o_i (Eqs. 18-19).
 
@@ -20,42 +20,44 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import (
-    ALLOC,
-    ENTRY,
-    JIT,
-    MASS,
-    NOCOM,
-    NONFINITE,
-    NOPOS,
-    OK,
-    OVERFLOW,
-    PRISMATIC,
-    ROT,
-    SIZE,
-    TYPE,
     add,
     chunk,
     cross,
     dot,
     finite,
-    force_buffers,
     kinematics,
     mat,
     mm,
     mtv,
     mv,
     n_chunks,
-    pose_buffers,
     put,
     rot,
     scale,
-    scratch,
     sized,
     sub,
     tip_point,
     vec,
     wrench,
 )
+from mrnea.kernels.layout import (
+    ALLOC,
+    ENTRY,
+    JIT,
+    MASS,
+    NOCOM,
+    NOPOS,
+    POSE,
+    PRISMATIC,
+    REACTIONS,
+    ROT,
+    TYPE,
+    effort_buffer,
+    force_buffers,
+    pose_buffers,
+    scratch,
+)
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
@@ -157,10 +159,11 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     ``out[i] = [f; n]`` (6,): force [N] and moment [N m] that link i-1 exerts on link i through
     joint i, in the joint frame (the parent's frame moved by the joint origin, fixed to the
     parent: the bearing's housing), the moment about the joint frame's origin o_i.
-    Scratch rows: S[0] (the efforts, not returned). ``pose_ready``: as ``rnea_ws``.
+    Scratch: a ``REACTIONS`` one or larger (its ``effort_buffer`` holds the efforts, not
+    returned). ``pose_ready``: as ``rnea_ws``.
     """
     n = q.shape[0]
-    status = rnea_ws(model, q, qd, qdd, fext, pe, ws[2][0], ws, pose_ready)
+    status = rnea_ws(model, q, qd, qdd, fext, pe, effort_buffer(ws), ws, pose_ready)
     if status != OK:
         return status
     R, _, z, _, _ = pose_buffers(ws, n)
@@ -196,7 +199,7 @@ def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS):
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
-        ws = scratch(n, 0, 0)
+        ws = scratch(n, POSE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], ws)
@@ -208,7 +211,7 @@ def reactions_batch(model, Q, QD, QDD, FEXT, PE, OUT, STATUS):
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
-        ws = scratch(n, 1, 0)
+        ws = scratch(n, REACTIONS)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = reactions_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], OUT[b], ws)

@@ -1,7 +1,9 @@
 """The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code.
 
-Usage: ``k, status = simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
-catch_up, k0, k1, q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``.
+Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run)``
+with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
+``run = (q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``, unpacked once per call:
+the per-cycle ``step`` takes its arrays one by one (docs/design.md).
 
 Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
 at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
@@ -15,25 +17,31 @@ program and keeps the lag), plus, with a position-loop gain ``catch_up`` > 0 [1/
 catch_up * (q_cmd[k] - q[k]): the velocity feed-forward and proportional position loop of a
 cascaded servo, which closes the lag exponentially (rate catch_up) once the limits allow.
 On entry q[k0], qd[k0] hold the state.
-Returns (-1, OK), or the cycle and status of a failure.
+Returns (k1, OK), or the cycle and status of a failure.
 """
 
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
-from mrnea.kernels.achievable import ENGINE_MRNEA, step
-from mrnea.kernels.common import ALLOC, OK, scratch
+from mrnea.kernels.achievable import step
+from mrnea.kernels.engines import ENGINE_MRNEA
+from mrnea.kernels.layout import ACHIEVABLE, ALLOC, scratch
 from mrnea.kernels.rnea import reactions_ws
+from mrnea.kernels.status import OK
 
 
 @nb.njit(**ALLOC)
-def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch_up, k0, k1,
-                    q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench):
+def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
+    model, act = compiled
+    q_cmd, qd_cmd, fext, pe = program
+    q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench = run
     K, n = q_cmd.shape
-    ws = scratch(n, 3 * n + 9, 4)  # step uses S[:3n + 6], reactions S[0]; then the loop's vectors
-    q_next, qd_next, v = ws[2][3 * n + 6], ws[2][3 * n + 7], ws[2][3 * n + 8]
+    ws = scratch(n, ACHIEVABLE)  # step's, then the reactions'
+    nxt = np.empty((3, n))  # the next state and the velocity wanted over the next interval
+    q_next, qd_next, v = nxt[0], nxt[1], nxt[2]
     for k in range(k0, k1):
         last = k + 1 >= K
         for i in range(n):
@@ -52,4 +60,4 @@ def simulate_cycles(model, act, q_cmd, qd_cmd, dt, fext, pe, mode, engine, catch
         if not last:
             q[k + 1] = q_next
             qd[k + 1] = qd_next
-    return -1, OK
+    return k1, OK

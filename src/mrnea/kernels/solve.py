@@ -2,9 +2,10 @@
 
 Usage: ``status = cholesky_solve(H, rhs, L, x)`` fills ``x`` (n,) using ``L`` (n, n) as scratch
 (its strict lower triangle holds the factor, its diagonal the factor's reciprocal pivots);
-``status`` is OK (-1) or the index of the first pivot that is not positive relative to the largest
+``status`` is OK or the index of the first pivot that is not positive relative to the largest
 diagonal entry of H (a singular or indefinite H: for example a massless moving tip link).
-H and rhs are not modified.
+H and rhs are not modified. ``status = solve_forward(H, u, tau, L, rhs, qdd)`` is forward
+dynamics once H and u' are known (Eq. 2): qdd from ``H qdd = tau - u'``.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import JIT, OK
+from mrnea.kernels.common import finite
+from mrnea.kernels.layout import INTO_CALLER, JIT
+from mrnea.kernels.status import OK, OVERFLOW
 
 PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
 
@@ -49,3 +52,13 @@ def cholesky_solve(H, rhs, L, x):
             s -= L[k, i] * x[k]
         x[i] = s * L[i, i]
     return OK
+
+
+@nb.njit(**INTO_CALLER)
+def solve_forward(H, u, tau, L, rhs, qdd):
+    """qdd (n,) from ``H qdd = tau - u'`` (Eq. 2), ``rhs`` (n,) and ``L`` (n, n) as scratch;
+    returns OK, OVERFLOW, or the index of the failing pivot."""
+    for i in range(tau.shape[0]):
+        rhs[i] = tau[i] - u[i]
+    status = cholesky_solve(H, rhs, L, qdd)
+    return status if status != OK or finite(qdd) else OVERFLOW

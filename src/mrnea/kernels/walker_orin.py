@@ -5,7 +5,7 @@ Usage: ``walker_orin(model, q, qd, fext, pe, H, u, ws)``, the same contract as `
 u' is the RNEA with zero acceleration (velocity, gravity and external wrench in); column k of H
 is the RNEA with unit acceleration of joint k, no velocity, no gravity and no external wrench.
 The link poses do not depend on the acceleration, so the kinematics pass runs once and the
-Newton-Euler recursion n + 1 times.
+Newton-Euler recursion n + 1 times. Forward dynamics through it: kernels/engines.py.
 """
 
 from __future__ import annotations
@@ -13,30 +13,23 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import (
+from mrnea.kernels.common import chunk, finite, kinematics, n_chunks, sized
+from mrnea.kernels.layout import (
     ALLOC,
     ENTRY_ALLOC,
-    NONFINITE,
-    OK,
-    OVERFLOW,
-    SIZE,
-    chunk,
-    finite,
+    POSE,
     force_buffers,
-    kinematics,
-    n_chunks,
     pose_buffers,
     scratch,
-    sized,
 )
 from mrnea.kernels.rnea import newton_euler
-from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**ENTRY_ALLOC)
 def walker_orin(model, q, qd, fext, pe, H, u, ws):
     """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status.
-    Poses and forces go to the scratch ``ws`` (kernels/common.py)."""
+    Poses and forces go to the scratch ``ws`` (kernels/layout.py)."""
     if not sized(model, q, qd, qd):
         return SIZE
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
@@ -65,36 +58,7 @@ def walker_orin_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
-        ws = scratch(n, 0, 0)
+        ws = scratch(n, POSE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b], ws)
-
-
-@nb.njit(**ENTRY_ALLOC)
-def fd_walker_orin(model, q, qd, tau, fext, pe, qdd, ws):
-    """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a status."""
-    if not sized(model, q, qd, tau):
-        return SIZE
-    if not finite(tau):
-        return NONFINITE
-    n = q.shape[0]
-    H = np.empty((n, n))
-    u = np.empty(n)
-    status = walker_orin(model, q, qd, fext, pe, H, u, ws)
-    if status != OK:
-        return status
-    status = cholesky_solve(H, tau - u, np.zeros((n, n)), qdd)
-    return status if status != OK or finite(qdd) else OVERFLOW
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def fd_walker_orin_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
-    """``fd_walker_orin`` over a batch; STATUS (B,) int64."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, 0, 0)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = fd_walker_orin(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

@@ -22,8 +22,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.dynamics import _time_step
 from mrnea.trajectory import cycles, require_path_memory
+from mrnea.validate import time_step
 
 DURATION = 42.0
 
@@ -52,7 +52,7 @@ def training_profile(dt: float = 0.005) -> tuple[NDArray, NDArray]:
         ``dt`` is not a finite time step > 0 s, or so small that the profile would have more
         cycles than :data:`mrnea.trajectory.MAX_CYCLES` or than memory allows.
     """
-    dt = _time_step(dt)
+    dt = time_step(dt)
     # the profile's dozen temporaries of K values each count as a path of 4 joints
     require_path_memory(float(cycles(DURATION, dt)) + 1, 4)
     t = np.arange(0.0, DURATION + 0.5 * dt, dt)

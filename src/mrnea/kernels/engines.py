@@ -1,0 +1,74 @@
+"""The paper's cost comparison: H and u' by one of three engines, and forward dynamics through them.
+
+Usage: ``status = mass_matrix_bias(model, q, qd, fext, pe, engine, H, u, ws)`` fills H (n, n) and
+u' (n,) by the paper's mRNEA (``ENGINE_MRNEA``, kernels/mrnea.py), Walker-Orin method 1
+(``ENGINE_WALKER_ORIN``, kernels/walker_orin.py) or CRBA with one Newton-Euler pass for the bias
+(``ENGINE_CRBA``, kernels/crba.py); ``status = fd_walker_orin(model, q, qd, tau, fext, pe, qdd,
+ws)`` and ``fd_crba`` solve ``H qdd = tau - u'`` (Eq. 2) on H and u' of those engines
+(``fd_mrnea``, the paper's, is in kernels/mrnea.py); ``fd_engine_batch(model, Q, QD, TAU, FEXT,
+PE, QDD, STATUS, engine)`` over a batch. ``ws``: a ``SOLVE`` scratch (kernels/layout.py).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+
+from mrnea.kernels.common import chunk, finite, n_chunks, sized
+from mrnea.kernels.crba import crba_bias
+from mrnea.kernels.layout import ALLOC, ENTRY_ALLOC, JIT, SOLVE, scratch, solve_buffers
+from mrnea.kernels.mrnea import mrnea_ws
+from mrnea.kernels.solve import solve_forward
+from mrnea.kernels.status import NONFINITE, OK, SIZE
+from mrnea.kernels.walker_orin import walker_orin
+
+ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA = 0, 1, 2
+
+
+@nb.njit(**JIT)
+def mass_matrix_bias(model, q, qd, fext, pe, engine, H, u, ws):
+    """H (n, n) and u' (n,) of one state by ``engine``; returns a status (as ``mrnea``)."""
+    if engine == ENGINE_WALKER_ORIN:
+        return walker_orin(model, q, qd, fext, pe, H, u, ws)
+    if engine == ENGINE_CRBA:
+        return crba_bias(model, q, qd, fext, pe, H, u, ws)
+    return mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
+
+
+@nb.njit(**JIT)
+def fd_engine(model, q, qd, tau, fext, pe, qdd, engine, ws):
+    """Forward dynamics of one state on H and u' of ``engine``, after checking the state's
+    lengths (status SIZE): H qdd = tau - u' by a Cholesky solve (Eq. 2)."""
+    if not sized(model, q, qd, tau):
+        return SIZE
+    if not finite(tau):
+        return NONFINITE
+    H, L, u, rhs = solve_buffers(ws, q.shape[0])
+    status = mass_matrix_bias(model, q, qd, fext, pe, engine, H, u, ws)
+    if status != OK:
+        return status
+    return solve_forward(H, u, tau, L, rhs, qdd)
+
+
+@nb.njit(**ENTRY_ALLOC)
+def fd_walker_orin(model, q, qd, tau, fext, pe, qdd, ws):
+    """Forward dynamics by Walker-Orin method 1 and a Cholesky solve; returns a status."""
+    return fd_engine(model, q, qd, tau, fext, pe, qdd, ENGINE_WALKER_ORIN, ws)
+
+
+@nb.njit(**ENTRY_ALLOC)
+def fd_crba(model, q, qd, tau, fext, pe, qdd, ws):
+    """Forward dynamics: H by CRBA, the bias by one RNEA with qdd = 0, then a Cholesky solve."""
+    return fd_engine(model, q, qd, tau, fext, pe, qdd, ENGINE_CRBA, ws)
+
+
+@nb.njit(**{**ALLOC, "parallel": True})
+def fd_engine_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, engine):
+    """``fd_engine`` over a batch (``fd_walker_orin``, ``fd_crba`` by ``engine``): Q, QD, TAU,
+    QDD (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,) int64."""
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, SOLVE)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], engine, ws)

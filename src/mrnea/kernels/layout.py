@@ -1,0 +1,237 @@
+"""The compiled layout, in one place: what the kernels read (the model and actuator arrays), the
+scratch they write (named slots), the Numba options they are compiled with and the types of the
+single-state entries. The status codes are in ``status.py`` (no Numba there).
+
+Compiled model (:func:`compile_model`): one read-only float64 array of shape ``(n + 1, NCOL)``.
+Row 0 holds the gravity vector in ``[0:3]``; row ``i + 1`` describes joint ``i`` and link ``i``::
+
+    TYPE        0 revolute (and continuous), 1 prismatic
+    ROT  (9)    origin rotation A, parent link frame -> joint frame, row-major
+    POS  (3)    origin translation [m], parent link frame
+    AXIS (3)    unit joint axis a, joint frame
+    MASS        link mass [kg]
+    COM  (3)    centre of mass [m], link frame
+    INER (9)    inertia about the centre of mass [kg m^2], link-frame axes, row-major
+    ROTB (9)    A [a]x     precomputed so that the link's rotation relative to its parent,
+    ROTC (9)    A [a]x^2   A Rot(a, q) = A + sin(q) A [a]x + (1 - cos(q)) A [a]x^2 (Rodrigues)
+    ZAX  (3)    A a, the joint axis in the parent link frame
+    NOPOS       1 for a revolute joint whose POS is exactly zero: o_i is the parent's origin
+    NOCOM       1 where COM is exactly zero: the centre of mass is the link frame's origin
+
+NOPOS and NOCOM are the specialisation the paper's Sec. IV makes by hand for the SDT: terms with
+a zero offset vanish, and the kernels skip them (``compile_model(robot, specialise=False)``
+leaves both flags at 0 and so runs every term: the general path the tests compare with).
+
+Actuator array (:func:`compile_actuators`): read-only float64, ``(n, NACT)``, joint side, row i
+for joint i (fields: :data:`mrnea.model.ACTUATOR_FIELDS`)::
+
+    GEAR  G     JM  J_m [kg m^2, motor side]     FV  F_v     FS  F_s
+    PEAK, CORNER, NOLOAD   the torque-speed curve (a constant limit: CORNER = NOLOAD = inf)
+    LOWER, UPPER, VLIM     position and velocity limits
+
+The kernels that need both take them as one tuple, ``compiled = (model, act)``.
+
+Scratch (:func:`scratch`): the buffers of one state, the tuple ``(T, V, S, I)`` of 3x3 matrices
+T (2n, 3, 3), 3-vectors V (7n, 3), rows of n floats S and rows of n ints I. A kernel takes its
+buffers through the slot functions below (first-axis slices: no copy, no reshape), never by row
+arithmetic of its own; :func:`scratch` is told what the scratch is for (``POSE``, ``REACTIONS``,
+``SOLVE``, ``ACHIEVABLE``) and allocates the rows those slots need (allocation costs time by the
+byte). The slots of kernels that call one another are disjoint; the others share rows, which
+holds because every kernel writes a slot before it reads it::
+
+    pose_buffers      R = T[:n], Ic = T[n:], o, z, c = V[:3n]     the kinematics pass
+    mrnea_buffers     e, d, E, M = V[3n:7n]                        the mRNEA pass
+    force_buffers     f, nm = V[3n:5n]                             the Newton-Euler passes
+    effort_buffer     S[0]                                         reactions' efforts
+    solve_buffers     H, L = S[:2n]; u', rhs = S[2n:2n + 2]         forward dynamics
+    achievable_buffers  S[:3n + 6], I[:4]                          the achievable accelerations
+
+A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
+scratch, the largest an entry needs); batch kernels allocate one per chunk of states, the
+simulation loop one per run: nothing on the hot path allocates.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numba as nb
+import numpy as np
+
+if TYPE_CHECKING:
+    from mrnea.model import Robot
+
+# --- the compiled model ---------------------------------------------------------------------------
+TYPE, ROT, POS, AXIS, MASS, COM, INER, ROTB, ROTC, ZAX, NOPOS, NOCOM = (
+    0, 1, 10, 13, 16, 17, 20, 29, 38, 47, 50, 51)
+NCOL = 52
+PRISMATIC = 1.0
+
+# --- the actuator array ---------------------------------------------------------------------------
+GEAR, JM, FV, FS, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(10)
+NACT = 10
+
+# --- Numba options, set in one place: compiled code is cached on disk next to the sources --------
+# JIT: a kernel that allocates nothing runs without reference counting ("_nrt": False). Every
+# array it sees belongs to a caller that holds it for the whole call, so the atomic
+# increments and decrements Numba would emit for each array argument and view (dozens per
+# state, contended between threads in a batch) are pure cost. Such a kernel must not return an
+# array (its caller would release a reference it never took): the helpers that return views
+# are INTO_CALLER, compiled into their caller. No fastmath: NaN and inf checks must stay, and fused
+# multiply-adds (4-8 % faster, measured) would round differently from the same sums in NumPy.
+# ALLOC: a kernel that allocates (a scratch, or the comparison kernels' own arrays).
+JIT = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy", "_nrt": False}
+ALLOC = {**JIT, "_nrt": True}
+# ENTRY: a single-state kernel the public API calls from Python (dynamics._Entry), on the scratch
+# its caller keeps (``entry_scratch``, one per n: mrnea.compiled). It keeps the GIL: that is what
+# makes one scratch safe to share between Python threads, and a call of a few microseconds
+# gains nothing from releasing it (releasing and retaking cost about 0.1 us, measured). It
+# allocates nothing, so its arguments are unboxed without Numba's runtime (about 40 ns an array
+# less). ENTRY_ALLOC: the same for the comparison kernels (ABA, CRBA, Walker-Orin), which
+# allocate arrays of their own. Batch and simulation kernels release the GIL.
+ENTRY = {**JIT, "nogil": False}
+ENTRY_ALLOC = {**ALLOC, "nogil": False}
+INLINE = JIT
+# INTO_CALLER: compiled into the caller's code by Numba itself, whatever runtime the caller has:
+# the slot functions (they return views), and solve.solve_forward, whose call of its own made
+# forward dynamics 3 % slower (measured; LLVM did not inline it)
+INTO_CALLER = {"inline": "always"}
+
+# --- the types of the single-state entries (dynamics._Entry compiles them for exactly these) -----
+MODEL_T = nb.types.Array(nb.types.float64, 2, "C", readonly=True)  # the compiled model
+IN_T = nb.types.Array(nb.types.float64, 1, "A")  # a state: any layout
+OUT1_T = nb.types.Array(nb.types.float64, 1, "C")  # outputs, as the wrappers allocate them
+OUT2_T = nb.types.Array(nb.types.float64, 2, "C")
+SCRATCH_T = nb.types.Tuple((nb.types.Array(nb.types.float64, 3, "C"), OUT2_T, OUT2_T,
+                            nb.types.Array(nb.types.int64, 2, "C")))  # entry_scratch
+
+
+def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
+    """Flatten a validated Robot into the ``(n + 1, NCOL)`` array described above.
+
+    ``specialise=False`` keeps the NOPOS and NOCOM flags at 0 (every term is computed).
+    """
+    m = np.zeros((robot.n + 1, NCOL))
+    m[0, :3] = robot.gravity
+    for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True), start=1):
+        A = j.origin[:3, :3]
+        ax = np.asarray(j.axis, dtype=float)
+        K = np.array([[0.0, -ax[2], ax[1]], [ax[2], 0.0, -ax[0]], [-ax[1], ax[0], 0.0]])
+        m[i, TYPE] = PRISMATIC if j.is_prismatic else 0.0
+        m[i, ROT:ROT + 9] = A.ravel()
+        m[i, POS:POS + 3] = j.origin[:3, 3]
+        m[i, AXIS:AXIS + 3] = ax
+        m[i, MASS] = lk.mass
+        m[i, COM:COM + 3] = lk.com
+        m[i, INER:INER + 9] = lk.inertia.ravel()
+        m[i, ROTB:ROTB + 9] = (A @ K).ravel()
+        m[i, ROTC:ROTC + 9] = (A @ K @ K).ravel()
+        m[i, ZAX:ZAX + 3] = A @ ax
+        if specialise:
+            m[i, NOPOS] = float(not j.is_prismatic and not np.any(j.origin[:3, 3]))
+            m[i, NOCOM] = float(not np.any(lk.com))
+    m.setflags(write=False)
+    return m
+
+
+def compile_actuators(robot: Robot) -> np.ndarray:
+    """The ``(n, NACT)`` actuator array of a validated Robot (layout above)."""
+    a = np.empty((robot.n, NACT))
+    for i, j in enumerate(robot.joints):
+        curve = j.torque_speed or (j.effort_limit, math.inf, math.inf)
+        a[i] = (j.gear_ratio, j.rotor_inertia, j.viscous_friction, j.coulomb_friction,
+                *curve, j.lower, j.upper, j.velocity_limit)
+    a.setflags(write=False)
+    return a
+
+
+# --- the scratch ----------------------------------------------------------------------------------
+# what a scratch is for: the kinematics and Newton-Euler or mRNEA passes alone, those and the
+# reactions' efforts, those and a forward-dynamics solve, or the achievable accelerations
+POSE, REACTIONS, SOLVE, ACHIEVABLE = 0, 1, 2, 3
+
+
+@nb.njit(**INTO_CALLER)
+def scratch_rows(n, kind):
+    """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
+    if kind == ACHIEVABLE:
+        return 3 * n + 6, 4
+    if kind == SOLVE:
+        return 2 * n + 2, 0
+    if kind == REACTIONS:
+        return 1, 0
+    return 0, 0
+
+
+@nb.njit(**ALLOC)
+def new_scratch(n, s_rows, i_rows):
+    """The arrays of a scratch with s_rows rows of S and i_rows of I (at least one each)."""
+    return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
+            np.empty((max(i_rows, 1), n), dtype=np.int64))
+
+
+@nb.njit(**ALLOC)
+def scratch(n, kind):
+    """A new scratch ``(T, V, S, I)`` for one state of an n-joint robot, for ``kind``."""
+    s_rows, i_rows = scratch_rows(n, kind)
+    return new_scratch(n, s_rows, i_rows)
+
+
+def entry_scratch(n: int, kind: int = SOLVE) -> tuple[np.ndarray, ...]:
+    """A scratch made in Python by the kernels' own source (so nothing more is compiled); the
+    default, ``SOLVE``, serves every single-state entry."""
+    rows = getattr(scratch_rows, "py_func", scratch_rows)(n, kind)
+    return getattr(new_scratch, "py_func", new_scratch)(n, *rows)
+
+
+@nb.njit(**INTO_CALLER)
+def pose_buffers(ws, n):
+    """R (n, 3, 3), o, z, c (n, 3), Ic (n, 3, 3): the kinematics pass's output slots."""
+    T, V = ws[0], ws[1]
+    return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:]
+
+
+@nb.njit(**INTO_CALLER)
+def mrnea_buffers(ws, n):
+    """e, d, E, M (n, 3) of the mRNEA pass (kernels/mrnea.py)."""
+    V = ws[1]
+    return V[3 * n:4 * n], V[4 * n:5 * n], V[5 * n:6 * n], V[6 * n:7 * n]
+
+
+@nb.njit(**INTO_CALLER)
+def force_buffers(ws, n):
+    """f, nm (n, 3): the Newton-Euler passes' forces and moments (kernels/rnea.py); the slots
+    of mRNEA's e, d."""
+    V = ws[1]
+    return V[3 * n:4 * n], V[4 * n:5 * n]
+
+
+@nb.njit(**INTO_CALLER)
+def effort_buffer(ws):
+    """(n,): the efforts of the Newton-Euler pass under the joint reactions (not returned)."""
+    return ws[2][0]
+
+
+@nb.njit(**INTO_CALLER)
+def solve_buffers(ws, n):
+    """H (n, n), its Cholesky factor L (n, n), u' (n,) and tau - u' (n,): forward dynamics."""
+    S = ws[2]
+    return S[:n], S[n:2 * n], S[2 * n], S[2 * n + 1]
+
+
+@nb.njit(**INTO_CALLER)
+def achievable_buffers(ws, n):
+    """The achievable accelerations' buffers (kernels/achievable.py): H_a (n, n), the system of
+    the unknown accelerations Hs (n, n) and its Cholesky factor L (n, n); the (n,) float rows
+    u'_a, slip, tau_cmd, fric, rhs, x; the (n,) int rows known, held, fixed, idx."""
+    S, ints = ws[2], ws[3]
+    return (S[:n], S[n:2 * n], S[2 * n:3 * n],
+            S[3 * n], S[3 * n + 1], S[3 * n + 2], S[3 * n + 3], S[3 * n + 4], S[3 * n + 5],
+            ints[0], ints[1], ints[2], ints[3])
+
+
+@nb.njit(**ALLOC)
+def pose_arrays(n):
+    """R, o, z, c, Ic in a new scratch (for the comparison kernels, which allocate per call)."""
+    return pose_buffers(scratch(n, POSE), n)

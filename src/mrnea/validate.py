@@ -1,0 +1,187 @@
+"""Argument checks of the public API, in one place, and the translation of kernel status codes into
+errors. Every check raises a :class:`mrnea.errors.StateError` whose message starts with the
+offending argument's name.
+
+This module imports NumPy and the plain status constants (kernels/status.py), not Numba: a module
+that only checks its arguments (a time step, say) loads no kernel.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Mapping
+from typing import TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
+from mrnea.model import Robot
+
+T = TypeVar("T")
+_ZERO_WRENCH = np.zeros(6)  # f_ext=None, f_ext_point=None (kernels never write their inputs)
+_ZERO_POINT = np.zeros(3)
+
+
+def require_robot(robot: object) -> None:
+    """A StateError unless ``robot`` is a :class:`mrnea.Robot`."""
+    if not isinstance(robot, Robot):
+        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
+
+
+def real(x: object, name: str) -> float:
+    """``x`` as a float: a real number (not a bool, a complex number, a string or an array)."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
+        raise StateError(f"{name}: not a real number: {x!r}")
+    return float(x)
+
+
+def time_step(dt: object, name: str = "dt") -> float:
+    """dt [s] as a float: a real, finite number > 0 (:func:`real`)."""
+    dt = real(dt, name)
+    if not (math.isfinite(dt) and dt > 0):
+        raise StateError(f"{name}: must be a finite time step > 0 s, got {dt}")
+    return dt
+
+
+def catch_up(gain: object, dt: float) -> float:
+    """The position-loop gain [1/s] of :func:`mrnea.simulate.simulate`: 0 <= gain < 1/dt."""
+    gain = real(gain, "catch_up")
+    if not (0 <= gain and gain * dt < 1):
+        raise StateError(f"catch_up: needs 0 <= catch_up < 1/dt = {1 / dt:g} 1/s, got {gain}")
+    return gain
+
+
+def choice(name: str, value: object, table: Mapping[str, T]) -> T:
+    """``table[value]``; a StateError naming ``name`` for a value the table does not hold."""
+    try:
+        return table[value]  # type: ignore[index]
+    except (KeyError, TypeError):  # TypeError: an unhashable value
+        raise StateError(
+            f"{name}: unknown {value!r}; expected one of {', '.join(map(repr, table))}"
+        ) from None
+
+
+def callable_or_none(fn: object, name: str) -> None:
+    if fn is not None and not callable(fn):
+        raise StateError(f"{name}: expected a callable or None, got {fn!r}")
+
+
+def array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
+    """``x`` as a C-contiguous, writable float64 array of shape (width,) or (B, width), all
+    finite (the kernels are compiled for exactly such arrays)."""
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError):
+        raise StateError(f"{name}: not a numeric array: {x!r}") from None
+    if a.dtype.kind not in "biuf":
+        raise StateError(f"{name}: expected real numbers, got an array of {a.dtype}")
+    a = np.require(a, dtype=np.float64, requirements=["C", "W"])
+    if a.ndim not in (1, 2) or a.shape[-1] != width or (a.ndim == 2 and a.shape[0] == 0):
+        raise StateError(f"{name}: expected shape ({width},) or (B, {width}), got {a.shape}")
+    if not np.isfinite(a).all():
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise StateError(f"{name}: contains NaN or inf (first at index {tuple(bad.tolist())})")
+    return a
+
+
+def per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray[np.float64]:
+    """A value per simulation cycle, (K, width): ``None`` (zeros), one row for every cycle, or
+    K rows."""
+    if x is None:
+        return np.zeros((K, width))
+    a = array(x, name, width)
+    if a.ndim == 1:
+        return np.ascontiguousarray(np.broadcast_to(a, (K, width)))
+    if a.shape[0] != K:
+        raise StateError(f"{name}: expected ({width},) or ({K}, {width}) rows, got {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+def inputs(
+    robot: Robot,
+    states: dict[str, ArrayLike],
+    f_ext: ArrayLike | None,
+    f_ext_point: ArrayLike | None,
+) -> tuple[bool, list[NDArray], NDArray, NDArray]:
+    """Check and broadcast the arguments of a dynamics call: ``states`` (n,) or (B, n) each,
+    the wrench f_ext (6,) or (B, 6) and its point (3,) or (B, 3) (None: zero). Returns
+    (batched, states, f_ext, f_ext_point); batched arrays are 2-D."""
+    require_robot(robot)
+    n = robot.n
+    arrays = [array(v, k, n) for k, v in states.items()]
+    fe = _ZERO_WRENCH if f_ext is None else array(f_ext, "f_ext", 6)
+    pe = _ZERO_POINT if f_ext_point is None else array(f_ext_point, "f_ext_point", 3)
+    all_ = [*arrays, fe, pe]
+    if all(a.ndim == 1 for a in all_):
+        return False, arrays, fe, pe
+    sizes = {a.shape[0] for a in all_ if a.ndim == 2}
+    if len(sizes) > 1:
+        names = [*states, "f_ext", "f_ext_point"]
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(names, all_, strict=True))
+        raise StateError(f"batch sizes differ: {shapes}")
+    B = sizes.pop()
+    out = [a if a.ndim == 2 else np.repeat(a[None], B, axis=0) for a in all_]
+    return True, out[:-2], out[-2], out[-1]
+
+
+def one_state(
+    robot: Robot,
+    states: dict[str, ArrayLike],
+    f_ext: ArrayLike | None,
+    f_ext_point: ArrayLike | None,
+    who: str,
+) -> tuple[dict[str, NDArray], NDArray, NDArray]:
+    """The arguments of a function ``who`` that takes one state, not a batch: ``states`` (n,)
+    each, f_ext (6,) and f_ext_point (3,) (None: zero). Returns the states by name, f_ext and
+    f_ext_point."""
+    require_robot(robot)
+    arrays = {k: array(v, k, robot.n) for k, v in states.items()}
+    if any(a.ndim != 1 for a in arrays.values()):
+        raise StateError(f"{who} takes one state: arrays of shape ({robot.n},)")
+    fe = _ZERO_WRENCH if f_ext is None else array(f_ext, "f_ext", 6)
+    pe = _ZERO_POINT if f_ext_point is None else array(f_ext_point, "f_ext_point", 3)
+    if fe.ndim != 1 or pe.ndim != 1:
+        raise StateError(f"{who} takes one state: f_ext (6,), f_ext_point (3,)")
+    return arrays, fe, pe
+
+
+def check_status(robot: Robot, status: int | NDArray, states: dict[str, object]) -> None:
+    """Raise the error a kernel's status reports (one state's int, or a batch's array):
+    NONFINITE names the argument, OVERFLOW the values too large, a pivot index the joint where
+    H is singular. ``states``: the arguments as the caller gave them, by name."""
+    batched = isinstance(status, np.ndarray)
+    st = np.atleast_1d(status)
+    if not (st != OK).any():
+        return
+    if np.any(st == NONFINITE):
+        for k, v in states.items():
+            if v is not None:
+                array(v, k, 6 if k == "f_ext" else 3 if k == "f_ext_point" else robot.n)
+    if np.any(st == OVERFLOW):
+        b = int(np.flatnonzero(st == OVERFLOW)[0])
+        where = f"state {b}: " if batched else ""
+        raise MrneaError(
+            f"{where}the result is not finite although every input is: the state or the "
+            f"robot '{robot.name}' holds values too large for float64 arithmetic")
+    b = int(np.flatnonzero(st >= 0)[0])
+    where = f"state {b}: " if batched else ""
+    raise SingularMassMatrixError(
+        f"{where}the mass matrix H is singular or not positive definite (pivot of joint "
+        f"'{robot.joint_names[int(st[b])]}'); is a moving link, with everything it carries, "
+        f"massless?"
+    )
+
+
+def check_cycle(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: float) -> None:
+    """Raise the error the simulation loop's status (not OK) reports for cycle k at state q, qd."""
+    if status in (NONFINITE, OVERFLOW):
+        raise MrneaError(
+            f"cycle {k} (t = {k * dt:.6g} s): the state became non-finite (q = {q.tolist()}, "
+            f"qd = {qd.tolist()}); check the program and the robot's limits")
+    raise SingularMassMatrixError(
+        f"cycle {k} (t = {k * dt:.6g} s): the mass matrix is singular (pivot of joint "
+        f"'{robot.joint_names[status]}') at q = {q.tolist()}")
+
