@@ -25,7 +25,6 @@ Errors. Bad arguments raise :class:`mrnea.errors.StateError` naming the argument
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Callable
 
 import numpy as np
@@ -33,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import StateError, quote
 from mrnea.resources import require_memory
-from mrnea.validate import time_step
+from mrnea.validate import real, time_step
 
 __all__ = ["cycles", "quintic", "trapezoidal"]
 
@@ -72,9 +71,7 @@ def _numbers(x: object, name: str, what: str = "a number or numeric array"
 
 
 def _t0(t0: object) -> float:
-    if isinstance(t0, (bool, np.bool_)) or not isinstance(t0, numbers.Real):
-        raise StateError(f"t0: not a number: {quote(t0)}")
-    value = float(t0)
+    value = real(t0, "t0")
     if not math.isfinite(value):
         raise StateError(f"t0: must be finite, got {value}")
     return value
