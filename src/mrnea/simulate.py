@@ -42,6 +42,7 @@ from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
+from mrnea.resources import require_memory
 from mrnea.summary import start_violations, summarize, verdict
 
 _PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor", "tau_required",
@@ -199,6 +200,8 @@ class SimulationResult:
 
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
+        if not isinstance(rows, slice):
+            raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
         cols: dict[str, NDArray] = {"t": self.t[rows]}
         for name in _PER_JOINT:
             a = getattr(self, name)[rows]
@@ -305,6 +308,7 @@ def simulate(
     Qc = validate.array(q_cmd, "q_cmd", n)
     if Qc.ndim != 2 or Qc.shape[0] < 2:
         raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")
+    _require_memory(Qc.shape[0], n)
     Qc = np.ascontiguousarray(Qc)
     K = Qc.shape[0]
     x0 = Qc[0] if q0 is None else validate.array(q0, "q0", n)
@@ -361,6 +365,16 @@ def simulate(
             if fh is not None:  # it may have landed inside a chunk's write: keep whole cycles
                 fh.truncate(kept)
     return res if done == K else res._first(done)
+
+
+def _require_memory(K: int, n: int) -> None:
+    """Refuse, before it allocates, a run of K cycles of n joints that would not fit the memory
+    budget (:mod:`mrnea.resources`): the result's arrays, the program's copies and the
+    temporaries of :meth:`SimulationResult.summary` and the report take about 250 bytes per
+    cycle and joint, and 100 per cycle (measured with tracemalloc: tests/test_resources.py)."""
+    require_memory(8.0 * K * (32 * n + 12), f"simulating {K:.3g} cycles of {n} joints",
+                   "use a coarser dt or a shorter program, or split the program and simulate "
+                   "the parts one after another", StateError)
 
 
 def _check_moves(robot: Robot, q0: NDArray) -> None:
