@@ -20,6 +20,7 @@ Files are written through :mod:`mrnea.io.writer`, so no temporary file is left b
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import signal
 import sys
@@ -29,9 +30,11 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import click
+import numpy as np
 
 from mrnea.errors import MrneaError
-from mrnea.io import load_robot_spec
+from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
+from mrnea.io.payload import parse_payload, parse_vector
 from mrnea.model import Robot
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
@@ -53,11 +56,6 @@ def compile_notice(delay: float = 2.0) -> Iterator[None]:
         yield
     finally:
         timer.cancel()
-
-
-def load_any(spec: str) -> Robot:
-    """A built-in robot by name, else a robot file (URDF or native TOML) by path."""
-    return load_robot_spec(spec)
 
 
 def fresh_dir(base: str) -> Path:
@@ -156,14 +154,109 @@ force_opt = click.option("--force", is_flag=True,
                               "target).")
 
 
-def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """ROBOT PROGRAM [--dt] [--mode] [--catch-up]: what a command simulating a program takes."""
+class _Payload(click.ParamType):
+    """``KG[@X,Y,Z]`` or a payload file (:func:`mrnea.io.payload.parse_payload`)."""
+
+    name = "payload"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        try:
+            return parse_payload(value, error=MrneaError)
+        except MrneaError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+class _Gravity(click.ParamType):
+    """``GX,GY,GZ`` [m/s^2]: three finite numbers."""
+
+    name = "gravity"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        try:
+            return tuple(parse_vector(value, 3, "gravity", MrneaError).tolist())
+        except MrneaError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """--actuators, --tip, --payload, --gravity: what changes the robot of a command that takes
+    one. The command receives them as one keyword, ``robot_options`` (a
+    :class:`~mrnea.io.RobotOptions`); they override a program file's keys of the same names."""
+    @functools.wraps(command)
+    def wrapper(*args: Any, actuators: str | None, tip: str | None, payload: Any,
+                gravity: Any, **kw: Any) -> Any:
+        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity), **kw)
+
     for option in reversed([
-        click.argument("robot"),
-        click.argument("program", type=click.Path(dir_okay=False)),
+        click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
+                     help="Sidecar actuator file (TOML: rotor inertia, gear, friction, "
+                          "torque-speed curves per joint; docs/robot-format.md)."),
+        click.option("--tip", metavar="LINK",
+                     help="The URDF chain's last link (when the moving joints branch)."),
+        click.option("--payload", type=_Payload(), metavar="KG[@X,Y,Z]|FILE",
+                     help="A payload fixed to the last link: a mass [kg] at a point [m] of the "
+                          "last link's frame, or a TOML file with mass, com and inertia."),
+        click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
+                     help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
+    ]):
+        wrapper = option(wrapper)
+    return wrapper
+
+
+def load_robot_arg(robot: str, options: RobotOptions) -> Robot:
+    """The robot a command's ROBOT argument names (a built-in, a robot file, or a program
+    file naming its robot), with ``options`` applied (over the program's)."""
+    if is_program_file(robot):
+        return load_program(robot).load_robot(options=options)
+    return load_robot_spec(robot, options=options)
+
+
+def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
+    """[ROBOT] PROGRAM [--dt] [--mode] [--catch-up] and the robot options: what a command
+    simulating a program takes (:func:`load_run` reads them)."""
+    for option in reversed([
+        click.argument("robot", required=False, metavar="[ROBOT]"),
+        click.argument("program", required=False, metavar="PROGRAM",
+                       type=click.Path(dir_okay=False)),
         click.option("--dt", type=float, default=None, help="Cycle time [s] (needed for a CSV)."),
         mode_opt,
         catch_opt,
+        robot_options,
     ]):
         command = option(command)
     return command
+
+
+def load_run(robot: str | None, program: str | None, dt: float | None, options: RobotOptions
+             ) -> tuple[Robot, np.ndarray, float, np.ndarray | None, np.ndarray | None,
+                        str | None]:
+    """(robot, q_cmd, dt, f_ext, f_ext_point, mode) from the arguments :func:`program_args`
+    declares: ``[ROBOT] PROGRAM``, a program file (which may name its robot) or a CSV path.
+
+    One argument is the program: it must name its robot. With both, ROBOT must be the robot
+    the program names, if it names one (:meth:`mrnea.io.Program.load_robot`).
+    """
+    if program is None:
+        robot, program = None, robot
+    if program is None:
+        raise click.UsageError("Missing argument 'PROGRAM'.")
+    suffix = Path(program).suffix.lower()
+    if suffix == ".csv":
+        if dt is None:
+            raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
+        if robot is None:
+            raise click.UsageError("a CSV program needs ROBOT (ROBOT PATH.csv --dt SECONDS)")
+        rob = load_robot_spec(robot, options=options)
+        _, q = from_csv(program, dt, n=rob.n)
+        return rob, q, dt, None, None, None
+    if suffix != ".toml":
+        raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml) nor a "
+                               f"path CSV (.csv)")
+    prog = load_program(program)
+    if dt is not None and not np.isclose(dt, prog.dt):
+        raise click.UsageError(
+            f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
+    rob = prog.load_robot(robot, options)
+    return rob, prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode
