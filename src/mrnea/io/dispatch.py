@@ -161,15 +161,17 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
     Raises
     ------
     RobotFileError
-        ``spec`` is neither a built-in robot nor a file, the file cannot be read (the message
-        names it) or is malformed, ``tip`` is given for a robot that is not a URDF file.
+        ``spec`` is neither a built-in robot nor a file (a name without a robot file's
+        suffix), the file cannot be read (the message names it) or is malformed, ``tip`` is
+        given for a robot that is not a URDF file.
     """
     opt = options or RobotOptions()
     source = resolve_robot(spec, base_dir)
-    if source not in BUILTIN_ROBOTS and not os.path.lexists(source):
+    suffix = Path(source).suffix.lower()
+    if source not in BUILTIN_ROBOTS and suffix not in SUFFIXES and not os.path.lexists(source):
         raise RobotFileError(f"{spec!r} is neither a built-in robot ({', '.join(BUILTIN_ROBOTS)})"
                              f" nor a file (looked for {source})")
-    if opt.tip is not None and Path(source).suffix.lower() not in (".urdf", ".xml"):
+    if opt.tip is not None and suffix not in (".urdf", ".xml"):
         raise RobotFileError(f"{source}: tip {opt.tip!r} chooses a URDF tree's chain; this robot "
                              f"is a chain already")
     robot = (load_builtin(source) if source in BUILTIN_ROBOTS else
