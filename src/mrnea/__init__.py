@@ -14,7 +14,9 @@ from mrnea import robots
 from mrnea.achievable import achievable_accelerations
 from mrnea.dynamics import (
     forward_dynamics,
+    forward_kinematics,
     inverse_dynamics,
+    jacobian,
     joint_reactions,
     mass_matrix_and_bias,
 )
@@ -23,6 +25,7 @@ from mrnea.errors import (
     ModelWarning,
     MrneaError,
     OutputError,
+    PathWarning,
     ProgramFileError,
     RobotFileError,
     SingularMassMatrixError,
@@ -41,6 +44,7 @@ __all__ = [
     "ModelWarning",
     "MrneaError",
     "OutputError",
+    "PathWarning",
     "ProgramFileError",
     "Robot",
     "RobotFileError",
@@ -49,7 +53,9 @@ __all__ = [
     "__version__",
     "achievable_accelerations",
     "forward_dynamics",
+    "forward_kinematics",
     "inverse_dynamics",
+    "jacobian",
     "joint_reactions",
     "load_program",
     "load_robot",

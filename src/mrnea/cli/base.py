@@ -27,13 +27,14 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NamedTuple, NoReturn
 
 import click
 import numpy as np
 
 from mrnea.errors import MrneaError
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
+from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.payload import parse_payload, parse_vector
 from mrnea.model import Robot
 
@@ -214,13 +215,16 @@ def load_robot_arg(robot: str, options: RobotOptions) -> Robot:
 
 
 def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """[ROBOT] PROGRAM [--dt] [--mode] [--catch-up] and the robot options: what a command
-    simulating a program takes (:func:`load_run` reads them)."""
+    """[ROBOT] PROGRAM [--dt] [--interpolation] [--mode] [--catch-up] and the robot options:
+    what a command simulating a program takes (:func:`load_run` reads them)."""
     for option in reversed([
         click.argument("robot", required=False, metavar="[ROBOT]"),
         click.argument("program", required=False, metavar="PROGRAM",
                        type=click.Path(dir_okay=False)),
         click.option("--dt", type=float, default=None, help="Cycle time [s] (needed for a CSV)."),
+        click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
+                     help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic]; "
+                          "a program file sets it in [path]."),
         mode_opt,
         catch_opt,
         robot_options,
@@ -229,14 +233,26 @@ def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
     return command
 
 
-def load_run(robot: str | None, program: str | None, dt: float | None, options: RobotOptions
-             ) -> tuple[Robot, np.ndarray, float, np.ndarray | None, np.ndarray | None,
-                        str | None]:
-    """(robot, q_cmd, dt, f_ext, f_ext_point, mode) from the arguments :func:`program_args`
-    declares: ``[ROBOT] PROGRAM``, a program file (which may name its robot) or a CSV path.
+class Run(NamedTuple):
+    """What :func:`load_run` reads: the robot and what to simulate on it."""
+
+    robot: Robot
+    q_cmd: np.ndarray  # (K, n) [rad | m]
+    dt: float  # [s]
+    f_ext: np.ndarray | None  # (K, 6) [N, N m] or None
+    f_ext_point: np.ndarray | None  # (3,) [m] or None
+    mode: str | None  # the program's mode, or None
+    interpolation: str | None  # of a CSV path's rows; None for waypoints
+
+
+def load_run(robot: str | None, program: str | None, dt: float | None,
+             interpolation: str | None, options: RobotOptions) -> Run:
+    """The :class:`Run` the arguments :func:`program_args` declares describe: ``[ROBOT]
+    PROGRAM``, a program file (which may name its robot) or a CSV path.
 
     One argument is the program: it must name its robot. With both, ROBOT must be the robot
-    the program names, if it names one (:meth:`mrnea.io.Program.load_robot`).
+    the program names, if it names one (:meth:`mrnea.io.Program.load_robot`, which also warns
+    where a resampled CSV path leaves a limit its rows respect).
     """
     if program is None:
         robot, program = None, robot
@@ -249,8 +265,9 @@ def load_run(robot: str | None, program: str | None, dt: float | None, options: 
         if robot is None:
             raise click.UsageError("a CSV program needs ROBOT (ROBOT PATH.csv --dt SECONDS)")
         rob = load_robot_spec(robot, options=options)
-        _, q = from_csv(program, dt, n=rob.n)
-        return rob, q, dt, None, None, None
+        interpolation = interpolation or "cubic"
+        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob)
+        return Run(rob, q, dt, None, None, None, interpolation)
     if suffix != ".toml":
         raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml) nor a "
                                f"path CSV (.csv)")
@@ -258,5 +275,9 @@ def load_run(robot: str | None, program: str | None, dt: float | None, options: 
     if dt is not None and not np.isclose(dt, prog.dt):
         raise click.UsageError(
             f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
-    rob = prog.load_robot(robot, options)
-    return rob, prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode
+    if interpolation is not None and interpolation != prog.interpolation:
+        raise click.UsageError(
+            f"--interpolation {interpolation} differs from the program's "
+            f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
+    return Run(prog.load_robot(robot, options), prog.q_cmd, prog.dt, prog.f_ext,
+               prog.f_ext_point, prog.mode, prog.interpolation)

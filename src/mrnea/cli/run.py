@@ -79,7 +79,8 @@ def _outputs(out: Path, extra: tuple[str, ...] = ()) -> list[Path]:
     return [out / f for f in (TABLE, SUMMARY, REPORT, *(f"{n}.png" for n in (*FIGURES, *extra)))]
 
 
-def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None) -> Path:
+def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None,
+                   interpolation: str | None = None) -> Path:
     from mrnea.report import plot_result, write_report
     from mrnea.report.drawing import save_figure
 
@@ -90,7 +91,8 @@ def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = Non
         checkpoint()
         save_figure(fig, out / f"{name}.png", force, dpi=110)
     checkpoint()
-    return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures)
+    return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures,
+                        interpolation=interpolation)
 
 
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
@@ -146,20 +148,21 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
 @force_opt
 @quiet_opt
 @json_opt
-def simulate(robot: str | None, program: str | None, dt: float | None, mode: str,
-             catch_up: float, robot_options: RobotOptions, fd: str, out: str | None,
-             force: bool, quiet: bool, as_json: bool) -> None:
+def simulate(robot: str | None, program: str | None, dt: float | None,
+             interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+             fd: str, out: str | None, force: bool, quiet: bool, as_json: bool) -> None:
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json.
 
     ROBOT may be left out when the program file names its robot; given, it must be that robot.
     The robot options override the program's keys of the same names.
     """
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode = load_run(robot, program, dt, robot_options)
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = load_run(robot, program, dt, interpolation,
+                                                              robot_options)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
                    force)
-        report = _write_outputs(res, folder, force)
+        report = _write_outputs(res, folder, force, interpolation=interp)
     _print_result(res, report, as_json, quiet)
     if not res.completed:
         exit_interrupted()
@@ -169,13 +172,15 @@ def simulate(robot: str | None, program: str | None, dt: float | None, mode: str
 @program_args
 @quiet_opt
 @json_opt
-def check(robot: str | None, program: str | None, dt: float | None, mode: str, catch_up: float,
-          robot_options: RobotOptions, quiet: bool, as_json: bool) -> None:
+def check(robot: str | None, program: str | None, dt: float | None,
+          interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+          quiet: bool, as_json: bool) -> None:
     """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input, 130: interrupted.
 
     ROBOT may be left out when the program file names its robot (as for simulate).
     """
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode = load_run(robot, program, dt, robot_options)
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = load_run(robot, program, dt, interpolation,
+                                                         robot_options)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
     if not res.completed:

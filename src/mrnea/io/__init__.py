@@ -9,8 +9,13 @@ program from a robot ``.toml``), :func:`from_csv` (a path CSV resampled to dt) a
 :func:`parse_payload`. :class:`RobotOptions` (actuators, tip, payload, gravity) change a robot
 as :func:`load_robot_spec` loads it. Every TOML reader checks its document with
 :mod:`mrnea.io.tomlcheck`.
+
+The robot writers, :func:`write_urdf` and :func:`write_native`, are also
+:meth:`mrnea.Robot.to_urdf` and :meth:`mrnea.Robot.to_toml`: importing this package registers
+them in :data:`mrnea.model.WRITERS` (the model imports no io; docs/design.md).
 """
 
+from mrnea import model
 from mrnea.io.dispatch import (
     BUILTIN_ROBOTS,
     RobotOptions,
@@ -19,12 +24,14 @@ from mrnea.io.dispatch import (
     load_robot_spec,
     resolve_robot,
 )
-from mrnea.io.native import load_native, loads_native
+from mrnea.io.native import dumps_native, load_native, loads_native, write_native
 from mrnea.io.pathcsv import from_csv
 from mrnea.io.payload import Payload, parse_payload
 from mrnea.io.program import Program, is_program_file, load_program, loads_program
 from mrnea.io.sidecar import apply_actuator_file
-from mrnea.io.urdf import load_urdf
+from mrnea.io.urdf import load_urdf, write_urdf
+
+model.WRITERS.update(urdf=write_urdf, toml=write_native)
 
 __all__ = [
     "BUILTIN_ROBOTS",
@@ -32,6 +39,7 @@ __all__ = [
     "Program",
     "RobotOptions",
     "apply_actuator_file",
+    "dumps_native",
     "from_csv",
     "is_program_file",
     "load_builtin",
@@ -44,4 +52,6 @@ __all__ = [
     "loads_program",
     "parse_payload",
     "resolve_robot",
+    "write_native",
+    "write_urdf",
 ]
