@@ -22,6 +22,8 @@ import numpy as np
 import pytest
 from conftest import erd_path
 
+from mrnea.io import parse_payload
+
 pin = pytest.importorskip("pinocchio")
 pandas = pytest.importorskip("pandas")
 
@@ -234,10 +236,16 @@ def test_examples_ur5_program_and_sidecar(tmp_path: Path) -> None:
     assert " N m" in res.stdout and "final position error" in res.stdout and " rad" in res.stdout
 
 
-def test_docs_sidecar_example_is_the_example_file() -> None:
+def test_docs_sidecar_and_payload_examples(tmp_path: Path) -> None:
+    """robot-format.md's sidecar example is examples/ur5_drives.toml; its payload file reads."""
     doc = (ROOT / "docs" / "robot-format.md").read_text()
     block = doc.split("## Sidecar actuator files", 1)[1].split("```toml\n", 1)[1].split("```")[0]
     assert tomllib.loads(block) == tomllib.loads((EXAMPLES / "ur5_drives.toml").read_text())
+    block = doc.split("## Payloads, tips and gravity", 1)[1].split("```toml\n", 1)[1]
+    (tmp_path / "payload.toml").write_text(block.split("```")[0].replace("\n  ", "\n"))
+    payload = parse_payload(str(tmp_path / "payload.toml"))
+    assert payload.mass == 2.5 and payload.com.tolist() == [0.0, 0.0, 0.08]
+    assert np.diag(payload.inertia).tolist() == [0.004, 0.004, 0.002]
 
 
 def test_readme_library_example_prints_what_it_says(tmp_path: Path) -> None:
