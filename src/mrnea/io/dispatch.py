@@ -15,10 +15,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from mrnea.errors import ModelError, ModelWarning, RobotFileError
+from mrnea.errors import ModelError, ModelWarning, RobotFileError, quote
 from mrnea.io import native, urdf
 from mrnea.io.payload import Payload
 from mrnea.io.sidecar import apply_actuator_file
+from mrnea.io.source import as_path
 from mrnea.model import Robot
 
 __all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "RobotOptions", "load_builtin", "load_robot",
@@ -52,20 +53,30 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
     RobotFileError
         Unsupported suffix (the message lists the supported ones), or any error of the reader.
     """
-    path = Path(path)
+    path = as_path(path, "path", RobotFileError)
+    if os.path.isdir(path):
+        raise RobotFileError(f"{path}: cannot read robot file: it is a directory, not a regular "
+                             "file")
     suffix = path.suffix.lower()
     if suffix == ".xacro":
         raise RobotFileError(
             f"{path}: a xacro file (ROS's XML macros), not a URDF: expand it first, e.g. "
             f"'xacro {path.name} > {path.name.removesuffix(path.suffix)}"
             f"{'' if path.stem.lower().endswith('.urdf') else '.urdf'}'")
+    allowed = {".urdf": ("tip", "actuators"), ".xml": ("tip", "actuators"),
+               ".toml": ("actuators",)}.get(suffix, ())
+    for key in kw:
+        if key not in allowed:
+            raise RobotFileError(f"{key}: not an option of the {SUFFIXES.get(suffix, '')} reader "
+                                 f"(options: {', '.join(allowed) or 'none'})")
     if suffix in (".urdf", ".xml"):
         return urdf.load_urdf(path, **kw)
     if suffix == ".toml":
         return native.load_native(path, **kw)
     supported = ", ".join(f"{s} ({fmt})" for s, fmt in SUFFIXES.items())
     raise RobotFileError(
-        f"{path}: unsupported robot file suffix {path.suffix or '(none)'!r}; supported: {supported}"
+        f"{path}: unsupported robot file suffix {quote(path.suffix or '(none)')}; supported: "
+        f"{supported}"
     )
 
 
@@ -77,9 +88,12 @@ def load_builtin(name: str) -> Robot:
     RobotFileError
         If ``name`` is not a built-in robot.
     """
+    if not isinstance(name, str):
+        raise RobotFileError(f"name: expected a built-in robot's name (str), got "
+                             f"{type(name).__name__}")
     if name not in BUILTIN_ROBOTS:
         raise RobotFileError(
-            f"unknown built-in robot {name!r}; available: {', '.join(BUILTIN_ROBOTS)}")
+            f"unknown built-in robot {quote(name)}; available: {', '.join(BUILTIN_ROBOTS)}")
     resource = resources.files("mrnea").joinpath("robots", "data", f"{name}.toml")
     # Built-ins are curated, not the user's input: no ModelWarning. (The published Puma 560's
     # link 1 is a lumped inertia about its axis only, Izz = 0.35 with no mass, and its link 3's
@@ -105,11 +119,15 @@ def resolve_robot(spec: str, base_dir: str | Path | None = None) -> str:
         The built-in name, or the file's path (whether the file exists is not checked here: the
         reader says so, naming the file).
     """
+    if not isinstance(spec, str):
+        raise RobotFileError(f"spec: expected a built-in robot's name or a robot file's path "
+                             f"(str), got {type(spec).__name__} {quote(spec)}")
+    base = None if base_dir is None else as_path(base_dir, "base_dir", RobotFileError)
     if spec in BUILTIN_ROBOTS:
         return spec
-    p = Path(spec).expanduser()
-    if base_dir is not None and not p.is_absolute():
-        p = Path(base_dir) / p
+    p = as_path(spec, "spec", RobotFileError).expanduser()
+    if base is not None and not p.is_absolute():
+        p = base / p
     return str(p)
 
 
@@ -165,15 +183,18 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
         suffix), the file cannot be read (the message names it) or is malformed, ``tip`` is
         given for a robot that is not a URDF file.
     """
-    opt = options or RobotOptions()
+    opt = RobotOptions() if options is None else options
+    if not isinstance(opt, RobotOptions):
+        raise RobotFileError(f"options: expected a RobotOptions or None, got "
+                             f"{type(opt).__name__} {quote(opt)}")
     source = resolve_robot(spec, base_dir)
     suffix = Path(source).suffix.lower()
     if source not in BUILTIN_ROBOTS and suffix not in SUFFIXES and not os.path.lexists(source):
-        raise RobotFileError(f"{spec!r} is neither a built-in robot ({', '.join(BUILTIN_ROBOTS)})"
-                             f" nor a file (looked for {source})")
+        raise RobotFileError(f"{quote(spec)} is neither a built-in robot "
+                             f"({', '.join(BUILTIN_ROBOTS)}) nor a file (looked for {source})")
     if opt.tip is not None and suffix not in (".urdf", ".xml"):
-        raise RobotFileError(f"{source}: tip {opt.tip!r} chooses a URDF tree's chain; this robot "
-                             f"is a chain already")
+        raise RobotFileError(f"{source}: tip {quote(opt.tip)} chooses a URDF tree's chain; "
+                             f"this robot is a chain already")
     robot = (load_builtin(source) if source in BUILTIN_ROBOTS else
              load_robot(source, **({} if opt.tip is None else {"tip": opt.tip})))
     if opt.actuators is not None:

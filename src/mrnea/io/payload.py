@@ -26,9 +26,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import ModelError, MrneaError, RobotFileError
+from mrnea.errors import ModelError, MrneaError, RobotFileError, quote
 from mrnea.io.native import _inertia
-from mrnea.io.tomlcheck import TomlCheck, read_text
+from mrnea.io.source import parse_number, read_text
+from mrnea.io.tomlcheck import TomlCheck
 from mrnea.model import Link
 
 __all__ = ["Payload", "parse_payload", "parse_vector"]
@@ -47,15 +48,15 @@ class Payload(NamedTuple):
 
 
 def parse_vector(text: str, length: int, what: str, error: type[MrneaError]) -> NDArray:
-    """``"x,y,z"`` as ``length`` finite numbers; ``error`` names ``what`` otherwise."""
-    parts = text.split(",")
+    """``"x,y,z"`` as ``length`` finite numbers (:func:`~mrnea.io.source.parse_number`'s
+    grammar, spaces around the commas allowed); ``error`` names ``what`` otherwise."""
     try:
-        v = np.array([float(x) for x in parts])
+        v = np.array([parse_number(x.strip()) for x in text.split(",")])
     except ValueError:
         v = np.array([])
-    if v.size != length or not np.all(np.isfinite(v)):
+    if v.size != length:
         raise error(f"{what}: expected {length} finite numbers separated by commas, got "
-                    f"{text!r}")
+                    f"{quote(text)}")
     return v
 
 
@@ -71,22 +72,25 @@ def parse_payload(spec: str, base_dir: str | Path | None = None,
     error : the error raised for a malformed ``KG[@X,Y,Z]`` (the file's errors are
         :class:`~mrnea.errors.RobotFileError`, naming the file and key).
     """
+    if not isinstance(spec, str):
+        raise error(f"payload: expected KG[@X,Y,Z] or a payload file's path (str), got "
+                    f"{type(spec).__name__} {quote(spec)}")
     m = _POINT_MASS.fullmatch(spec)
     try:
-        mass = float(m.group(1)) if m else math.nan
+        mass = parse_number(m.group(1)) if m else math.nan
     except ValueError:
         mass = math.nan
     if m and (math.isfinite(mass) or m.group(2) is not None):
         if not (math.isfinite(mass) and mass >= 0):
-            raise error(f"payload {spec!r}: the mass must be a number >= 0 [kg]")
+            raise error(f"payload {quote(spec)}: the mass must be a number >= 0 [kg]")
         com = (np.zeros(3) if m.group(2) is None else
-               parse_vector(m.group(2), 3, f"payload {spec!r}: the point after '@'", error))
+               parse_vector(m.group(2), 3, f"payload {quote(spec)}: the point after '@'", error))
         return Payload(mass, com, np.zeros((3, 3)))
     path = Path(spec).expanduser()
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
     if path.suffix.lower() != ".toml" and not path.is_file():
-        raise error(f"payload {spec!r}: neither a mass with an optional point, KG[@X,Y,Z] "
+        raise error(f"payload {quote(spec)}: neither a mass with an optional point, KG[@X,Y,Z] "
                     f"(e.g. 2.5@0,0,0.1), nor a payload file (looked for {path})")
     return _read(path)
 

@@ -10,6 +10,7 @@ CSV path by :mod:`mrnea.io.pathcsv`; the robot is a built-in name or a robot fil
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import MrneaError, ProgramFileError, StateError
+from mrnea.errors import MrneaError, ProgramFileError, StateError, quote, shorten
 from mrnea.io.dispatch import (
     BUILTIN_ROBOTS,
     RobotOptions,
@@ -29,7 +30,8 @@ from mrnea.io.dispatch import (
 )
 from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
 from mrnea.io.payload import parse_payload
-from mrnea.io.tomlcheck import TomlCheck, did_you_mean, read_text
+from mrnea.io.source import as_path, read_text
+from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
 
@@ -128,8 +130,8 @@ class Program:
             source = resolve_robot(robot)
             if self.robot is not None and not same_robot(source, self.robot):
                 raise ProgramFileError(
-                    f"robot {robot!r} is not the robot {where} names ({self.robot}); give "
-                    f"either the program alone or its own robot")
+                    f"robot {quote(robot)} is not the robot {where} names ({quote(self.robot)});"
+                    f" give either the program alone or its own robot")
         elif self.robot is None:
             raise ProgramFileError(f"{where}: the program names no robot ([program] robot); "
                                    f"give one (ROBOT PROGRAM on the command line)")
@@ -139,7 +141,8 @@ class Program:
         if loaded.n != self.n:
             what = (f"its CSV path {self.csv} has {self.n} joint columns" if self.csv else
                     f"{self.n} joint values per waypoint")
-            raise ProgramFileError(f"{where}: {what}, robot {loaded.name} has {loaded.n}")
+            raise ProgramFileError(f"{where}: {what}, robot {shorten(loaded.name)} has "
+                                   f"{loaded.n}")
         self.check_path(loaded)
         return loaded
 
@@ -163,10 +166,10 @@ _WRENCH_KEYS = ("times", "values", "point")
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
     source = resolve_robot(value, base_dir)
-    if source not in BUILTIN_ROBOTS and not Path(source).is_file():
-        raise check.error("[program]", f"robot {value!r} is neither a built-in robot "
+    if source not in BUILTIN_ROBOTS and not os.path.isfile(source):
+        raise check.error("[program]", f"robot {quote(value)} is neither a built-in robot "
                                        f"({', '.join(BUILTIN_ROBOTS)}) nor an existing robot "
-                                       f"file (looked for {source})")
+                                       f"file (looked for {quote(source)})")
     return source
 
 
@@ -210,12 +213,12 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
     units = table.get("units", "rad")
     if units not in UNITS:
         raise check.error(where, f"'units' must be one of {', '.join(map(repr, UNITS))}, got "
-                                 f"{units!r}")
+                                 f"{quote(units)}")
     scale = math.pi / 180.0 if units == "deg" else 1.0
     if "csv" in table:
         for key in table:
             if key not in _CSV_KEYS:
-                raise check.error(where, f"key '{key}' cannot be used with 'csv' (a CSV path "
+                raise check.error(where, f"key {quote(key)} cannot be used with 'csv' (a CSV path "
                                          "gives its own positions and times; allowed with csv: "
                                          f"{', '.join(_CSV_KEYS)})")
         p = Path(check.string(table["csv"], where, "csv")).expanduser()
@@ -228,8 +231,11 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                                      f"{interpolation!r}")
         _, data = read_table(p, None)
         data[:, 1:] *= scale
-        return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)), interpolation,
-                data)
+        try:
+            return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)),
+                    interpolation, data)
+        except StateError as exc:  # too many cycles for dt
+            raise check.error(where, f"{quote(str(p))}: {exc}") from None
     if "interpolation" in table:
         raise check.error(where, "'interpolation' applies to a 'csv' path only (waypoints are "
                                  "joined by the profile)")
@@ -238,7 +244,8 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                                  "'waypoints' (with velocity_limit and acceleration_limit)")
     profile = check.string(check.require(table, "profile", where), where, "profile")
     if profile not in PROFILES:
-        raise check.error(where, f"unknown profile {profile!r}{did_you_mean(profile, [*PROFILES])}"
+        raise check.error(where, f"unknown profile {quote(profile)}"
+                                 f"{did_you_mean(profile, [*PROFILES])}"
                                  f"; expected one of {', '.join(map(repr, PROFILES))}")
     w = check.matrix(check.require(table, "waypoints", where), where, "waypoints") * scale
     n = w.shape[1]
@@ -308,7 +315,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         wrong types and values; the message names ``source`` and the table and key at fault.
     """
     check = TomlCheck(source, ProgramFileError)
-    base = Path.cwd() if base_dir is None else Path(base_dir)
+    base = Path.cwd() if base_dir is None else as_path(base_dir, "base_dir", ProgramFileError)
     doc = check.parse(text)
     if "program" not in doc and ("joint" in doc or "robot" in doc):
         raise check.error("", "a robot file (it has no [program] table), not a program")
@@ -326,7 +333,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     mode = prog.get("mode")
     if mode is not None and mode not in MODES:
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
-                                       f"got {mode!r}")
+                                       f"got {quote(mode)}")
     path = check.table(check.require(doc, "path", "top level"), "top level", "path")
     t, q, interpolation, rows = _path(check, path, dt, base)
     if q.shape[0] < 2:
@@ -365,7 +372,7 @@ def load_program(path: str | Path) -> Program:
         Missing or unreadable file, TOML syntax error (line and column), unknown key (with a
         did-you-mean suggestion), missing key, bad value; or an error in the path CSV it names.
     """
-    p = Path(path)
+    p = as_path(path, "path", ProgramFileError)
     return loads_program(read_text(p, "program file", ProgramFileError), source=str(p),
                          base_dir=p.parent)
 
@@ -374,10 +381,9 @@ def is_program_file(path: str | Path) -> bool:
     """Whether ``path`` is a program file: a ``.toml`` file with a ``[program]`` table (a
     ``.toml`` file without one is a robot file). An unreadable or malformed file is neither:
     its reader says what is wrong."""
-    p = Path(path)
-    if p.suffix.lower() != ".toml" or not p.is_file():
+    if not isinstance(path, (str, os.PathLike)) or Path(path).suffix.lower() != ".toml":
         return False
-    try:
-        return "program" in tomllib.loads(p.read_text(encoding="utf-8-sig"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+    try:  # read as every reader reads (a regular file of bounded size, never a FIFO)
+        return "program" in tomllib.loads(read_text(path, "program file", ProgramFileError))
+    except (MrneaError, tomllib.TOMLDecodeError):
         return False
