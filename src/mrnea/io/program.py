@@ -130,8 +130,8 @@ class Program:
             source = resolve_robot(robot)
             if self.robot is not None and not same_robot(source, self.robot):
                 raise ProgramFileError(
-                    f"robot {quote(robot)} is not the robot {where} names ({quote(self.robot)});"
-                    f" give either the program alone or its own robot")
+                    f"robot {quote(robot)} is not the robot {where} names ({self.robot}); "
+                    f"give either the program alone or its own robot")
         elif self.robot is None:
             raise ProgramFileError(f"{where}: the program names no robot ([program] robot); "
                                    f"give one (ROBOT PROGRAM on the command line)")
