@@ -395,9 +395,11 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     """
     if program is None:
         robot, program = None, robot
-    if program is None:
+    suffix = "" if program is None else Path(program).suffix.lower()
+    if program is None or (robot is None and suffix not in (".csv", ".toml")) or (
+            robot is None and suffix == ".toml" and os.path.isfile(program)
+            and not is_program_file(program)):  # a robot alone
         raise click.UsageError("Missing argument 'PROGRAM'.")
-    suffix = Path(program).suffix.lower()
     if suffix == ".csv":
         if dt is None:
             raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")

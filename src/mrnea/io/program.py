@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -383,7 +382,8 @@ def is_program_file(path: str | Path) -> bool:
     its reader says what is wrong."""
     if not isinstance(path, (str, os.PathLike)) or Path(path).suffix.lower() != ".toml":
         return False
-    try:  # read as every reader reads (a regular file of bounded size, never a FIFO)
-        return "program" in tomllib.loads(read_text(path, "program file", ProgramFileError))
-    except (MrneaError, tomllib.TOMLDecodeError):
+    try:  # read and parsed as every reader does (a regular file of bounded size, bounded depth)
+        check = TomlCheck(str(path), ProgramFileError)
+        return "program" in check.parse(read_text(path, "program file", ProgramFileError))
+    except MrneaError:
         return False
