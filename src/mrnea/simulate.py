@@ -266,6 +266,8 @@ class SimulationResult:
         [<unit>]`` (SI units of that joint, :data:`mrnea.model.JOINT_UNITS`; the flags
         ``saturated``, ``position_clamped``, ``velocity_clamped`` are booleans, without a unit),
         then ``reaction_<fx..nz>_<joint> [N | N m]``."""
+        if not isinstance(rows, slice):
+            raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
         cols: dict[str, NDArray] = {"t [s]": self.t[rows]}
         for name, quantity in _PER_JOINT.items():
             a = getattr(self, name)[rows]
