@@ -45,9 +45,17 @@ from mrnea.model import Robot
 from mrnea.resources import require_memory
 from mrnea.summary import start_violations, summarize, verdict
 
-_PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor", "tau_required",
-              "limit", "margin", "saturated", "position_clamped", "velocity_clamped",
-              "tracking_error", "coulomb", "stuck", "program_effort", "program_limit")
+# The per-joint columns of the per-cycle table and the quantity of model.JOINT_UNITS giving each
+# one's unit (None: a boolean). tau_motor = tau / G with G dimensionless: the effort's unit.
+_PER_JOINT = {"q_cmd": "q", "qd_cmd": "qd", "qdd_des": "qdd", "q": "q", "qd": "qd", "qdd": "qdd",
+              "tau": "tau", "tau_motor": "tau", "tau_required": "tau", "limit": "tau",
+              "margin": "tau", "saturated": None, "position_clamped": None,
+              "velocity_clamped": None, "tracking_error": "q", "coulomb": "tau", "stuck": None,
+              "program_effort": "tau", "program_limit": "tau"}
+#: A tracking error at most this many times max(1, max |q_cmd|) of its joint [rad | m] is 0:
+#: rounding, not lag (q's float resolution is 2.2e-16 |q|; this leaves room for the rounding of
+#: many cycles and is far below any drive's resolution).
+TRACKING_RESOLUTION = 1e-12
 FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
 CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
 
@@ -106,7 +114,8 @@ class SimulationResult:
     position_clamped, velocity_clamped : (K, n) bool, the command exceeded a joint limit.
     reaction : (K, n, 6) each joint's reaction wrench [f; n] in its joint frame
         (:func:`mrnea.joint_reactions`).
-    tracking_error : q_cmd - q.
+    tracking_error : q_cmd - q, 0 where it is rounding: at most :data:`TRACKING_RESOLUTION`
+        times ``max(1, max |q_cmd|)`` of its joint.
     completed : False if the run was interrupted; the arrays then hold the cycles done (K of
         them) and the run is never reported achievable (see :attr:`achievable`).
     """
@@ -185,7 +194,9 @@ class SimulationResult:
         and stuck [s], peak and RMS motor torque [N m], peak effort [N m | N] against
         ``effort_limit``, peak reaction force [N] and moment [N m] (magnitudes; axial and
         radial split of the force along the joint axis, bending moment), worst tracking error
-        and when.
+        and when, and the position error q_cmd - q at the last cycle
+        (``final_position_error``; tracking errors [rad | m] are 0 below the resolution
+        :attr:`tracking_error` states).
         """
         if not self._summary:
             object.__setattr__(self, "_summary", summarize(self))
@@ -198,22 +209,40 @@ class SimulationResult:
         (:func:`mrnea.summary.verdict`)."""
         return verdict(self)
 
+    def final_position_line(self) -> str | None:
+        """None when the run completed and the robot ended where the program ends; else one
+        line stating each joint's final position error q_cmd - q [rad | m] (0: within the
+        resolution of :attr:`tracking_error`)."""
+        if not self.completed or not self.tracking_error[-1].any():
+            return None
+        errors = ", ".join(f"{j.name} {e:.4g} {j.unit('q')}"
+                           for j, e in zip(self.robot.joints, self.tracking_error[-1].tolist(),
+                                           strict=True))
+        return f"The robot did not reach the program's end: final position error {errors}."
+
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
-        """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
+        """The per-cycle table as named 1-D columns: ``t [s]``, then ``<quantity>_<joint>
+        [<unit>]`` (SI units of that joint, :data:`mrnea.model.JOINT_UNITS`; the flags
+        ``saturated``, ``position_clamped``, ``velocity_clamped`` are booleans, without a unit),
+        then ``reaction_<fx..nz>_<joint> [N | N m]``."""
         if not isinstance(rows, slice):
             raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
-        cols: dict[str, NDArray] = {"t": self.t[rows]}
-        for name in _PER_JOINT:
+        cols: dict[str, NDArray] = {"t [s]": self.t[rows]}
+        for name, quantity in _PER_JOINT.items():
             a = getattr(self, name)[rows]
-            for i, j in enumerate(self.robot.joint_names):
-                cols[f"{name}_{j}"] = a[:, i].astype(float) if a.dtype == bool else a[:, i]
+            for i, j in enumerate(self.robot.joints):
+                unit = "" if quantity is None else f" [{j.unit(quantity)}]"
+                cols[f"{name}_{j.name}{unit}"] = a[:, i]
         for i, j in enumerate(self.robot.joint_names):
             for c, label in enumerate(("fx", "fy", "fz", "nx", "ny", "nz")):
-                cols[f"reaction_{label}_{j}"] = self.reaction[rows, i, c]
+                unit = "N" if c < 3 else "N m"
+                cols[f"reaction_{label}_{j} [{unit}]"] = self.reaction[rows, i, c]
         return cols
 
     def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
-        """Write the per-cycle table (one row per cycle, header row; pandas reads it).
+        """Write the per-cycle table (:meth:`columns`: one header row of names with units, one
+        row per cycle, flags as ``True``/``False``): ``pandas.read_csv(path)`` reads it, the
+        flags as booleans.
 
         Written through :func:`mrnea.io.writer.create`: whole or not at all, never through a
         symbolic link; an existing file (or link) is replaced only with ``overwrite``, else
@@ -234,11 +263,13 @@ class SimulationResult:
         writer.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
         return buf.getvalue().encode()
 
-    def _derive(self, rows: slice, clamp: NDArray) -> None:
-        """Fill the derived per-cycle arrays of the rows the kernel has just computed."""
+    def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
+        """Fill the derived per-cycle arrays of the rows the kernel has just computed
+        (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
         self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
-        self.tracking_error[rows] = self.q_cmd[rows] - self.q[rows]
+        err = self.q_cmd[rows] - self.q[rows]
+        self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)
         self.position_clamped[rows] = (clamp[rows] & CLAMP_POSITION) != 0
         self.velocity_clamped[rows] = (clamp[rows] & CLAMP_VELOCITY) != 0
 
@@ -336,6 +367,7 @@ def simulate(
     clamp = zeros(np.int64)
     status_k = np.empty(K, dtype=np.int64)  # the program requirement's, per cycle
     res.q[0], res.qd[0] = x0, v0
+    resolution = TRACKING_RESOLUTION * np.maximum(1.0, np.abs(Qc).max(axis=0))
     program = (Qc, Vc, FE, PE)
     run = (res.q, res.qd, res.qdd_des, res.qdd, res.tau, res.coulomb, res.tau_required,
            res.limit, res.saturated, res.stuck, clamp, res.reaction)
@@ -354,7 +386,7 @@ def simulate(
                 for k in np.flatnonzero(status_k[done:k1] != OK) + done:
                     validate.check_cycle(robot, int(k), int(status_k[k]), Qc[k], Vc[k], dt)
                 rows = slice(done, k1)
-                res._derive(rows, clamp)
+                res._derive(rows, clamp, resolution)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
                     fh.write(res._csv(rows, header=done == 0))  # keeps the cycles done
                     fh.flush()

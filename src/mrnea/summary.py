@@ -145,6 +145,7 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             "peak_bending_moment": float(loads.bending_moment[:, i].max()),
             "max_tracking_error": float(err[ke, i]),
             "max_tracking_error_time": float(r.t[ke]),
+            "final_position_error": float(r.tracking_error[-1, i]),
         })
     worst = _worst(joints)
     return {**head, "first_infeasible": _first_infeasible(r),
@@ -231,9 +232,12 @@ def _shortfall(r: SimulationResult, s: dict[str, Any], worst: dict[str, Any] | N
         lo, hi = fi["position_limits"]
         what = (f"position commanded {_g(fi['commanded_position'])} "
                 f"{POSITION_UNIT[prismatic]}, range [{_g(lo) if lo is not None else '-inf'}, "
-                f"{_g(hi) if hi is not None else 'inf'}]")
+                f"{_g(hi) if hi is not None else 'inf'}] {POSITION_UNIT[prismatic]}")
     else:
         what = (f"velocity commanded {_g(fi['commanded_velocity'])} "
-                f"{POSITION_UNIT[prismatic]}/s, limit {_g(fi['velocity_limit'])}")
+                f"{POSITION_UNIT[prismatic]}/s, limit {_g(fi['velocity_limit'])} "
+                f"{POSITION_UNIT[prismatic]}/s")
+    worst_err = max(s["joints"], key=lambda jd: jd["max_tracking_error"])
     return (f"first at t = {fi['time']:.3f} s, joint '{fi['joint']}' ({fi['reason']}): {what}; "
-            f"worst tracking error {_g(s['max_tracking_error'])}.")
+            f"worst tracking error {_g(worst_err['max_tracking_error'])} "
+            f"{POSITION_UNIT[units[worst_err['joint']]]} ('{worst_err['joint']}').")
