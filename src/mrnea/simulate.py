@@ -24,7 +24,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,6 +39,9 @@ from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.simulate import simulate_cycles
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 _PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor", "tau_required",
               "limit", "margin", "saturated", "position_clamped", "velocity_clamped",
@@ -286,6 +289,22 @@ class SimulationResult:
             json.dump(self.summary(), fh, indent=2)
             fh.write("\n")
         return Path(path)
+
+    def plot(self, path: str | os.PathLike | None = None,
+             overwrite: bool = False) -> dict[str, Figure]:
+        """The report's figures of this run, optionally saved as PNG files in the folder
+        ``path``: :func:`mrnea.report.plot_result` (see there)."""
+        from mrnea.report.figures import plot_result  # matplotlib: loaded when first asked for
+
+        return plot_result(self, path, overwrite)
+
+    def report(self, path: str | os.PathLike, overwrite: bool = False,
+               view3d: bool = True) -> Path:
+        """Write the HTML report of this run, with the interactive 3D view of the motion unless
+        ``view3d`` is False: :func:`mrnea.report.write_report` (see there)."""
+        from mrnea.report.html import write_report  # matplotlib: loaded when first asked for
+
+        return write_report(self, path, overwrite, view3d=view3d)
 
 
 def simulate(

@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError
 from mrnea.model import JOINT_TYPES, Joint, Link
+from mrnea.visual import Visual
 
 CONVENTIONS = ("standard", "modified")
 
@@ -75,6 +76,7 @@ class DHRow:
     com : (3,) centre of mass [m] in the DH link frame (frame i of the chosen convention).
     inertia : (3, 3) inertia [kg m^2] about the centre of mass, axes of the DH link frame.
     name, link_name : joint and link names (default ``joint<i>``, ``link<i>``, 1-based).
+    visuals : the link's :class:`mrnea.visual.Visual` in the DH link frame, like ``com``.
     joint : the joint's limit and actuator fields (:data:`JOINT_FIELDS`), passed on to
         :class:`mrnea.model.Joint` as keywords (joint side; limits in rad or m).
     """
@@ -89,6 +91,7 @@ class DHRow:
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
     name: str | None = None
     link_name: str | None = None
+    visuals: tuple[Visual, ...] = ()
     joint: Mapping[str, Any] = field(default_factory=dict)
 
 
@@ -246,14 +249,15 @@ def dh_joint_chain(
             to_link = np.eye(4)
         # Inertials: validate in the DH frame first (error messages name the link), then move.
         try:
-            lk = Link(lname, mass=r.mass, com=r.com, inertia=r.inertia)
+            lk = Link(lname, mass=r.mass, com=r.com, inertia=r.inertia, visuals=r.visuals)
         except ModelError as exc:
             raise ModelError(f"{label}: {exc}") from None
         R = to_link[:3, :3]
         com = R @ lk.com + to_link[:3, 3]
         inertia = R @ lk.inertia @ R.T
         inertia = 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
-        links.append(Link(lname, mass=lk.mass, com=com, inertia=inertia))
+        links.append(Link(lname, mass=lk.mass, com=com, inertia=inertia,
+                          visuals=tuple(v.moved(to_link) for v in lk.visuals)))
         joints.append(Joint(jname, r.type, parent, lname, origin=origin, axis=(0.0, 0.0, 1.0),
                             **r.joint))
         parent = lname

@@ -22,6 +22,10 @@ The full description, with a complete example, is in ``docs/robot-format.md``. I
     mass = 2.0                      # kg
     com = [0.2, 0.0, 0.0]           # m, link frame
     inertia = { ixx = 0.01, iyy = 0.03, izz = 0.03 }   # kg m^2 about the com (or a 3x3 list)
+    visual = [                      # what it looks like (optional; the report's 3D view)
+        { box = [0.5, 0.08, 0.08], xyz = [0.25, 0.0, 0.0], color = [0.36, 0.5, 0.65] },
+        { cylinder = [0.06, 0.12], rpy = [1.5707963267948966, 0.0, 0.0] },
+    ]
 
 Every problem is reported as :class:`mrnea.errors.RobotFileError` (a :class:`ModelError`) whose
 message names the file and the joint or link at fault: TOML syntax errors (with line and column),
@@ -30,6 +34,7 @@ unknown keys (typos), missing required keys, wrong types and shapes, unphysical 
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -38,19 +43,22 @@ import numpy as np
 
 from mrnea.errors import ModelError, RobotFileError
 from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
+from mrnea.io.mesh import find_mesh
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.tomlcheck import TomlCheck, read_text
 from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot, transform
+from mrnea.visual import VISUAL_KINDS, Visual
 
 __all__ = ["load_native", "loads_native"]
 
 _TOP_KEYS = ("robot", "joint")
-_ROBOT_KEYS = ("name", "gravity", "dh", "base")
+_ROBOT_KEYS = ("name", "gravity", "dh", "base", "base_visual")
 _COMMON_JOINT_KEYS = ("name", "type", "link", *JOINT_FIELDS)
 _ORIGIN_JOINT_KEYS = ("origin", "axis")
 _DH_JOINT_KEYS = ("a", "alpha", "d", "theta")
 _ORIGIN_KEYS = ("xyz", "rpy")
-_LINK_KEYS = ("name", "mass", "com", "inertia")
+_LINK_KEYS = ("name", "mass", "com", "inertia", "visual")
+_VISUAL_KEYS = (*VISUAL_KINDS, "xyz", "rpy", "scale", "color")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 
 
@@ -72,7 +80,54 @@ def _inertia(check: TomlCheck, value: Any, where: str) -> np.ndarray:
                              f"{{ixx, iyy, izz, ixy, ixz, iyz}}, got {value!r}")
 
 
-def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) -> dict[str, Any]:
+def _visuals(check: TomlCheck, value: Any, where: str, left_out: list[str]) -> tuple[Visual, ...]:
+    """A ``visual`` array of tables (docs/robot-format.md) as Visuals in the link's frame; a
+    mesh file that is not found is appended to ``left_out`` instead."""
+    if not isinstance(value, list):
+        raise check.error(where, "'visual' must be an array of tables: write visual = [{ ... }] "
+                                 "or [[...visual]]")
+    out = []
+    for k, entry in enumerate(value, start=1):
+        what = f"{where}: visual #{k}"
+        check.table(entry, where, f"visual #{k}")
+        check.check_keys(entry, _VISUAL_KEYS, what)
+        kinds = [kind for kind in VISUAL_KINDS if kind in entry]
+        if len(kinds) != 1:
+            raise check.error(what, f"give exactly one of {', '.join(VISUAL_KINDS)}, got "
+                                    f"{', '.join(kinds) or 'none'}")
+        kind, mesh = kinds[0], None
+        if "scale" in entry and kind != "mesh":
+            raise check.error(what, "'scale' goes with a mesh only")
+        if kind == "mesh":
+            filename = check.string(entry["mesh"], what, "mesh")
+            found = find_mesh(filename, Path(check.source))
+            if found is None:
+                left_out.append(f"{what}: mesh {filename!r} not found")
+                continue
+            mesh = str(found)
+            size = check.vector(entry.get("scale", [1.0, 1.0, 1.0]), what, "scale", 3)
+        elif kind == "sphere":
+            size = [check.number(entry[kind], what, kind)]
+        else:
+            size = check.vector(entry[kind], what, kind, VISUAL_KINDS[kind])
+        color = None
+        if "color" in entry:
+            color = list(check.vector(entry["color"], what, "color"))
+            if len(color) not in (3, 4):
+                raise check.error(what, f"'color' must be [r, g, b] or [r, g, b, a] in [0, 1], "
+                                        f"got {entry['color']!r}")
+            color += [1.0] * (4 - len(color))
+        xyz = check.vector(entry.get("xyz", [0.0, 0.0, 0.0]), what, "xyz", 3)
+        rpy = check.vector(entry.get("rpy", [0.0, 0.0, 0.0]), what, "rpy", 3)
+        try:
+            out.append(Visual(kind, tuple(size), transform(xyz, rpy), color, mesh))
+        except ModelError as exc:
+            raise check.error(what, str(exc)) from None
+    return tuple(out)
+
+
+def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int,
+          left_out: list[str]) -> dict[str, Any]:
     where = f"joint '{jname}'"
     table = check.table(check.require(joint, "link", where), where, "link")
     lname = table.get("name", f"link{index}")
@@ -83,11 +138,12 @@ def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) ->
     com = check.vector(table.get("com", [0.0, 0.0, 0.0]), lwhere, "com", 3)
     inertia = (_inertia(check, table["inertia"], lwhere) if "inertia" in table
                else np.zeros((3, 3)))
-    return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia}
+    visuals = _visuals(check, table.get("visual", []), lwhere, left_out)
+    return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia, "visuals": visuals}
 
 
-def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: str
-                  ) -> tuple[list[Joint], list[Link]]:
+def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: str,
+                  left_out: list[str]) -> tuple[list[Joint], list[Link]]:
     allowed = _COMMON_JOINT_KEYS + (_DH_JOINT_KEYS if dh else _ORIGIN_JOINT_KEYS)
     hint_other = (" ('origin'/'axis' are not used when [robot] dh is set)" if dh else
                   " (DH parameters need dh = \"standard\" or \"modified\" in [robot])")
@@ -110,7 +166,7 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         if jtype not in JOINT_TYPES:
             raise check.error(where, f"unsupported joint type '{jtype}' "
                                      f"(supported: {', '.join(JOINT_TYPES)})")
-        link = _link(check, entry, jname, i)
+        link = _link(check, entry, jname, i, left_out)
         fields = joint_fields(check, entry, where)
         if dh:
             params = {k: check.number(check.require(entry, k, where), where, k)
@@ -177,9 +233,16 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
         raise check.error("", "no [[joint]] tables: a robot needs at least one joint")
     if not isinstance(entries, list):
         raise check.error("", "'joint' must be an array of tables: write [[joint]], not [joint]")
-    joints, links = _parse_joints(check, entries, dh, base)
+    left_out: list[str] = []
+    base_visuals = _visuals(check, robot.get("base_visual", []), "[robot] base", left_out)
+    joints, links = _parse_joints(check, entries, dh, base, left_out)
+    if left_out:
+        warnings.warn(f"{source}: {len(left_out)} visual(s) left out of the 3D view (the dynamics "
+                      f"are unchanged): " + "; ".join(left_out[:5])
+                      + ("; ..." if len(left_out) > 5 else ""), UserWarning, stacklevel=2)
     try:
-        return Robot(joints, links, gravity=gravity, name=name, base=base)
+        return Robot(joints, links, gravity=gravity, name=name, base=base,
+                     base_visuals=base_visuals)
     except ModelError as exc:
         raise check.error("", str(exc)) from None
 

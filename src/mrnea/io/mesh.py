@@ -1,0 +1,93 @@
+"""Mesh files of visuals: where a robot file's mesh is (:func:`find_mesh`), and its triangles
+(:func:`read_mesh`, through trimesh: STL, OBJ, DAE with pycollada, PLY, ...).
+
+A robot is loaded without reading its meshes: a :class:`mrnea.visual.Visual` holds the path,
+and the report's 3D view reads the file when it draws the robot. trimesh is optional
+(``pip install "mrnea[mesh]"``); without it a view draws simple shapes instead.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mrnea.errors import RobotFileError
+
+__all__ = ["MAX_MESH_FILE", "find_mesh", "read_mesh"]
+
+#: Largest mesh file read [bytes] (a detailed CAD export is a few MB).
+MAX_MESH_FILE = 64 * 2**20
+
+
+def find_mesh(filename: str, referrer: Path) -> Path | None:
+    """The mesh file ``filename`` names in the robot file ``referrer``, or None where there is
+    none (or it is a URL: mrnea fetches nothing).
+
+    ``package://PKG/path`` is looked for in the referrer's folder and every folder above it
+    (``PKG`` itself, or a folder holding ``PKG``), then in the folders of ``$ROS_PACKAGE_PATH``;
+    ``file://path`` and plain paths are taken relative to the referrer's folder.
+    """
+    here = referrer.resolve().parent
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://"):].partition("/")
+        folders = [here, *here.parents]
+        folders += [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)
+                    if p]
+        for folder in folders:
+            candidates = [folder / package / rest]
+            if folder.name == package:
+                candidates.insert(0, folder / rest)
+            for c in candidates:
+                if c.is_file():
+                    return c.resolve()
+        return None
+    if filename.startswith("file://"):
+        filename = filename[len("file://"):]
+    elif "://" in filename:
+        return None
+    path = here / Path(filename).expanduser()  # an absolute path stays as it is
+    return path.resolve() if path.is_file() else None
+
+
+def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The triangles of a mesh file: vertices (V, 3) [file units] and faces (F, 3) (vertex
+    indices), all parts of the file merged.
+
+    Raises
+    ------
+    RobotFileError
+        trimesh is not installed, the file is not a regular file of at most
+        :data:`MAX_MESH_FILE` bytes, or trimesh cannot read it or finds no triangle; the
+        message names the file.
+    """
+    p = Path(path)
+    try:
+        import trimesh
+    except ImportError:
+        raise RobotFileError(f"{p}: reading mesh files needs trimesh "
+                             "(pip install \"mrnea[mesh]\")") from None
+    try:
+        info = p.stat()
+        if not stat.S_ISREG(info.st_mode):
+            raise RobotFileError(f"{p}: not a regular file")
+        if info.st_size > MAX_MESH_FILE:
+            raise RobotFileError(f"{p}: {info.st_size:,} bytes, more than the "
+                                 f"{MAX_MESH_FILE:,} a mesh file may have")
+        data = p.read_bytes()
+    except OSError as exc:
+        raise RobotFileError(f"{p}: cannot read the mesh file: {exc.strerror or exc}") from None
+    try:  # from memory: a file that names other files (textures) cannot make trimesh read them
+        mesh = trimesh.load(io.BytesIO(data), file_type=p.suffix.lstrip(".").lower(),
+                            force="mesh", process=False)
+        V = np.asarray(mesh.vertices, dtype=np.float64)
+        F = np.asarray(mesh.faces, dtype=np.int64)
+    except Exception as exc:  # trimesh and its loaders raise many kinds
+        raise RobotFileError(f"{p}: trimesh cannot read the mesh: {exc}") from None
+    if F.ndim != 2 or F.shape[0] == 0 or F.shape[1] != 3 or not np.all(np.isfinite(V)):
+        raise RobotFileError(f"{p}: no triangles with finite vertices in the mesh")
+    return V, F
