@@ -26,9 +26,10 @@ Mapping to mrnea's frames (``T_i = T_{i-1} @ origin_i @ motion(q_i)``, axis z):
   ``F_i = L_i B_i`` with ``B_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``. Hence
   ``origin_1 = I`` (DH frame 0 is the base frame), ``origin_{i+1} = B_i``, and link i's inertials,
   given in DH frame i, are re-expressed in L_i: ``com_L = B_i com_F`` (a point) and
-  ``I_L = R_B I_F R_B^T``. The last fixed transform ``B_n`` (mrnea's last link frame -> DH frame n,
-  the DH "flange" frame) is not a joint of the chain: it is only used for link n's inertials and is
-  available from :func:`dh_tip_transform`, e.g. to place a tool or compare end-effector poses.
+  ``I_L = R_B I_F R_B^T``; its visuals too: ``origin_L = B_i origin_F``. The last fixed
+  transform ``B_n`` (mrnea's last link frame -> DH frame n, the DH "flange" frame) is not a
+  joint of the chain: it is only used for link n's inertials and visuals and is available from
+  :func:`dh_tip_transform`, e.g. to place a tool or compare end-effector poses.
 """
 
 from __future__ import annotations

@@ -151,12 +151,12 @@ def license_html() -> str:
 def figure_axes(fig: Figure) -> str:
     """``data-xaxes`` of a report figure: per time axes ``[x0, x1, y0, y1, xmin, xmax]``.
 
-    The axes' box in figure fractions (y up) and its x limits [s], read from the drawn figure;
-    valid for the PNG as the report saves it (at the figure's own size, no ``bbox_inches``).
-    Axes whose x label, or that of an axes sharing its x axis, does not start with "time"
-    (a secondary y axis, a histogram) are left out.
+    The axes' box in figure fractions (y up) and its x limits [s]; valid for the PNG as the
+    report saves it (at the figure's own size, no ``bbox_inches``). Read it after the figure is
+    saved: a layout engine (constrained, tight) places the axes when the figure is drawn (the
+    report's figures have a fixed layout). Axes whose x label, or that of an axes sharing its x
+    axis, does not start with "time" (a secondary y axis, a histogram) are left out.
     """
-    fig.canvas.draw()
     out = []
     for ax in fig.axes:
         if not any(a.get_xlabel().startswith("time")
