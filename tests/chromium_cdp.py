@@ -1,7 +1,7 @@
 """Headless Chromium driven through the DevTools protocol, for tests of the HTML report.
 
-Prototype of a test helper (``tests/chromium_cdp.py``). Needs the Debian ``chromium`` package and
-the ``websocket-client`` package; no Playwright, no chromedriver, no browser download.
+Needs a Chromium (the Debian ``chromium`` package; ``$MRNEA_CHROMIUM`` names another) and the
+``websocket-client`` package; no Playwright, no chromedriver, no browser download.
 
     with Browser() as b:                  # ChromiumUnavailable if there is no browser to start
         page = b.open("file:///tmp/report.html")
@@ -76,7 +76,7 @@ class Browser:
     """One headless Chromium process and one WebSocket to it (flattened target sessions)."""
 
     def __init__(self, executable: str | None = None, width: int = 1280, height: int = 900,
-                 timeout: float = 30.0) -> None:
+                 timeout: float = 30.0, extra_flags: tuple[str, ...] = ()) -> None:
         try:
             import websocket  # websocket-client
         except ImportError:
@@ -84,6 +84,7 @@ class Browser:
         self._websocket = websocket
         self.executable = executable or find_chromium()
         self.width, self.height, self.timeout = width, height, timeout
+        self.extra_flags = extra_flags
         self._profile = tempfile.mkdtemp(prefix="mrnea-chromium-")
         self._proc: subprocess.Popen | None = None
         self._ws: Any = None
@@ -100,7 +101,7 @@ class Browser:
     # --- process -------------------------------------------------------------------------------
     def _start(self) -> None:
         t_start = time.perf_counter()
-        cmd = [self.executable, *FLAGS, f"--user-data-dir={self._profile}",
+        cmd = [self.executable, *FLAGS, *self.extra_flags, f"--user-data-dir={self._profile}",
                f"--window-size={self.width},{self.height}", "about:blank"]
         try:
             self._proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL,

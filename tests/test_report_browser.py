@@ -177,6 +177,51 @@ def test_play_advances_the_clock(page) -> None:
     assert 0.0 < page.evaluate("mrneaView3d.time()") < T_END
 
 
+def test_orbit_zoom_and_reset_view(page) -> None:
+    page.evaluate("document.querySelector('.mv3d').scrollIntoView()")
+    before = shot(page, 0.5)
+    box = page.evaluate("(() => { const r = document.querySelector('.mv3d canvas')"
+                        ".getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; })()")
+    cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
+    page.mouse("mouseMoved", cx, cy)
+    page.mouse("mousePressed", cx, cy, button="left", clickCount=1)
+    for k in range(1, 11):
+        page.mouse("mouseMoved", cx + 15 * k, cy + 3 * k, button="left", buttons=1)
+    page.mouse("mouseReleased", cx + 150, cy + 30, button="left", clickCount=1)
+    page.next_frames(2)
+    orbited = shot(page)
+    assert changed(before, orbited) > 0.01  # the camera turned
+    page.mouse("mouseWheel", cx, cy, deltaX=0, deltaY=-600)
+    page.next_frames(2)
+    assert changed(orbited, shot(page)) > 0.01  # and moved closer
+    page.evaluate("document.querySelector('.mv3d-home').click()")
+    page.next_frames(2)
+    assert changed(before, shot(page)) < 0.001  # "reset view": the first camera again
+
+
+def test_no_webgl_says_so_and_raises_nothing(tmp_path) -> None:
+    """Without WebGL (GPU and software rasteriser off) the view says so in one line and hides
+    its controls; the rest of the page is there and nothing is logged as an error."""
+    path = tmp_path / "page.html"
+    path.write_text(closed_form_page(), encoding="utf-8")
+    try:
+        b = Browser(width=900, height=900,
+                    extra_flags=("--disable-gpu", "--disable-software-rasterizer"))
+    except ChromiumUnavailable as exc:
+        pytest.skip(f"no Chromium for the browser tests: {exc}")
+    with b:
+        page = b.open(path.as_uri())
+        if page.evaluate("!!document.createElement('canvas').getContext('webgl2')"):
+            pytest.skip("this Chromium gives WebGL 2 even with the GPU and rasteriser off")
+        assert page.evaluate("mrneaView3d.ready") is None
+        assert page.evaluate("getComputedStyle(document.querySelector('.mv3d-nogl-msg'))"
+                             ".display") == "block"
+        assert page.evaluate("getComputedStyle(document.querySelector('.mv3d-controls'))"
+                             ".display") == "none"
+        assert page.evaluate("document.querySelector('#f img').complete")
+        assert page.errors == [] and page.outside_requests == []
+
+
 def test_no_error_and_no_request_outside_the_file(page) -> None:
     assert page.errors == []
     assert page.outside_requests == []

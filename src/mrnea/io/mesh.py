@@ -32,6 +32,13 @@ def find_mesh(filename: str, referrer: Path) -> Path | None:
     (``PKG`` itself, or a folder holding ``PKG``), then in the folders of ``$ROS_PACKAGE_PATH``;
     ``file://path`` and plain paths are taken relative to the referrer's folder.
     """
+    try:
+        return _find(filename, referrer)
+    except (OSError, ValueError):  # a name the file system refuses (too long, a NUL byte...)
+        return None
+
+
+def _find(filename: str, referrer: Path) -> Path | None:
     here = referrer.resolve().parent
     if filename.startswith("package://"):
         package, _, rest = filename[len("package://"):].partition("/")

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError
+from mrnea.errors import MrneaError, StateError
 from mrnea.io.mesh import read_mesh
 from mrnea.model import Robot
 from mrnea.visual import VISUAL_KINDS
@@ -45,9 +45,9 @@ class Shape:
 
     def __post_init__(self) -> None:
         if self.kind not in VISUAL_KINDS or len(self.size) != VISUAL_KINDS[self.kind]:
-            raise ValueError(f"shape {self.kind!r} with sizes {self.size!r}: see Visual")
+            raise StateError(f"shape {self.kind!r} with sizes {self.size!r}: see Visual")
         if (self.kind == "mesh") != (self.vertices is not None and self.faces is not None):
-            raise ValueError("vertices and faces go with a mesh, and a mesh needs both")
+            raise StateError("vertices and faces go with a mesh, and a mesh needs both")
 
     def bounding_sphere(self) -> tuple[NDArray[np.float64], float]:
         """Centre (3,) in the body frame and radius [m] of a sphere holding the shape."""

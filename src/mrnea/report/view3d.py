@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled
+from mrnea.errors import StateError
 from mrnea.kernels.common import kinematics
 from mrnea.kernels.layout import POSE, entry_scratch, pose_buffers
 from mrnea.model import Robot
@@ -242,7 +243,7 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
     if (t.shape != (F,) or F == 0 or Tr.shape != (F, n, 4, 4) or sat.shape != (F, n)
             or (Tc is not None and Tc.shape != Tr.shape) or len(shapes) != n + 1
             or len(joint_names) != n):
-        raise ValueError(f"scene_data: expected t (F,), frames (F, n, 4, 4), saturated (F, n), "
+        raise StateError(f"scene_data: expected t (F,), frames (F, n, 4, 4), saturated (F, n), "
                          f"n + 1 shape lists and n joint names; got t {t.shape}, frames_real "
                          f"{Tr.shape}, frames_cmd {None if Tc is None else Tc.shape}, saturated "
                          f"{sat.shape}, {len(shapes)} shape lists, {len(joint_names)} names")
