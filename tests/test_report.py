@@ -326,3 +326,17 @@ def test_report_interrupted_and_clamped(sdt: Robot, achievable: SimulationResult
     doc, p = parse(write_report(res, tmp_path / "clamped.html"))
     text = " ".join(p.text)
     assert "NOT ACHIEVABLE" in text and "position limit" in text and "joint range" in text
+
+
+def test_result_report_and_plot_methods(achievable: SimulationResult, tmp_path: Path,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """SimulationResult.report and .plot are write_report and plot_result (figures stubbed)."""
+    monkeypatch.setattr(report_html, "plot_result", lambda r: {})
+    doc, p = parse(achievable.report(tmp_path / "a.html"))
+    assert 'class="mv3d"' in doc and len(p.tags["script"]) == 3  # data, three.js, viewer
+    assert "three.js r187" in doc and "MIT License" in doc  # the licence notice it asks for
+    doc, p = parse(achievable.report(tmp_path / "a.html", overwrite=True, view3d=False))
+    assert "script" not in p.tags and 'class="mv3d"' not in doc
+    with pytest.raises(OutputError, match="exists"):
+        achievable.report(tmp_path / "a.html")
+    assert set(achievable.plot()) == FIGURES
