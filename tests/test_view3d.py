@@ -1,7 +1,8 @@
 """The report's 3D view, Python side (mrnea.report.view3d, view3d_html, shapes), against
 independent references: closed forms (quaternions of axis-angle rotations, capsule ends, axes
-rectangles), brute force (pooled flags), the page's own decoding written out in NumPy, and
-Pinocchio (the link frames). The browser side is tests/test_report_browser.py.
+rectangles, a two-link arm's frames), brute force (pooled flags) and the page's own decoding
+written out in NumPy. The frames come from mrnea.forward_kinematics, checked against Pinocchio in
+its own tests. The browser side is tests/test_report_browser.py.
 """
 
 from __future__ import annotations
@@ -14,11 +15,9 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import random_chain, to_pinocchio
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-import mrnea
 from mrnea.model import Joint, Link, Robot, transform
 from mrnea.report import shapes as shp
 from mrnea.report import view3d, view3d_html
@@ -185,25 +184,6 @@ def test_decimate_keeps_the_budget_and_the_surface(faces: int, quadric: bool,
     a, b, c = V2[F2[:, 0]], V2[F2[:, 1]], V2[F2[:, 2]]
     volume = abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6
     assert 0.7 < volume / (4 / 3 * np.pi) <= (1 + tol) ** 3
-
-
-def test_link_frames_match_pinocchio() -> None:
-    """The report's frames (the kinematics kernel, row by row) are Pinocchio's oMi."""
-    import pinocchio as pin
-
-    rng = np.random.default_rng(3)
-    for robot in (mrnea.robots.puma560(), mrnea.robots.sdt(), random_chain(rng, 5)):
-        model = to_pinocchio(robot)
-        data = model.createData()
-        Q = rng.uniform(-3, 3, (7, robot.n))
-        T = view3d.link_frames(robot, Q)
-        assert T.shape == (7, robot.n + 1, 4, 4)
-        for k in range(7):
-            pin.forwardKinematics(model, data, Q[k])
-            np.testing.assert_array_equal(T[k, 0], np.eye(4))
-            for i in range(robot.n):
-                np.testing.assert_allclose(T[k, i + 1], data.oMi[i + 1].homogeneous,
-                                           rtol=0, atol=1e-12)
 
 
 def two_link() -> Robot:

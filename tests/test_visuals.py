@@ -20,7 +20,6 @@ from mrnea.io import load_urdf
 from mrnea.io.mesh import find_mesh, read_mesh
 from mrnea.io.native import loads_native
 from mrnea.model import Joint, Link, Robot, transform
-from mrnea.report.view3d import link_frames
 from mrnea.visual import Visual
 
 
@@ -277,10 +276,22 @@ def test_puma_visuals_sit_in_the_dh_frames() -> None:
     ref = rtb.models.DH.Puma560()
     rng = np.random.default_rng(5)
     for q in rng.uniform(-2, 2, (5, 6)):
-        ours = link_frames(puma, q[None])[0]
+        ours = mrnea.forward_kinematics(puma, q)
         theirs = ref.fkine_all(q)  # DH frames 0..6 (base and each link)
         for i, entry in enumerate(doc["joint"]):
             for v, table in zip(puma.links[i].visuals, entry["link"]["visual"], strict=True):
                 local = transform(table.get("xyz", (0, 0, 0)), table.get("rpy", (0, 0, 0)))
                 np.testing.assert_allclose(ours[i + 1] @ v.origin, theirs[i + 1].A @ local,
                                            atol=1e-12)
+
+
+def test_visuals_round_trip_through_the_native_writer(vis_urdf: Path, tmp_path: Path) -> None:
+    """to_toml writes every visual (a mesh by its absolute path, an origin as rpy or as the
+    rotation matrix where rpy would not read back bit for bit); the file reads back equal."""
+    with pytest.warns(UserWarning):
+        robot = load_urdf(vis_urdf)
+    assert any(v.kind == "mesh" for v in robot.links[0].visuals) and robot.base_visuals
+    back = mrnea.load_robot(robot.to_toml(tmp_path / "r.toml"))
+    assert back == robot
+    assert back.links[0].visuals == robot.links[0].visuals
+    assert back.base_visuals == robot.base_visuals

@@ -30,11 +30,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea import compiled
+from mrnea.dynamics import forward_kinematics
 from mrnea.errors import StateError
-from mrnea.kernels.common import kinematics
-from mrnea.kernels.layout import POSE, entry_scratch, pose_buffers
-from mrnea.model import Robot
 from mrnea.report.shapes import Shape, robot_shapes, tip_point
 
 if TYPE_CHECKING:
@@ -46,28 +43,6 @@ MAX_FRAME_BYTES = 600_000
 """At most about this many bytes of link poses (before compression) are embedded."""
 POSE_BYTES = 14
 """Bytes per link and frame: origin and quaternion, seven int16."""
-
-
-def link_frames(robot: Robot, q: ArrayLike) -> NDArray[np.float64]:
-    """(B, n + 1, 4, 4) frames of the base (the identity) and of every link in base coordinates
-    (``T_i``, URDF conventions) for the states q (B, n) [rad | m].
-
-    The kinematics pass of the kernels (:func:`mrnea.kernels.common.kinematics`), state by state:
-    the one place the report computes frames, until ``mrnea.forward_kinematics`` (issue 13)
-    replaces it.
-    """
-    Q = np.ascontiguousarray(q, dtype=np.float64)
-    n = robot.n
-    model = compiled.of(robot)[0]
-    R, o, z, c, Ic = getattr(pose_buffers, "py_func", pose_buffers)(entry_scratch(n, POSE), n)
-    out = np.zeros((Q.shape[0], n + 1, 4, 4))
-    out[..., 3, 3] = 1.0
-    out[:, 0, :3, :3] = np.eye(3)
-    for k in range(Q.shape[0]):
-        kinematics(model, Q[k], R, o, z, c, Ic)
-        out[k, 1:, :3, :3] = R
-        out[k, 1:, :3, 3] = o
-    return out
 
 
 def frame_indices(t: ArrayLike, n_links: int, max_fps: float = MAX_FPS,
@@ -271,12 +246,13 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
 
 def result_scene(result: SimulationResult) -> dict[str, Any]:
     """:func:`scene_data` of a simulation run (at least one cycle): frames at
-    :func:`frame_indices` from :func:`link_frames` of ``q`` (real) and ``q_cmd`` (the ghost),
-    the pooled saturation flags, the robot's shapes and the slider on the cycle clock."""
+    :func:`frame_indices` from :func:`mrnea.forward_kinematics` of ``q`` (real) and ``q_cmd``
+    (the ghost), the pooled saturation flags, the robot's shapes and the slider on the cycle
+    clock."""
     robot = result.robot
     idx = frame_indices(result.t, robot.n)
-    real = link_frames(robot, result.q[idx])[:, 1:]
-    cmd = link_frames(robot, result.q_cmd[idx])[:, 1:]
+    real = forward_kinematics(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
+    cmd = forward_kinematics(robot, result.q_cmd[idx])[:, 1:]
     t = result.t
     return scene_data(t[idx], real, cmd, robot_shapes(robot), pool_flags(result.saturated, idx),
                       robot.joint_names, (float(t[0]), float(t[-1]), float(result.dt)),
