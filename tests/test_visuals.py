@@ -170,6 +170,12 @@ def test_find_mesh(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert find_mesh("http://example.com/x.stl", urdf) is None
     with pytest.raises(RobotFileError, match="not a regular file"):
         read_mesh(tmp_path / "a")
+    pytest.importorskip("trimesh")
+    bomb = tmp_path / "bomb.dae"  # COLLADA is XML: a DTD's entities are refused, as in a URDF
+    bomb.write_text('<?xml version="1.0"?><!DOCTYPE c [<!ENTITY a "aaaa">]><COLLADA>&a;'
+                    "</COLLADA>")
+    with pytest.raises(RobotFileError, match=r"bomb\.dae: mesh file refused: it has a DOCTYPE"):
+        read_mesh(bomb)
 
 
 def test_real_urdfs_have_their_meshes() -> None:

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import io
 import os
-import stat
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import RobotFileError
+from mrnea.io.source import read_bytes, refused_prolog
 
 __all__ = ["MAX_MESH_FILE", "find_mesh", "read_mesh"]
 
@@ -69,8 +69,9 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArra
     ------
     RobotFileError
         trimesh is not installed, the file is not a regular file of at most
-        :data:`MAX_MESH_FILE` bytes, or trimesh cannot read it or finds no triangle; the
-        message names the file.
+        :data:`MAX_MESH_FILE` bytes (:func:`mrnea.io.source.read_bytes`), a COLLADA file has a
+        DTD (:func:`mrnea.io.source.refused_prolog`), or trimesh cannot read it or finds no
+        triangle; the message names the file.
     """
     p = Path(path)
     try:
@@ -78,16 +79,10 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArra
     except ImportError:
         raise RobotFileError(f"{p}: reading mesh files needs trimesh "
                              "(pip install \"mrnea[mesh]\")") from None
-    try:
-        info = p.stat()
-        if not stat.S_ISREG(info.st_mode):
-            raise RobotFileError(f"{p}: not a regular file")
-        if info.st_size > MAX_MESH_FILE:
-            raise RobotFileError(f"{p}: {info.st_size:,} bytes, more than the "
-                                 f"{MAX_MESH_FILE:,} a mesh file may have")
-        data = p.read_bytes()
-    except OSError as exc:
-        raise RobotFileError(f"{p}: cannot read the mesh file: {exc.strerror or exc}") from None
+    data = read_bytes(p, "mesh file", RobotFileError, MAX_MESH_FILE)
+    refused = refused_prolog(data) if p.suffix.lower() == ".dae" else None  # XML: no DTD
+    if refused is not None:
+        raise RobotFileError(f"{p}: mesh file refused: {refused}")
     try:  # from memory: a file that names other files (textures) cannot make trimesh read them
         mesh = trimesh.load(io.BytesIO(data), file_type=p.suffix.lstrip(".").lower(),
                             force="mesh", process=False)

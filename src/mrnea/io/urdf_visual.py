@@ -21,7 +21,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from typing import TYPE_CHECKING
 
-from mrnea.errors import ModelError
+from mrnea.errors import ModelError, quote, shorten
 from mrnea.io.mesh import find_mesh
 from mrnea.visual import Visual
 
@@ -40,7 +40,7 @@ def materials(rd: _Reader, root: ET.Element) -> dict[str, tuple[float, ...]]:
     for m in root.findall("material"):
         name, color = m.get("name"), m.find("color")
         if name and color is not None:
-            out[name] = tuple(rd.floats(color, "rgba", 4, f"material '{name}'"))
+            out[name] = tuple(rd.floats(color, "rgba", 4, f"material {quote(name)}"))
     return out
 
 
@@ -61,13 +61,13 @@ def visuals(rd: _Reader, link: ET.Element, name: str, named: dict[str, tuple[flo
     ``left_out`` (one line each) instead."""
     out = []
     for k, elem in enumerate(link.findall("visual")):
-        what = f"link '{name}' <visual> #{k + 1}"
+        what = f"link {quote(name)} <visual> #{k + 1}"
         origin = rd.origin(elem, what)
         geometry = elem.find("geometry")
         shape = None if geometry is None else next(iter(geometry), None)
         if shape is None or shape.tag not in (*_SHAPES, "mesh"):
             left_out.append(f"{what}: no geometry the viewer draws "
-                            f"({'none' if shape is None else f'<{shape.tag}>'})")
+                            f"({'none' if shape is None else f'<{shorten(shape.tag)}>'})")
             continue
         color = _color(rd, elem, named, what)
         mesh = None
@@ -76,7 +76,7 @@ def visuals(rd: _Reader, link: ET.Element, name: str, named: dict[str, tuple[flo
             size = tuple(rd.floats(shape, "scale", 3, what, (1.0, 1.0, 1.0)))
             found = find_mesh(filename, rd.path)
             if found is None:
-                left_out.append(f"{what}: mesh {filename!r} not found"
+                left_out.append(f"{what}: mesh {quote(filename)} not found"
                                 + (" (mrnea reads no URL)" if "://" in filename
                                    and not filename.startswith(("package:", "file:")) else ""))
                 continue
