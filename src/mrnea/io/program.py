@@ -102,10 +102,6 @@ class Program:
             If the robot file cannot be read.
         """
         robot = load_robot_spec(self.robot)
-        if robot.n != self.n:
-            raise ProgramFileError(
-                f"{self.source or self.name}: the program commands {self.n} joints but robot "
-                f"{quote(robot.name)} ({quote(self.robot)}) has {robot.n}")
         self.check_path(robot)
         return robot
 
@@ -113,7 +109,12 @@ class Program:
         """A :class:`mrnea.errors.PathWarning` for each joint whose resampled CSV path leaves
         ``robot``'s position limits although the CSV's rows stay within them
         (:func:`mrnea.io.pathcsv.limit_warnings`; :meth:`load_robot` calls it). Nothing for a
-        waypoint path."""
+        waypoint path. A ProgramFileError if ``robot`` has another number of joints than the
+        program commands."""
+        if robot.n != self.n:
+            raise ProgramFileError(
+                f"{self.source or self.name}: the program commands {self.n} joints but robot "
+                f"{quote(robot.name)} ({quote(self.robot)}) has {robot.n}")
         if self.csv_rows is not None:
             limit_warnings(robot, self.t, self.q_cmd, self.csv_rows, str(self.interpolation),
                            self.source or self.name)
