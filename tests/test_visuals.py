@@ -61,6 +61,9 @@ def test_visuals_are_part_of_a_robots_value() -> None:
     back = pickle.loads(pickle.dumps(r))
     assert back == r and back.links[0].visuals == (v,) and back.base_visuals == r.base_visuals
     assert r.with_actuators(effort_limit=3.0).links[0].visuals == (v,)
+    loaded = r.with_payload(2.0, (0.1, 0.0, 0.0))  # a payload merges into the last link's mass
+    assert loaded.links[0].mass == 3.0 and loaded.links[0].visuals == (v,)
+    assert loaded.base_visuals == r.base_visuals
     with pytest.raises(ModelError, match="visuals must be"):
         Link("a", 1.0, visuals=("box",))
     with pytest.raises(ModelError, match="base: visuals must be"):

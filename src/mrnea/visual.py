@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mrnea.errors import ModelError
+from mrnea.errors import ModelError, quote
 from mrnea.frozen import Frozen, frozen_array, rigid_transform
 
 #: The shapes and the number of sizes each takes (see :class:`Visual`).
@@ -76,3 +76,13 @@ class Visual(Frozen):
         """This visual with its frame expressed in another frame: ``origin -> T @ origin``, T
         (4, 4) the pose of this visual's link frame in the new one."""
         return dataclasses.replace(self, origin=np.asarray(T, dtype=float) @ self.origin)
+
+
+def visual_tuple(visuals: object, what: str) -> tuple[Visual, ...]:
+    """``visuals`` (a tuple or list of Visual) as a tuple; ``what`` names the owner in the
+    ModelError otherwise."""
+    out = tuple(visuals) if isinstance(visuals, (tuple, list)) else None
+    if out is None or not all(isinstance(v, Visual) for v in out):
+        raise ModelError(f"{what}: visuals must be a sequence of mrnea.visual.Visual, got "
+                         f"{quote(visuals)}")
+    return out
