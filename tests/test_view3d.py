@@ -228,7 +228,8 @@ def test_visuals_are_drawn_and_a_missing_mesh_falls_back(tmp_path) -> None:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         bodies = shp.robot_shapes(robot)
-    assert len(caught) == 1 and "gone.stl" in str(caught[0].message)
+    assert len(caught) == 1 and "1 mesh file(s) not drawn" in str(caught[0].message)
+    assert "gone.stl" in str(caught[0].message)
     assert [s.kind for s in bodies[0]] == ["box"] and bodies[0][0].color == 0xFF8000
     mesh = bodies[1][0]
     assert mesh.kind == "mesh" and mesh.joint == 0 and mesh.size == (2.0, 1.0, 1.0)

@@ -17,9 +17,10 @@ from conftest import erd_path
 import mrnea
 from mrnea import ModelError, RobotFileError
 from mrnea.io import load_urdf
-from mrnea.io.mesh import find_mesh, read_mesh
+from mrnea.io.mesh import mesh_path, read_mesh
 from mrnea.io.native import loads_native
 from mrnea.model import Joint, Link, Robot, transform
+from mrnea.report import shapes
 from mrnea.visual import Visual
 
 
@@ -118,17 +119,16 @@ def vis_urdf(tmp_path: Path) -> Path:
 
 
 def test_urdf_visuals_move_with_the_fixed_joints(vis_urdf: Path) -> None:
-    with pytest.warns(UserWarning, match="2 visual") as caught:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # missing mesh files are the 3D view's business
         robot = load_urdf(vis_urdf)
-    message = str(caught[0].message)
-    assert "missing.stl" in message and "reads no URL" in message
     # the base: the pedestal, behind the fixed joint fix0 (world is the root)
     (ped,) = robot.base_visuals
     assert ped.kind == "box" and ped.size == (0.3, 0.3, 0.5) and ped.color is None
     np.testing.assert_allclose(ped.origin, transform((1, 0, 0), (0, 0, 0.5))
                                @ transform((0, 0, 0.25)), atol=1e-15)
     # the moving link: its own visual, then the tool's, moved by the fixed joint 'flange'
-    cyl, sphere, mesh = robot.links[0].visuals
+    cyl, sphere, mesh, missing, url = robot.links[0].visuals
     assert cyl.kind == "cylinder" and cyl.size == (0.05, 0.4) and cyl.color == (1, 0.5, 0, 1)
     np.testing.assert_allclose(cyl.origin, transform((0.2, 0, 0), (0, math.pi / 2, 0)),
                                atol=1e-15)
@@ -141,6 +141,18 @@ def test_urdf_visuals_move_with_the_fixed_joints(vis_urdf: Path) -> None:
     V, F = read_mesh(mesh.mesh)
     np.testing.assert_allclose(np.ptp(V, axis=0), (10, 20, 30))
     assert F.shape == (12, 3)
+    # the files the view cannot read: where it would be, and the URL as written
+    assert Path(missing.mesh) == vis_urdf.parent / "meshes" / "missing.stl"
+    assert url.mesh == "https://example.com/part.stl"
+    with pytest.raises(RobotFileError, match="not found"):
+        read_mesh(missing.mesh)
+    with pytest.raises(RobotFileError, match="fetches nothing"):
+        read_mesh(url.mesh)
+    # the view draws what it can and says, once, what it could not
+    with pytest.warns(UserWarning, match=r"'vis': 2 mesh file\(s\) not drawn") as caught:
+        bodies = shapes.robot_shapes(robot)
+    assert len(caught) == 1
+    assert [s.kind for s in bodies[1]] == ["cylinder", "sphere", "mesh"]
 
 
 def test_urdf_visual_errors_name_the_element(vis_urdf: Path, tmp_path: Path) -> None:
@@ -153,24 +165,30 @@ def test_urdf_visual_errors_name_the_element(vis_urdf: Path, tmp_path: Path) -> 
         load_urdf(bad)
     # a shape the viewer cannot draw, or a size of 0, leaves that visual out: a warning
     bad.write_text(URDF.replace('<box size="0.3 0.3 0.5"/>', '<box size="0.3 0 0.5"/>'))
-    with pytest.warns(UserWarning, match="size must be > 0"):
+    with pytest.warns(UserWarning, match="1 visual.*size must be > 0"):
+        assert load_urdf(bad).base_visuals == ()
+    bad.write_text(URDF.replace('<box size="0.3 0.3 0.5"/>', '<cone radius="1"/>'))
+    with pytest.warns(UserWarning, match=r"no geometry the viewer draws \(<cone>\)"):
         assert load_urdf(bad).base_visuals == ()
 
 
-def test_find_mesh(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_mesh_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     (tmp_path / "a" / "pkg" / "m").mkdir(parents=True)
     (tmp_path / "ros" / "other" / "m").mkdir(parents=True)
     for f in ("a/pkg/m/x.stl", "ros/other/m/y.stl", "a/z.stl"):
         (tmp_path / f).write_text("solid x\nendsolid x\n")
     urdf = tmp_path / "a" / "pkg" / "robot.urdf"
-    assert find_mesh("package://pkg/m/x.stl", urdf) == tmp_path / "a" / "pkg" / "m" / "x.stl"
-    assert find_mesh("package://other/m/y.stl", urdf) is None
+    assert mesh_path("package://pkg/m/x.stl", urdf) == str(tmp_path / "a" / "pkg" / "m" / "x.stl")
+    assert mesh_path("package://other/m/y.stl", urdf) == "package://other/m/y.stl"
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ros"))
-    assert find_mesh("package://other/m/y.stl", urdf) == tmp_path / "ros" / "other" / "m" / "y.stl"
-    assert find_mesh("../z.stl", urdf) == tmp_path / "a" / "z.stl"
-    assert find_mesh(f"file://{tmp_path}/a/z.stl", urdf) == tmp_path / "a" / "z.stl"
-    assert find_mesh("m/x.stl", urdf) == tmp_path / "a" / "pkg" / "m" / "x.stl"
-    assert find_mesh("http://example.com/x.stl", urdf) is None
+    assert mesh_path("package://other/m/y.stl", urdf) == str(tmp_path / "ros" / "other" / "m"
+                                                            / "y.stl")
+    assert mesh_path("../z.stl", urdf) == str(tmp_path / "a" / "z.stl")
+    assert mesh_path(f"file://{tmp_path}/a/z.stl", urdf) == str(tmp_path / "a" / "z.stl")
+    assert mesh_path("m/x.stl", urdf) == str(tmp_path / "a" / "pkg" / "m" / "x.stl")
+    assert mesh_path("gone.stl", urdf) == str(tmp_path / "a" / "pkg" / "gone.stl")
+    assert mesh_path("http://example.com/x.stl", urdf) == "http://example.com/x.stl"
+    assert mesh_path("x\0.stl", urdf) == "x\0.stl"  # a name the file system refuses
     with pytest.raises(RobotFileError, match="not a regular file"):
         read_mesh(tmp_path / "a")
     pytest.importorskip("trimesh")
@@ -262,8 +280,8 @@ def test_native_mesh_is_relative_to_the_file(tmp_path: Path) -> None:
     mesh = robot.links[0].visuals[-1]
     assert Path(mesh.mesh) == tmp_path / "m" / "part.stl" and mesh.size == (0.001,) * 3
     (tmp_path / "r.toml").write_text(text.replace("m/part.stl", "m/gone.stl"))
-    with pytest.warns(UserWarning, match="gone.stl"):
-        assert len(mrnea.load_robot(tmp_path / "r.toml").links[0].visuals) == 3
+    gone = mrnea.load_robot(tmp_path / "r.toml").links[0].visuals[-1]  # read when drawn
+    assert Path(gone.mesh) == tmp_path / "m" / "gone.stl"
 
 
 def test_builtin_robots_have_visuals() -> None:
@@ -297,8 +315,7 @@ def test_puma_visuals_sit_in_the_dh_frames() -> None:
 def test_visuals_round_trip_through_the_native_writer(vis_urdf: Path, tmp_path: Path) -> None:
     """to_toml writes every visual (a mesh by its absolute path, an origin as rpy or as the
     rotation matrix where rpy would not read back bit for bit); the file reads back equal."""
-    with pytest.warns(UserWarning):
-        robot = load_urdf(vis_urdf)
+    robot = load_urdf(vis_urdf)
     assert any(v.kind == "mesh" for v in robot.links[0].visuals) and robot.base_visuals
     back = mrnea.load_robot(robot.to_toml(tmp_path / "r.toml"))
     assert back == robot

@@ -1,4 +1,4 @@
-"""Mesh files of visuals: where a robot file's mesh is (:func:`find_mesh`), and its triangles
+"""Mesh files of visuals: where a robot file's mesh is (:func:`mesh_path`), and its triangles
 (:func:`read_mesh`, through trimesh: STL, OBJ, DAE with pycollada, PLY, ...).
 
 A robot is loaded without reading its meshes: a :class:`mrnea.visual.Visual` holds the path,
@@ -18,27 +18,29 @@ from numpy.typing import NDArray
 from mrnea.errors import RobotFileError
 from mrnea.io.source import read_bytes, refused_prolog
 
-__all__ = ["MAX_MESH_FILE", "find_mesh", "read_mesh"]
+__all__ = ["MAX_MESH_FILE", "mesh_path", "read_mesh"]
 
 #: Largest mesh file read [bytes] (a detailed CAD export is a few MB).
 MAX_MESH_FILE = 64 * 2**20
 
 
-def find_mesh(filename: str, referrer: Path) -> Path | None:
-    """The mesh file ``filename`` names in the robot file ``referrer``, or None where there is
-    none (or it is a URL: mrnea fetches nothing).
+def mesh_path(filename: str, referrer: Path) -> str:
+    """Where the mesh file ``filename`` named in the robot file ``referrer`` is: an absolute
+    path, or ``filename`` itself where no folder resolves it (a ``package://`` name whose
+    package is not found, a URL: mrnea fetches nothing). Whether the file exists is checked
+    when it is read (:func:`read_mesh`), so a robot file copied without its meshes still loads.
 
     ``package://PKG/path`` is looked for in the referrer's folder and every folder above it
     (``PKG`` itself, or a folder holding ``PKG``), then in the folders of ``$ROS_PACKAGE_PATH``;
     ``file://path`` and plain paths are taken relative to the referrer's folder.
     """
     try:
-        return _find(filename, referrer)
+        return _resolve(filename, referrer)
     except (OSError, ValueError):  # a name the file system refuses (too long, a NUL byte...)
-        return None
+        return filename
 
 
-def _find(filename: str, referrer: Path) -> Path | None:
+def _resolve(filename: str, referrer: Path) -> str:
     here = referrer.resolve().parent
     if filename.startswith("package://"):
         package, _, rest = filename[len("package://"):].partition("/")
@@ -51,14 +53,13 @@ def _find(filename: str, referrer: Path) -> Path | None:
                 candidates.insert(0, folder / rest)
             for c in candidates:
                 if c.is_file():
-                    return c.resolve()
-        return None
+                    return str(c.resolve())
+        return filename
     if filename.startswith("file://"):
         filename = filename[len("file://"):]
     elif "://" in filename:
-        return None
-    path = here / Path(filename).expanduser()  # an absolute path stays as it is
-    return path.resolve() if path.is_file() else None
+        return filename
+    return str((here / Path(filename).expanduser()).resolve())  # an absolute path stays
 
 
 def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -73,6 +74,9 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArra
         DTD (:func:`mrnea.io.source.refused_prolog`), or trimesh cannot read it or finds no
         triangle; the message names the file.
     """
+    if "://" in str(path):
+        raise RobotFileError(f"{path}: mesh file not found (no folder resolves this name, and "
+                             "mrnea fetches nothing)")
     p = Path(path)
     try:
         import trimesh

@@ -39,7 +39,6 @@ every field, the actuator's included, each number in its shortest exact decimal 
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -48,7 +47,7 @@ import numpy as np
 
 from mrnea.errors import ModelError, RobotFileError, quote
 from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
-from mrnea.io.mesh import find_mesh
+from mrnea.io.mesh import mesh_path
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck
@@ -96,9 +95,9 @@ def _inertia(check: TomlCheck, value: Any, where: str) -> np.ndarray:
                              f"{{ixx, iyy, izz, ixy, ixz, iyz}}, got {quote(value)}")
 
 
-def _visuals(check: TomlCheck, value: Any, where: str, left_out: list[str]) -> tuple[Visual, ...]:
-    """A ``visual`` array of tables (docs/robot-format.md) as Visuals in the link's frame; a
-    mesh file that is not found is appended to ``left_out`` instead."""
+def _visuals(check: TomlCheck, value: Any, where: str) -> tuple[Visual, ...]:
+    """A ``visual`` array of tables (docs/robot-format.md) as Visuals in the link's frame (a
+    mesh file is read when a view is drawn: :mod:`mrnea.io.mesh`)."""
     if not isinstance(value, list):
         raise check.error(where, "'visual' must be an array of tables: write visual = [{ ... }] "
                                  "or [[...visual]]")
@@ -115,12 +114,7 @@ def _visuals(check: TomlCheck, value: Any, where: str, left_out: list[str]) -> t
         if "scale" in entry and kind != "mesh":
             raise check.error(what, "'scale' goes with a mesh only")
         if kind == "mesh":
-            filename = check.string(entry["mesh"], what, "mesh")
-            found = find_mesh(filename, Path(check.source))
-            if found is None:
-                left_out.append(f"{what}: mesh {quote(filename)} not found")
-                continue
-            mesh = str(found)
+            mesh = mesh_path(check.string(entry["mesh"], what, "mesh"), Path(check.source))
             size = check.vector(entry.get("scale", [1.0, 1.0, 1.0]), what, "scale", 3)
         elif kind == "sphere":
             size = [check.number(entry[kind], what, kind)]
@@ -141,8 +135,7 @@ def _visuals(check: TomlCheck, value: Any, where: str, left_out: list[str]) -> t
     return tuple(out)
 
 
-def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int,
-          left_out: list[str]) -> dict[str, Any]:
+def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) -> dict[str, Any]:
     where = f"joint {quote(jname)}"
     table = check.table(check.require(joint, "link", where), where, "link")
     lname = table.get("name", f"link{index}")
@@ -153,7 +146,7 @@ def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int,
     com = check.vector(table.get("com", [0.0, 0.0, 0.0]), lwhere, "com", 3)
     inertia = (_inertia(check, table["inertia"], lwhere) if "inertia" in table
                else np.zeros((3, 3)))
-    visuals = _visuals(check, table.get("visual", []), lwhere, left_out)
+    visuals = _visuals(check, table.get("visual", []), lwhere)
     return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia, "visuals": visuals}
 
 
@@ -183,8 +176,8 @@ def _pose(check: TomlCheck, table: Mapping[str, Any], where: str, label: str) ->
     return T
 
 
-def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: str,
-                  left_out: list[str]) -> tuple[list[Joint], list[Link]]:
+def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: str
+                  ) -> tuple[list[Joint], list[Link]]:
     allowed = _COMMON_JOINT_KEYS + (_DH_JOINT_KEYS if dh else _ORIGIN_JOINT_KEYS)
     hint_other = (" ('origin'/'axis' are not used when [robot] dh is set)" if dh else
                   " (DH parameters need dh = \"standard\" or \"modified\" in [robot])")
@@ -207,7 +200,7 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         if jtype not in JOINT_TYPES:
             raise check.error(where, f"unsupported joint type {quote(jtype)} "
                                      f"(supported: {', '.join(JOINT_TYPES)})")
-        link = _link(check, entry, jname, i, left_out)
+        link = _link(check, entry, jname, i)
         fields = joint_fields(check, entry, where)
         if dh:
             params = {k: check.number(check.require(entry, k, where), where, k)
@@ -273,13 +266,8 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
         raise check.error("", "no [[joint]] tables: a robot needs at least one joint")
     if not isinstance(entries, list):
         raise check.error("", "'joint' must be an array of tables: write [[joint]], not [joint]")
-    left_out: list[str] = []
-    base_visuals = _visuals(check, robot.get("base_visual", []), "[robot] base", left_out)
-    joints, links = _parse_joints(check, entries, dh, base, left_out)
-    if left_out:
-        warnings.warn(f"{source}: {len(left_out)} visual(s) left out of the 3D view (the dynamics "
-                      f"are unchanged): " + "; ".join(left_out[:5])
-                      + ("; ..." if len(left_out) > 5 else ""), UserWarning, stacklevel=2)
+    base_visuals = _visuals(check, robot.get("base_visual", []), "[robot] base")
+    joints, links = _parse_joints(check, entries, dh, base)
     try:
         return Robot(joints, links, gravity=gravity, name=name, base=base,
                      base_visuals=base_visuals)

@@ -7,13 +7,13 @@ or by the name of a top-level ``<material>``; textures are not read). :func:`loa
 <mrnea.io.urdf.load_urdf>` moves them into the chain links with the fixed joints, as it moves
 the inertias.
 
-Mesh files are located when the URDF is read (:func:`mrnea.io.mesh.find_mesh`: ``package://``,
-``file://`` or a path relative to the URDF's folder; no URL is fetched) and read only when a
-view is drawn.
+Mesh files are located when the URDF is read (:func:`mrnea.io.mesh.mesh_path`: ``package://``,
+``file://`` or a path relative to the URDF's folder) and read only when a view is drawn, which
+says which it could not read (a URDF copied without its meshes, a URL: nothing is fetched).
 
 Malformed numbers raise :class:`~mrnea.errors.RobotFileError` like any other element; a visual
-the viewer cannot draw (no or unknown geometry, a size <= 0, a mesh file that is not found, a
-URL) is left out with one UserWarning per file, since it does not change the dynamics.
+the viewer cannot draw (no or unknown geometry, a size <= 0) is left out with one UserWarning
+per file, since it does not change the dynamics.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import xml.etree.ElementTree as ET
 from typing import TYPE_CHECKING
 
 from mrnea.errors import ModelError, quote, shorten
-from mrnea.io.mesh import find_mesh
+from mrnea.io.mesh import mesh_path
 from mrnea.visual import Visual
 
 if TYPE_CHECKING:
@@ -74,13 +74,7 @@ def visuals(rd: _Reader, link: ET.Element, name: str, named: dict[str, tuple[flo
         if shape.tag == "mesh":
             filename = rd.required(shape, "filename", what)
             size = tuple(rd.floats(shape, "scale", 3, what, (1.0, 1.0, 1.0)))
-            found = find_mesh(filename, rd.path)
-            if found is None:
-                left_out.append(f"{what}: mesh {quote(filename)} not found"
-                                + (" (mrnea reads no URL)" if "://" in filename
-                                   and not filename.startswith(("package:", "file:")) else ""))
-                continue
-            mesh = str(found)
+            mesh = mesh_path(filename, rd.path)
         else:
             size = tuple(float(x) for attr, count in _SHAPES[shape.tag]
                          for x in rd.floats(shape, attr, count, what))

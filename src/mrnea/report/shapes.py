@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError, StateError
+from mrnea.errors import MrneaError, StateError, quote
 from mrnea.io.mesh import read_mesh
 from mrnea.model import Robot
 from mrnea.visual import VISUAL_KINDS
@@ -162,19 +162,24 @@ def _rgb(color: tuple[float, ...] | None) -> int | None:
 def robot_shapes(robot: Robot, max_faces: int = MAX_SCENE_FACES) -> list[list[Shape]]:
     """The shapes of every body: ``[base, link 0, ..., link n-1]``, each in its body's frame.
 
-    A mesh file that cannot be read gives one UserWarning naming it, and its body is drawn as if
-    it had no visual (:func:`fallback`) when it has nothing else.
+    Mesh files that cannot be read (not found, not installed trimesh, not a mesh) give one
+    UserWarning saying why, and a body is drawn as if it had no visual (:func:`fallback`) when
+    none of its visuals is left.
     """
     bodies = [robot.base_visuals, *(lk.visuals for lk in robot.links)]
     meshes: dict[str, tuple[NDArray, NDArray]] = {}
-    failed: list[str] = []
+    failed: dict[str, str] = {}
     for v in (v for vs in bodies for v in vs if v.kind == "mesh"):
         if v.mesh not in meshes and v.mesh not in failed:
             try:
                 meshes[v.mesh] = read_mesh(v.mesh)
             except MrneaError as exc:
-                failed.append(str(v.mesh))
-                warnings.warn(f"3D view: {exc}; drawn without it", UserWarning, stacklevel=3)
+                failed[str(v.mesh)] = str(exc)
+    if failed:
+        warnings.warn(f"3D view of {quote(robot.name)}: {len(failed)} mesh file(s) not drawn "
+                      "(a link left without any shape is drawn as a capsule): "
+                      + "; ".join(list(failed.values())[:3])
+                      + ("; ..." if len(failed) > 3 else ""), UserWarning, stacklevel=3)
     total = sum(F.shape[0] for _, F in meshes.values())
     for path, (V, F) in meshes.items():  # the budget shared in proportion to the faces
         meshes[path] = decimate(V, F, max(100, max_faces * F.shape[0] // max(total, 1)))
