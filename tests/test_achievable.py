@@ -38,7 +38,7 @@ from mrnea.actuators import (
     effort_limits_at,
     motor_torque,
 )
-from mrnea.model import transform
+from mrnea.rigid import transform
 
 pin = pytest.importorskip("pinocchio")
 

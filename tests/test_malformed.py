@@ -35,7 +35,8 @@ from mrnea.cli import main
 from mrnea.errors import ModelError, MrneaError, ProgramFileError, RobotFileError, StateError
 from mrnea.io import from_csv, load_robot
 from mrnea.io.native import loads_native
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
+from mrnea.rigid import transform
 from mrnea.simulate import simulate
 from mrnea.trajectory import quintic, trapezoidal
 

@@ -20,7 +20,8 @@ from mrnea.errors import ModelError, RobotFileError
 from mrnea.io.dh import DHRow, dh_joint_chain, dh_tip_transform
 from mrnea.io.dispatch import BUILTIN_ROBOTS, load_builtin
 from mrnea.io.native import load_native, loads_native
-from mrnea.model import Robot, transform
+from mrnea.model import Robot
+from mrnea.rigid import transform
 from mrnea.robots import puma560, sdt
 
 # --- independent kinematics -------------------------------------------------------------------

@@ -28,7 +28,8 @@ import mrnea
 from mrnea.achievable import achievable_accelerations
 from mrnea.actuators import actuator_mass_matrix_and_bias
 from mrnea.errors import ModelWarning, SingularMassMatrixError
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
+from mrnea.rigid import transform
 from mrnea.simulate import simulate
 
 FD_METHODS = ("mrnea", "walker_orin", "crba", "aba")

@@ -11,7 +11,8 @@ import pytest
 
 import mrnea
 from mrnea.errors import OutputError, StateError
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
+from mrnea.rigid import transform
 from mrnea.simulate import CHUNK, simulate
 
 G0 = 9.81

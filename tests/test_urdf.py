@@ -12,8 +12,10 @@ import pytest
 
 from mrnea.errors import ModelError, OutputError, RobotFileError
 from mrnea.io.dispatch import load_robot, load_robot_spec, resolve_robot
-from mrnea.io.urdf import UNBOUNDED, load_urdf, write_urdf
-from mrnea.model import Joint, Link, Robot, rotation_from_rpy, transform
+from mrnea.io.urdf import UNBOUNDED, load_urdf
+from mrnea.io.urdf_writer import write_urdf
+from mrnea.model import Joint, Link, Robot
+from mrnea.rigid import rotation_from_rpy, transform
 
 pin = pytest.importorskip("pinocchio")
 

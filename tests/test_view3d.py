@@ -18,9 +18,10 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
 from mrnea.report import shapes as shp
 from mrnea.report import view3d, view3d_html
+from mrnea.rigid import transform
 from mrnea.visual import Visual
 
 

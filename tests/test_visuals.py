@@ -19,8 +19,9 @@ from mrnea import ModelError, RobotFileError
 from mrnea.io import load_urdf
 from mrnea.io.mesh import mesh_path, read_mesh
 from mrnea.io.native import loads_native
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
 from mrnea.report import shapes
+from mrnea.rigid import transform
 from mrnea.visual import Visual
 
 

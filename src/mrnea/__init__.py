@@ -32,7 +32,8 @@ from mrnea.errors import (
     StateError,
 )
 from mrnea.io import load_program, load_robot, load_urdf
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
+from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
 
 __version__ = "0.1.0"

@@ -5,13 +5,17 @@ Visual of :mod:`mrnea.visual`).
 by value (computed once), and copies through their constructor: ``pickle``, ``copy.copy`` and
 ``copy.deepcopy`` call :func:`_rebuild` (``__reduce__``), so that every copy is validated again
 and its arrays are the constructor's read-only ones. The ``ModelWarning``s the original's
-construction gave are not repeated for its copies (:func:`warn`). The array checks they share
-are here too: :func:`frozen_array`, :func:`rigid_transform`.
+construction gave are not repeated for its copies (:func:`warn`). The checks of their fields
+are here too: :func:`frozen_array`, :func:`rigid_transform`, :func:`real_number`,
+:func:`check_name`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
+import re
 import warnings
 from collections.abc import Callable
 from contextvars import ContextVar
@@ -20,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError, ModelWarning
+from mrnea.errors import ModelError, ModelWarning, quote
 
 # True while an object is rebuilt from a validated original (unpickling, copying)
 _REBUILDING: ContextVar[bool] = ContextVar("mrnea_rebuilding", default=False)
@@ -55,6 +59,32 @@ def rigid_transform(a: ArrayLike, what: str) -> NDArray[np.float64]:
             or np.max(np.abs(T[3] - (0, 0, 0, 1))) > 0):
         raise ModelError(f"{what} is not a rigid transform: {T.tolist()}")
     return T
+
+
+_NOT_IN_XML = re.compile("[\x00-\x1f\x7f\ufffe\uffff\ud800-\udfff]")
+
+
+def check_name(name: object, kind: str) -> None:
+    """A non-empty string without control characters (URDF/XML cannot hold them)."""
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"{kind} name must be a non-empty string, got {name!r}")
+    if _NOT_IN_XML.search(name):
+        raise ModelError(f"{kind} name {name!r} contains control characters (or other "
+                         f"characters a URDF file cannot hold)")
+
+
+def real_number(x: object, what: str, *, allow_inf: bool = False) -> float:
+    """``x`` as a float: a real number (int, float, NumPy scalar), never text or bytes (Python's
+    ``float("1_0")`` is 10) nor a bool."""
+    if isinstance(x, (str, bytes, bool, np.bool_)) or not isinstance(x, (numbers.Real, np.number)):
+        raise ModelError(f"{what}: not a number: {quote(x)}")
+    try:
+        v = float(x)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{what}: not a number: {quote(x)}") from None
+    if math.isnan(v) or (math.isinf(v) and not allow_inf):
+        raise ModelError(f"{what}: must be a finite number, got {v}")
+    return v
 
 
 def _rebuild(cls: Callable[..., Any], state: dict[str, Any]) -> Any:

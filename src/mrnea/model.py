@@ -33,7 +33,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,7 +42,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, quote
-from mrnea.frozen import Frozen, frozen_array, rigid_transform, warn
+from mrnea.frozen import Frozen, check_name, frozen_array, real_number, rigid_transform, warn
+from mrnea.rigid import check_inertia, combine_inertials
 from mrnea.visual import Visual, visual_tuple
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
@@ -85,87 +85,6 @@ UNIT_TOL = 4 * np.finfo(float).eps
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
 
 
-_NOT_IN_XML = re.compile("[\x00-\x1f\x7f\ufffe\uffff\ud800-\udfff]")
-def _check_name(name: object, kind: str) -> None:
-    """A non-empty string without control characters (URDF/XML cannot hold them)."""
-    if not isinstance(name, str) or not name:
-        raise ModelError(f"{kind} name must be a non-empty string, got {name!r}")
-    if _NOT_IN_XML.search(name):
-        raise ModelError(f"{kind} name {name!r} contains control characters (or other "
-                         f"characters a URDF file cannot hold)")
-
-
-def _number(x: object, what: str, *, allow_inf: bool = False) -> float:
-    """``x`` as a float: a real number (int, float, NumPy scalar), never text or bytes (Python's
-    ``float("1_0")`` is 10) nor a bool."""
-    if isinstance(x, (str, bytes, bool, np.bool_)) or not isinstance(x, (numbers.Real, np.number)):
-        raise ModelError(f"{what}: not a number: {quote(x)}")
-    try:
-        v = float(x)  # type: ignore[arg-type]
-    except (TypeError, ValueError, OverflowError):
-        raise ModelError(f"{what}: not a number: {quote(x)}") from None
-    if math.isnan(v) or (math.isinf(v) and not allow_inf):
-        raise ModelError(f"{what}: must be a finite number, got {v}")
-    return v
-
-
-def rotation_from_rpy(rpy: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrix of URDF roll-pitch-yaw angles [rad]: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
-
-    Without negative zeros (``+ 0.0``): zero angles give ``np.eye(3)`` bit for bit, so that a
-    robot file writer can name such a rotation by its angles and read the same bits back.
-    """
-    r, p, y = (float(v) for v in np.asarray(rpy, dtype=float))
-    cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
-                              math.cos(y), math.sin(y))
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]) + 0.0
-
-
-def rpy_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
-    """URDF roll-pitch-yaw angles [rad] of a rotation matrix (inverse of rotation_from_rpy)."""
-    R = np.asarray(R, dtype=float)
-    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    if math.isclose(abs(pitch), math.pi / 2, abs_tol=1e-12):  # gimbal lock: put it all in yaw
-        roll = 0.0
-        yaw = math.atan2(-R[0, 1], R[1, 1])
-    else:
-        roll = math.atan2(R[2, 1], R[2, 2])
-        yaw = math.atan2(R[1, 0], R[0, 0])
-    return np.array([roll, pitch, yaw])
-
-
-def transform(xyz: ArrayLike = (0.0, 0.0, 0.0), rpy: ArrayLike = (0.0, 0.0, 0.0)) -> NDArray:
-    """4x4 homogeneous transform from a translation [m] and URDF roll-pitch-yaw angles [rad]."""
-    frozen_array(xyz, (3,), "origin")
-    frozen_array(rpy, (3,), "origin")
-    T = np.eye(4)
-    T[:3, :3] = rotation_from_rpy(rpy)
-    T[:3, 3] = np.asarray(xyz, dtype=float)
-    return T
-
-
-def _check_inertia(inertia: NDArray, what: str) -> None:
-    scale = max(1.0, float(np.max(np.abs(inertia))))
-    if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
-        raise ModelError(f"{what}: inertia is not symmetric: {inertia.tolist()}")
-    eig = np.linalg.eigvalsh(inertia)
-    if eig[0] < -1e-9 * scale:
-        raise ModelError(
-            f"{what}: inertia is not positive semi-definite (eigenvalues {eig.tolist()})"
-        )
-    # a rigid body's principal moments satisfy I1 + I2 >= I3; CAD exports break it by rounding
-    excess = eig[2] - eig[0] - eig[1]
-    if excess > 1e-9 * max(float(eig[2]), 1e-300):
-        warn(
-            f"{what}: inertia violates the triangle inequality (principal moments "
-            f"{eig.tolist()}: {eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g}); physically doubtful, "
-            f"used as given", stacklevel=4)
-
-
 def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
     an equal pair is stored as one number."""
@@ -173,7 +92,7 @@ def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     if len(pair) != 2:
         raise ModelError(f"{what}: coulomb_friction must be a number or two, [positive "
                          f"direction, negative direction], got {value!r}")
-    p, m = (_number(v, f"{what}: coulomb_friction") for v in pair)
+    p, m = (real_number(v, f"{what}: coulomb_friction") for v in pair)
     if p < 0 or m < 0:
         raise ModelError(f"{what}: coulomb_friction must be >= 0, got {value!r}")
     return p if p == m else (p, m)
@@ -189,29 +108,6 @@ def _coulomb_per_joint(value: object, n: int) -> list[object]:
     return [tuple(e) if isinstance(e, (list, tuple, np.ndarray)) else e for e in value]
 
 
-def combine_inertials(parts: Sequence[tuple[float, NDArray, NDArray]]
-                      ) -> tuple[float, NDArray, NDArray]:
-    """Total mass [kg], centre of mass [m] and inertia [kg m^2] about that centre of rigidly
-    joined bodies, each ``(mass, com, inertia about its com)`` in one frame (parallel-axis
-    theorem: ``I = sum I_k + m_k (|d_k|^2 E - d_k d_k^T)``, ``d_k = com_k - com``)."""
-    mass = float(sum(m for m, _, _ in parts))
-    massive = [c for m, c, _ in parts if m > 0]
-    if len(massive) == 1:  # exact: no m * c / m rounding
-        com = massive[0]
-    elif massive:
-        com = sum(m * c for m, c, _ in parts) / mass
-    else:
-        com = np.zeros(3)
-    inertia = np.zeros((3, 3))
-    for m, c, I in parts:
-        inertia += I
-        if m > 0:  # parallel-axis term (a massless part far away would give 0 * inf)
-            d = c - com
-            inertia += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-    # (I + I^T) / 2 could overflow
-    return mass, np.array(com, dtype=float), 0.5 * inertia + 0.5 * inertia.T
-
-
 @dataclass(frozen=True, eq=False)
 class Link(Frozen):
     """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com];
@@ -224,14 +120,14 @@ class Link(Frozen):
     visuals: tuple[Visual, ...] = ()
 
     def __post_init__(self) -> None:
-        _check_name(self.name, "link")
+        check_name(self.name, "link")
         what = f"link '{self.name}'"
-        mass = _number(self.mass, f"{what}: mass")
+        mass = real_number(self.mass, f"{what}: mass")
         if mass < 0:
             raise ModelError(f"{what}: mass must be >= 0, got {mass}")
         com = frozen_array(self.com, (3,), f"{what}: centre of mass")
         inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
-        _check_inertia(inertia, what)
+        check_inertia(inertia, what)
         object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "com", com)
@@ -259,7 +155,7 @@ class Joint(Frozen):
     torque_speed: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        _check_name(self.name, "joint")
+        check_name(self.name, "joint")
         what = f"joint '{self.name}'"
         if self.type not in JOINT_TYPES:
             raise ModelError(
@@ -277,25 +173,25 @@ class Joint(Frozen):
             axis = axis / big  # first to a max-norm of 1: the 2-norm cannot overflow
             axis = axis / np.linalg.norm(axis)
             axis.setflags(write=False)
-        lower = _number(self.lower, f"{what}: lower limit", allow_inf=True)
-        upper = _number(self.upper, f"{what}: upper limit", allow_inf=True)
+        lower = real_number(self.lower, f"{what}: lower limit", allow_inf=True)
+        upper = real_number(self.upper, f"{what}: upper limit", allow_inf=True)
         if self.type == "continuous":
             lower, upper = -math.inf, math.inf
         if lower > upper:
             raise ModelError(f"{what}: lower limit {lower} is above upper limit {upper}")
         values = {"lower": lower, "upper": upper}
         for name in ("velocity_limit", "effort_limit"):
-            v = _number(getattr(self, name), f"{what}: {name}", allow_inf=True)
+            v = real_number(getattr(self, name), f"{what}: {name}", allow_inf=True)
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
             values[name] = v
         for name in ("rotor_inertia", "viscous_friction"):
-            v = _number(getattr(self, name), f"{what}: {name}")
+            v = real_number(getattr(self, name), f"{what}: {name}")
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
             values[name] = v
         values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
-        g = _number(self.gear_ratio, f"{what}: gear_ratio")
+        g = real_number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
         if not GEAR_RANGE[0] <= g <= GEAR_RANGE[1]:
@@ -363,7 +259,7 @@ class Robot(Frozen):
         base: str | None = None,
         base_visuals: Sequence[Visual] = (),
     ) -> None:
-        _check_name(name, "robot")
+        check_name(name, "robot")
         joints, links = tuple(joints), tuple(links)
         if not joints:
             raise ModelError(f"robot '{name}': has no moving joint")
@@ -552,7 +448,7 @@ class Robot(Frozen):
         com : (3,) its centre of mass [m] in the last link's frame (as ``f_ext_point``).
         inertia : (3, 3) [kg m^2] about its centre of mass, axes of the last link's frame;
             None: a point mass. The last link keeps its name; its inertials become those of
-            the two bodies joined (:func:`combine_inertials`).
+            the two bodies joined (:func:`mrnea.rigid.combine_inertials`).
         """
         try:
             p = Link("payload", mass, com, np.zeros((3, 3)) if inertia is None else inertia)

@@ -29,7 +29,8 @@ from mrnea.io.pathcsv import from_csv
 from mrnea.io.payload import Payload, parse_payload
 from mrnea.io.program import Program, is_program_file, load_program, loads_program
 from mrnea.io.sidecar import apply_actuator_file
-from mrnea.io.urdf import load_urdf, write_urdf
+from mrnea.io.urdf import load_urdf
+from mrnea.io.urdf_writer import write_urdf
 
 model.WRITERS.update(urdf=write_urdf, toml=write_native)
 

@@ -53,16 +53,8 @@ from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck
 from mrnea.io.writer import create
-from mrnea.model import (
-    DEFAULT_GRAVITY,
-    JOINT_TYPES,
-    Joint,
-    Link,
-    Robot,
-    rotation_from_rpy,
-    rpy_from_rotation,
-    transform,
-)
+from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot
+from mrnea.rigid import rotation_from_rpy, rpy_from_rotation, transform
 from mrnea.visual import VISUAL_KINDS, Visual
 
 __all__ = ["dumps_native", "load_native", "loads_native", "native_flange", "write_native"]

@@ -1,8 +1,8 @@
-"""URDF reader and writer.
+"""URDF reader.
 
-:func:`load_urdf` turns a URDF file into a validated serial :class:`mrnea.Robot`;
-:func:`write_urdf` writes a :class:`mrnea.Robot` back as a URDF file that urdfdom (and so
-Pinocchio, ROS) accepts. Only the Python standard library's :mod:`xml.etree.ElementTree` is used.
+:func:`load_urdf` turns a URDF file into a validated serial :class:`mrnea.Robot`
+(:mod:`mrnea.io.urdf_writer` writes one back; :mod:`mrnea.io.urdf_visual` reads the
+``<visual>`` elements). Only the Python standard library's :mod:`xml.etree.ElementTree` is used.
 
 How a URDF tree becomes a serial chain
 --------------------------------------
@@ -42,9 +42,7 @@ from numpy.typing import NDArray
 
 from mrnea.errors import (
     ModelError,
-    OutputError,
     RobotFileError,
-    StateError,
     clip,
     listing,
     quote,
@@ -52,20 +50,13 @@ from mrnea.errors import (
 )
 from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
+from mrnea.io.urdf_transmission import transmissions
 from mrnea.io.urdf_visual import materials, visuals
-from mrnea.io.writer import create
-from mrnea.model import (
-    DEFAULT_GRAVITY,
-    Joint,
-    Link,
-    Robot,
-    combine_inertials,
-    rpy_from_rotation,
-    transform,
-)
+from mrnea.model import DEFAULT_GRAVITY, Joint, Link, Robot
+from mrnea.rigid import combine_inertials, transform
 from mrnea.visual import Visual
 
-__all__ = ["load_urdf", "write_urdf"]
+__all__ = ["load_urdf"]
 
 MOVING_TYPES = ("revolute", "continuous", "prismatic")
 UNSUPPORTED_TYPES = ("floating", "planar")
@@ -259,37 +250,6 @@ class _Reader:
             f["coulomb_friction"] = self.number(dyn, "friction", f"{what} <dynamics>", 0.0)
         return j
 
-    def transmissions(self, root: ET.Element) -> dict[str, tuple[str, float | None]]:
-        """Joint name -> (transmission name, abs(mechanical reduction), or None if coupled).
-
-        Transmissions of joints the file does not have are ignored (cut-down robot files often
-        keep the full list).
-        """
-        out: dict[str, tuple[str, float | None]] = {}
-        for k, tr in enumerate(root.findall("transmission")):
-            tname = tr.get("name") or f"#{k + 1}"
-            what = f"transmission {quote(tname)}"
-            jnames = [self.required(je, "name", f"{what} <joint>") for je in tr.findall("joint")]
-            # ros_control format: <actuator><mechanicalReduction>; old format: a direct child
-            red_elems = [*tr.findall("actuator/mechanicalReduction"),
-                         *tr.findall("mechanicalReduction")]
-            reductions = [self.text_number(r, f"{what} <mechanicalReduction>") for r in red_elems]
-            for jn in jnames:
-                if jn in out:
-                    raise self.error(f"{what}: joint {quote(jn)} is already driven by transmission "
-                                     f"{quote(out[jn][0])}")
-            if len(jnames) == 1 and len(reductions) <= 1:
-                red = reductions[0] if reductions else 1.0
-                if red == 0 or not math.isfinite(red):
-                    raise self.error(
-                        f"{what} <mechanicalReduction>: must be finite and non-zero, got {red}"
-                    )
-                out[jnames[0]] = (tname, abs(red))
-            else:  # differential or multi-actuator: load_urdf warns if it drives the chain
-                for jn in jnames:
-                    out[jn] = (tname, None)
-        return out
-
 
 def _tip_candidates(links: dict[str, _UrdfLink], paths: list[tuple[str, list[_UrdfJoint]]]
                     ) -> list[str]:
@@ -340,8 +300,8 @@ def load_urdf(
     ``<origin>`` -> identity; missing ``<axis>`` -> ``(1, 0, 0)``; missing ``<inertial>`` ->
     massless link; missing ``lower``/``upper`` -> unbounded (the URDF specification says 0,
     which would lock the joint); missing ``effort``/``velocity`` -> unlimited; a limit of
-    magnitude >= ``sys.float_info.max`` (what :func:`write_urdf` writes for "none") is read as
-    infinite. Continuous joints have no position limits. The gear ratio is
+    magnitude >= ``sys.float_info.max`` (what :func:`mrnea.io.write_urdf` writes for "none")
+    is read as infinite. Continuous joints have no position limits. The gear ratio is
     ``abs(mechanicalReduction)`` of a single-joint, single-actuator ``<transmission>`` (1
     without one). A chain joint in a coupled transmission (differential, several actuators)
     gets 1 and a :class:`UserWarning`; transmissions naming joints the file does not have are
@@ -482,7 +442,7 @@ def load_urdf(
         parts[body[name]].append((mass, R @ com + p, R @ inertia @ R.T))
 
     # --- gear ratios -----------------------------------------------------------------------------
-    trans = rd.transmissions(root)
+    trans = transmissions(rd, root)
     robot_joints, robot_links = [], []
     coupled: dict[str, list[str]] = {}  # coupled transmission -> its chain joints
     prev = base
@@ -517,108 +477,3 @@ def load_urdf(
     if actuators is not None:
         robot = apply_actuator_file(robot, actuators)
     return robot
-
-
-# --- writer -----------------------------------------------------------------------------------
-def _fmt(*values: float) -> str:
-    """Shortest exact decimal form; infinities as +-UNBOUNDED (urdfdom rejects ``inf``)."""
-    out = []
-    for v in values:
-        v = float(v)
-        if math.isinf(v):
-            v = math.copysign(UNBOUNDED, v)
-        out.append(repr(v + 0.0))  # + 0.0 turns -0.0 into 0.0
-    return " ".join(out)
-
-
-def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
-    """Write ``robot`` as a URDF file.
-
-    The file has the base link, then per joint its ``<origin xyz rpy>`` (rpy [rad] from
-    :func:`mrnea.model.rpy_from_rotation`), ``<axis>``, ``<limit>``, ``<dynamics damping
-    friction>``, the child link's ``<inertial>`` (origin at the centre of mass, axes of the link
-    frame) and, when the gear ratio is not 1, a ``<transmission>`` with that
-    ``<mechanicalReduction>``. :func:`load_urdf` reads it back to the same robot (up to the
-    rounding of the rpy angles, ~1e-16).
-
-    Parameters
-    ----------
-    robot : Robot
-        The robot to write.
-    path : str or Path
-        The output file; its directory must exist. Written through
-        :func:`mrnea.io.writer.create`: whole or not at all.
-    overwrite : bool, default False
-        Replace an existing file (a symbolic link: the link itself, never its target).
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    OutputError
-        ``path`` exists and ``overwrite`` is False, is a directory or cannot be written
-        (missing folder, permission...).
-
-    Notes
-    -----
-    * urdfdom rejects ``inf`` and requires ``lower``/``upper``/``effort``/``velocity`` on
-      revolute and prismatic joints, so unbounded limits are written as
-      ``+-1.7976931348623157e+308`` (the largest double, Pinocchio's own "no limit");
-      :func:`load_urdf` reads that value back as infinite. Continuous joints get no
-      ``lower``/``upper``.
-    * Not representable in plain URDF, hence dropped: the rotor inertia, a torque-speed curve
-      (its peak is the ``effort`` written), a non-default gravity, and the asymmetry of a
-      Coulomb friction ``(positive direction, negative direction)``: URDF's ``friction`` is one
-      value, written as the mean of the two (:func:`mrnea.io.write_native` keeps them all).
-    * Numbers are written in their shortest exact decimal form, so masses, centres of mass,
-      inertias, translations, axes and limits round-trip exactly.
-    """
-    if not isinstance(robot, Robot):
-        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
-    path = as_path(path, "path", OutputError)
-    root = ET.Element("robot", name=robot.name)
-    ET.SubElement(root, "link", name=robot.base)
-    transmissions = []
-    for j, lk in zip(robot.joints, robot.links, strict=True):
-        je = ET.SubElement(root, "joint", name=j.name, type=j.type)
-        ET.SubElement(je, "parent", link=j.parent)
-        ET.SubElement(je, "child", link=j.child)
-        origin = np.asarray(j.origin)
-        ET.SubElement(je, "origin", xyz=_fmt(*origin[:3, 3]),
-                      rpy=_fmt(*rpy_from_rotation(origin[:3, :3])))
-        ET.SubElement(je, "axis", xyz=_fmt(*j.axis))
-        limit = {"effort": _fmt(j.effort_limit), "velocity": _fmt(j.velocity_limit)}
-        if j.type != "continuous":
-            limit = {"lower": _fmt(j.lower), "upper": _fmt(j.upper), **limit}
-        ET.SubElement(je, "limit", limit)
-        ET.SubElement(je, "dynamics", damping=_fmt(j.viscous_friction),
-                      friction=_fmt(sum(j.coulomb_pair) / 2))  # URDF holds one value
-        le = ET.SubElement(root, "link", name=lk.name)
-        inertial = ET.SubElement(le, "inertial")
-        ET.SubElement(inertial, "origin", xyz=_fmt(*lk.com), rpy="0.0 0.0 0.0")
-        ET.SubElement(inertial, "mass", value=_fmt(lk.mass))
-        inertia = np.asarray(lk.inertia)
-        ET.SubElement(inertial, "inertia", {
-            key: _fmt(inertia[a, b]) for key, (a, b) in (
-                ("ixx", (0, 0)), ("ixy", (0, 1)), ("ixz", (0, 2)),
-                ("iyy", (1, 1)), ("iyz", (1, 2)), ("izz", (2, 2)))
-        })
-        if j.gear_ratio != 1.0:
-            transmissions.append(j)
-    for j in transmissions:
-        te = ET.SubElement(root, "transmission", name=f"{j.name}_transmission")
-        ET.SubElement(te, "type").text = "transmission_interface/SimpleTransmission"
-        ET.SubElement(ET.SubElement(te, "joint", name=j.name), "hardwareInterface").text = (
-            "hardware_interface/EffortJointInterface")
-        ae = ET.SubElement(te, "actuator", name=f"{j.name}_motor")
-        ET.SubElement(ae, "mechanicalReduction").text = _fmt(j.gear_ratio)
-    ET.indent(root)
-    text = ET.tostring(root, encoding="unicode")
-    data = f'<?xml version="1.0" encoding="utf-8"?>\n{text}\n'.encode()
-
-    with create(path, overwrite, binary=True) as fh:
-        fh.write(data)
-    return path
