@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Rebuild three-subset.min.js: the part of three.js the report's 3D view uses (entry.js lists it),
-# one minified classic script that defines the global MRNEA_THREE. Pinned versions; run it only
-# to upgrade three.js, then commit the output, its sha256 and LICENSE-three.txt.
+# Rebuild three-subset.min.js.gz: the part of three.js the report's 3D view uses (entry.js lists
+# it), one minified classic script that defines the global MRNEA_THREE, stored gzip-compressed
+# (view3d_html.asset decompresses it). Pinned versions; run it only to upgrade three.js, then
+# commit the output, the plain script's sha256 and LICENSE-three.txt.
 # Needs node + npm (npm registry only); esbuild's binary comes in its npm package.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -12,9 +13,10 @@ npm init -y >/dev/null
 npm install --no-audit --no-fund --silent three@0.187.0 esbuild@0.28.2
 cp "$here/entry.js" .
 npx esbuild entry.js --bundle --minify --format=iife --global-name=MRNEA_THREE \
-  --legal-comments=none --target=es2020 --outfile="$here/three-subset.min.js"
+  --legal-comments=none --target=es2020 --outfile="$tmp/three-subset.min.js"
 cp node_modules/three/LICENSE "$here/LICENSE-three.txt"
-if grep -q -e '</script' -e '<!--' "$here/three-subset.min.js"; then
+if grep -q -e '</script' -e '<!--' "$tmp/three-subset.min.js"; then
   echo "three-subset.min.js holds '</script' or '<!--': it cannot be inlined" >&2; exit 1
 fi
-sha256sum "$here/three-subset.min.js"
+gzip -9 -n -c "$tmp/three-subset.min.js" > "$here/three-subset.min.js.gz"
+sha256sum "$tmp/three-subset.min.js"
