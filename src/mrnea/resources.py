@@ -45,10 +45,11 @@ def _read_int(path: str) -> int | None:
     return int(text) if text.isdigit() else None  # "max": no limit
 
 
-def _meminfo(key: str) -> int | None:
-    """A ``/proc/meminfo`` entry [bytes], or None."""
+def _proc_kb(path: str, key: str) -> int | None:
+    """The entry ``key`` [bytes] of a ``/proc`` file of ``key: value kB`` lines (``/proc/meminfo``,
+    ``/proc/self/status``), or None."""
     try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
+        with open(path, encoding="ascii") as fh:
             for line in fh:
                 name, _, value = line.partition(":")
                 if name == key:
@@ -63,7 +64,7 @@ def available_memory() -> int:
     kill it: the smallest of MemAvailable, the room under a cgroup limit and under
     ``RLIMIT_AS`` (see the module docstring)."""
     limits = []
-    avail = _meminfo("MemAvailable")
+    avail = _proc_kb("/proc/meminfo", "MemAvailable")
     if avail is None:
         try:
             avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
@@ -77,22 +78,9 @@ def available_memory() -> int:
             limits.append(max(0, limit - usage))
     soft, _ = resource.getrlimit(resource.RLIMIT_AS)
     if soft != resource.RLIM_INFINITY:
-        size = _meminfo_self("VmSize")
+        size = _proc_kb("/proc/self/status", "VmSize")  # the address space in use
         limits.append(max(0, soft - (size or 0)))
     return min(limits) if limits else 2**63 - 1
-
-
-def _meminfo_self(key: str) -> int | None:
-    """An entry of ``/proc/self/status`` in bytes (``VmSize``: the address space in use)."""
-    try:
-        with open("/proc/self/status", encoding="ascii") as fh:
-            for line in fh:
-                name, _, value = line.partition(":")
-                if name == key:
-                    return int(value.split()[0]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
 
 
 def memory_budget() -> int:

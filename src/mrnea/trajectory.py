@@ -350,14 +350,9 @@ def quintic(
 
     Parameters
     ----------
-    waypoints : (W, n) joint positions [rad | m], W >= 1.
-    dt : interpolation cycle [s], finite and > 0.
-    velocity_limit : (n,) or scalar, > 0 [rad/s | m/s]; ``inf`` = unlimited.
-    acceleration_limit : (n,) or scalar, > 0 [rad/s² | m/s²]; ``inf`` = unlimited. A moving joint
-        needs at least one finite limit.
-    t0 : time of the first cycle [s].
-    dwell : hold time at each waypoint [s], scalar (every waypoint) or (W,); rounded up to whole
-        cycles.
+    waypoints, dt, velocity_limit, acceleration_limit, t0, dwell
+        As for :func:`trapezoidal` (shapes, units; ``inf`` = unlimited, a moving joint needs at
+        least one finite limit).
 
     Returns
     -------
@@ -439,14 +434,9 @@ def scurve(
 
     Parameters
     ----------
-    waypoints : (W, n) joint positions [rad | m], W >= 1.
-    dt : interpolation cycle [s], finite and > 0.
-    velocity_limit : (n,) or scalar, > 0 [rad/s | m/s]; ``inf`` = unlimited.
-    acceleration_limit : (n,) or scalar, > 0 [rad/s² | m/s²]; ``inf`` = unlimited.
+    waypoints, dt, velocity_limit, acceleration_limit, t0, dwell
+        As for :func:`trapezoidal` (shapes, units; ``inf`` = unlimited).
     jerk_limit : (n,) or scalar, finite and > 0 [rad/s³ | m/s³].
-    t0 : time of the first cycle [s].
-    dwell : hold time at each waypoint [s], scalar (every waypoint) or (W,); rounded up to whole
-        cycles.
 
     Returns
     -------

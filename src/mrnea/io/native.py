@@ -52,7 +52,7 @@ from mrnea.io.mesh import mesh_path
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck
-from mrnea.io.writer import create
+from mrnea.io.writer import write_file
 from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot
 from mrnea.rigid import rotation_from_rpy, rpy_from_rotation, transform
 from mrnea.visual import VISUAL_KINDS, Visual
@@ -418,7 +418,7 @@ def write_native(robot: Robot, path: str | Path, overwrite: bool = False) -> Pat
     robot : Robot
     path : str or Path
         The ``.toml`` file; its folder must exist. Written through
-        :func:`mrnea.io.writer.create`: whole or not at all.
+        :func:`mrnea.io.writer.write_file`: whole or not at all.
     overwrite : bool, default False
         Replace an existing file (a symbolic link: the link itself, never its target).
 
@@ -430,10 +430,7 @@ def write_native(robot: Robot, path: str | Path, overwrite: bool = False) -> Pat
     Raises
     ------
     OutputError
-        ``path`` exists and ``overwrite`` is False, is a directory or cannot be written.
+        ``path`` exists and ``overwrite`` is False, is a directory or cannot be written
+        (missing folder, permission...).
     """
-    text = dumps_native(robot)
-    path = Path(path)
-    with create(path, overwrite) as fh:
-        fh.write(text)
-    return path
+    return write_file(path, dumps_native(robot), overwrite)

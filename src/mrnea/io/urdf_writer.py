@@ -11,10 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mrnea.errors import OutputError, StateError
-from mrnea.io.source import as_path
+from mrnea.errors import StateError
 from mrnea.io.urdf import UNBOUNDED
-from mrnea.io.writer import create
+from mrnea.io.writer import write_file
 from mrnea.model import Robot
 from mrnea.rigid import rpy_from_rotation
 
@@ -42,26 +41,9 @@ def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
     ``<mechanicalReduction>``. :func:`load_urdf` reads it back to the same robot (up to the
     rounding of the rpy angles, ~1e-16).
 
-    Parameters
-    ----------
-    robot : Robot
-        The robot to write.
-    path : str or Path
-        The output file; its directory must exist. Written through
-        :func:`mrnea.io.writer.create`: whole or not at all.
-    overwrite : bool, default False
-        Replace an existing file (a symbolic link: the link itself, never its target).
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    OutputError
-        ``path`` exists and ``overwrite`` is False, is a directory or cannot be written
-        (missing folder, permission...).
+    Parameters, return value and errors (OutputError) are those of
+    :func:`mrnea.io.write_native`: ``path`` is written whole or not at all, never over an
+    existing file unless ``overwrite``.
 
     Notes
     -----
@@ -79,7 +61,6 @@ def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
     """
     if not isinstance(robot, Robot):
         raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
-    path = as_path(path, "path", OutputError)
     root = ET.Element("robot", name=robot.name)
     ET.SubElement(root, "link", name=robot.base)
     transmissions = []
@@ -118,8 +99,4 @@ def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
         ET.SubElement(ae, "mechanicalReduction").text = _fmt(j.gear_ratio)
     ET.indent(root)
     text = ET.tostring(root, encoding="unicode")
-    data = f'<?xml version="1.0" encoding="utf-8"?>\n{text}\n'.encode()
-
-    with create(path, overwrite, binary=True) as fh:
-        fh.write(data)
-    return path
+    return write_file(path, f'<?xml version="1.0" encoding="utf-8"?>\n{text}\n'.encode(), overwrite)

@@ -130,6 +130,15 @@ def create(path: str | os.PathLike[str], overwrite: bool = False, *,
             os.unlink(tmp)
 
 
+def write_file(path: str | os.PathLike[str], data: str | bytes, overwrite: bool = False) -> Path:
+    """Write ``data`` (``str``: as UTF-8) to ``path`` through :func:`create`, whole or not at
+    all; returns ``path`` as a Path. Raises OutputError as :func:`create` does."""
+    path = as_path(path, "path", OutputError)
+    with create(path, overwrite, binary=isinstance(data, bytes)) as fh:
+        fh.write(data)
+    return path
+
+
 def _flag(value: object, name: str = "overwrite") -> bool:
     """``value`` if it is a boolean (Python's or NumPy's); an OutputError naming ``name``
     otherwise (a string such as ``"no"`` is true, so none is taken for one)."""
