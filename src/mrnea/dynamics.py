@@ -38,21 +38,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.compiled import BY_ID
-from mrnea.kernels.aba import aba, aba_batch
+from mrnea.kernels.aba import aba
 from mrnea.kernels.engines import (
     ENGINE_CRBA,
+    ENGINE_MRNEA,
     ENGINE_WALKER_ORIN,
+    FD_ABA,
+    fd_batch,
     fd_crba,
-    fd_engine_batch,
     fd_walker_orin,
+    mass_matrix_bias_batch,
 )
 from mrnea.kernels.kinematics import frames, frames_batch, jacobian_batch
 from mrnea.kernels.kinematics import jacobian as jacobian_kernel
 from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, OUT3_T, SCRATCH_T
-from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
+from mrnea.kernels.mrnea import fd_mrnea, mrnea
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
 from mrnea.kernels.status import OK
-from mrnea.kernels.walker_orin import walker_orin, walker_orin_batch
+from mrnea.kernels.walker_orin import walker_orin
 from mrnea.model import Robot
 
 Method = Literal["mrnea", "walker_orin", "crba", "aba"]
@@ -100,15 +103,16 @@ class _Entry:
         return first
 
 
-_FD = {
-    "mrnea": (_Entry(fd_mrnea, OUT1_T), fd_mrnea_batch),
-    "walker_orin": (_Entry(fd_walker_orin, OUT1_T),
-                    partial(fd_engine_batch, engine=ENGINE_WALKER_ORIN)),
-    "crba": (_Entry(fd_crba, OUT1_T), partial(fd_engine_batch, engine=ENGINE_CRBA)),
-    "aba": (_Entry(aba, OUT1_T), aba_batch),
+_FD = {  # method: the single-state entry, the batch kernel
+    "mrnea": (_Entry(fd_mrnea, OUT1_T), partial(fd_batch, method=ENGINE_MRNEA)),
+    "walker_orin": (_Entry(fd_walker_orin, OUT1_T), partial(fd_batch, method=ENGINE_WALKER_ORIN)),
+    "crba": (_Entry(fd_crba, OUT1_T), partial(fd_batch, method=ENGINE_CRBA)),
+    "aba": (_Entry(aba, OUT1_T), partial(fd_batch, method=FD_ABA)),
 }
-_HB = {"mrnea": (_Entry(mrnea, OUT2_T, OUT1_T), mrnea_batch),
-       "walker_orin": (_Entry(walker_orin, OUT2_T, OUT1_T), walker_orin_batch)}
+_HB = {"mrnea": (_Entry(mrnea, OUT2_T, OUT1_T),
+                 partial(mass_matrix_bias_batch, engine=ENGINE_MRNEA)),
+       "walker_orin": (_Entry(walker_orin, OUT2_T, OUT1_T),
+                       partial(mass_matrix_bias_batch, engine=ENGINE_WALKER_ORIN))}
 _RNEA = _Entry(rnea, OUT1_T)
 _REACTIONS = _Entry(reactions, OUT2_T)
 _FRAMES = _Entry(frames, OUT3_T, optional=0)

@@ -19,26 +19,21 @@ import numpy as np
 
 from mrnea.kernels.common import (
     add,
-    chunk,
     cross,
     finite,
     kinematics,
-    n_chunks,
     sized,
     tip_point,
     vec,
     wrench,
 )
 from mrnea.kernels.layout import (
-    ALLOC,
     ENTRY_ALLOC,
     JIT,
     MASS,
-    POSE,
     PRISMATIC,
     TYPE,
     pose_buffers,
-    scratch,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
@@ -172,15 +167,3 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
         for a in range(6):
             acc_p[a] += S[i, a] * qdd[i]
     return OK if finite(qdd) else OVERFLOW
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
-    """``aba`` over a batch; STATUS (B,) int64 receives each state's status."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

@@ -5,23 +5,28 @@ u' (n,) by the paper's mRNEA (``ENGINE_MRNEA``, kernels/mrnea.py), Walker-Orin m
 (``ENGINE_WALKER_ORIN``, kernels/walker_orin.py) or CRBA with one Newton-Euler pass for the bias
 (``ENGINE_CRBA``, kernels/crba.py); ``status = fd_walker_orin(model, q, qd, tau, fext, pe, qdd,
 ws)`` and ``fd_crba`` solve ``H qdd = tau - u'`` (Eq. 2) on H and u' of those engines
-(``fd_mrnea``, the paper's, is in kernels/mrnea.py); ``fd_engine_batch(model, Q, QD, TAU, FEXT,
-PE, QDD, STATUS, engine)`` over a batch. ``ws``: a ``SOLVE`` scratch (kernels/layout.py).
+(``fd_mrnea``, the paper's, is in kernels/mrnea.py). The batch kernels of both, one per kind of
+output: ``mass_matrix_bias_batch(model, Q, QD, FEXT, PE, H, U, STATUS, engine)`` and
+``fd_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, method)``, whose ``method`` is an engine or
+``FD_ABA`` (kernels/aba.py), so that the public API runs every method's batch through the same
+two loops. ``ws``: a ``SOLVE`` scratch (kernels/layout.py).
 """
 
 from __future__ import annotations
 
 import numba as nb
 
+from mrnea.kernels.aba import aba
 from mrnea.kernels.common import chunk, finite, n_chunks, sized
 from mrnea.kernels.crba import crba_bias
-from mrnea.kernels.layout import ALLOC, ENTRY_ALLOC, JIT, SOLVE, scratch, solve_buffers
+from mrnea.kernels.layout import ALLOC, ENTRY_ALLOC, JIT, POSE, SOLVE, scratch, solve_buffers
 from mrnea.kernels.mrnea import mrnea_ws
 from mrnea.kernels.solve import solve_forward
 from mrnea.kernels.status import NONFINITE, OK, SIZE
 from mrnea.kernels.walker_orin import walker_orin
 
 ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA = 0, 1, 2
+FD_ABA = 3  # fd_batch only: the articulated-body algorithm, which forms no H
 
 
 @nb.njit(**JIT)
@@ -62,13 +67,31 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd, ws):
 
 
 @nb.njit(**{**ALLOC, "parallel": True})
-def fd_engine_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, engine):
-    """``fd_engine`` over a batch (``fd_walker_orin``, ``fd_crba`` by ``engine``): Q, QD, TAU,
-    QDD (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,) int64."""
+def mass_matrix_bias_batch(model, Q, QD, FEXT, PE, H, U, STATUS, engine):
+    """``mass_matrix_bias`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n);
+    STATUS (B,) int64."""
+    B, n = Q.shape
+    nc = n_chunks(B)
+    for ch in nb.prange(nc):
+        ws = scratch(n, POSE)
+        lo, hi = chunk(ch, nc, B)
+        for b in range(lo, hi):
+            STATUS[b] = mass_matrix_bias(model, Q[b], QD[b], FEXT[b], PE[b], engine, H[b], U[b],
+                                         ws)
+
+
+@nb.njit(**{**ALLOC, "parallel": True})
+def fd_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, method):
+    """Forward dynamics over a batch: ``fd_engine`` on ``method``'s H and u' (an ``ENGINE_*``),
+    or ``aba`` (``FD_ABA``). Q, QD, TAU, QDD (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,) int64."""
     B, n = Q.shape
     nc = n_chunks(B)
     for ch in nb.prange(nc):
         ws = scratch(n, SOLVE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
-            STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], engine, ws)
+            if method == FD_ABA:
+                STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)
+            else:
+                STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], method,
+                                      ws)

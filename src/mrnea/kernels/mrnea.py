@@ -44,13 +44,11 @@ import numba as nb
 
 from mrnea.kernels.common import (
     add,
-    chunk,
     cross,
     dot,
     finite,
     kinematics,
     mv,
-    n_chunks,
     put,
     scale,
     sized,
@@ -60,19 +58,15 @@ from mrnea.kernels.common import (
     wrench,
 )
 from mrnea.kernels.layout import (
-    ALLOC,
     ENTRY,
     JIT,
     MASS,
     NOCOM,
     NOPOS,
-    POSE,
     PRISMATIC,
-    SOLVE,
     TYPE,
     mrnea_buffers,
     pose_buffers,
-    scratch,
     solve_buffers,
 )
 from mrnea.kernels.rnea import link_forces
@@ -176,18 +170,6 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def mrnea_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
-    """``mrnea`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n); STATUS (B,)."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = mrnea_ws(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b], False, ws)
-
-
 @nb.njit(**JIT)
 def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
     """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
@@ -210,15 +192,3 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd, ws):
     if not sized(model, q, qd, tau):
         return SIZE
     return fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws)
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def fd_mrnea_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS):
-    """``fd_mrnea`` over a batch; STATUS (B,) int64."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, SOLVE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = fd_mrnea_ws(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)

@@ -13,14 +13,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import chunk, finite, kinematics, n_chunks, sized
+from mrnea.kernels.common import finite, kinematics, sized
 from mrnea.kernels.layout import (
-    ALLOC,
     ENTRY_ALLOC,
-    POSE,
     force_buffers,
     pose_buffers,
-    scratch,
 )
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
@@ -50,15 +47,3 @@ def walker_orin(model, q, qd, fext, pe, H, u, ws):
         H[:, k] = col
         unit[k] = 0.0
     return OK if finite(H) and finite(u) else OVERFLOW
-
-
-@nb.njit(**{**ALLOC, "parallel": True})
-def walker_orin_batch(model, Q, QD, FEXT, PE, H, U, STATUS):
-    """``walker_orin`` over a batch (shapes as ``mrnea_batch``)."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = walker_orin(model, Q[b], QD[b], FEXT[b], PE[b], H[b], U[b], ws)
