@@ -11,6 +11,7 @@ from __future__ import annotations
 import ast
 import gc
 import itertools
+import re
 from pathlib import Path
 
 import numpy as np
@@ -188,6 +189,54 @@ def _module(path: Path) -> str:
     rel = path.relative_to(SRC).with_suffix("")
     parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
     return ".".join(("mrnea", *parts))
+
+
+def _layer_table() -> list[tuple[str, list[str]]]:
+    """The layers of docs/design.md's "package on one screen" table, top to bottom: (layer,
+    the files column's entries: ``x.py``, ``x/y.py`` or a folder ``x/``)."""
+    text = (SRC.parents[1] / "docs" / "design.md").read_text()
+    section = text.split("## The package on one screen", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:3] for line in section.splitlines() if line.startswith("| ")]
+    assert rows[0][0].strip() == "layer", rows[0]
+    return [(layer.strip(), re.findall(r"`([^`]+)`", files)) for layer, files in rows[1:]]
+
+
+def _layer_of(module: str, table: list[tuple[str, list[str]]]) -> int | None:
+    """The row of ``module`` (``mrnea.x.y``; a package: its ``__init__.py``) in the table: a file
+    named exactly, else the folder that holds it."""
+    rel = module.split(".", 1)[1] if "." in module else ""
+    named = {f"{rel.replace('.', '/')}.py", f"{rel.replace('.', '/')}/__init__.py"}
+    for k, (_, files) in enumerate(table):
+        if named & set(files):
+            return k
+    for k, (_, files) in enumerate(table):
+        if any(f.endswith("/") and (rel + ".").startswith(f.replace("/", ".")) for f in files):
+            return k
+    return None
+
+
+def test_imports_follow_the_layers_of_design_md() -> None:
+    """Every module of the package has a row in docs/design.md's one-screen table, and each of
+    its runtime imports (lazy ones included; a subpackage's __init__ that an import runs too)
+    is of its own row or one above: the order the document states is the order of the code."""
+    table = _layer_table()
+    assert len(table) > 10, table  # the table was found
+    wrong = []
+    for path in SRC.rglob("*.py"):
+        mod = _module(path)
+        if mod == "mrnea":  # the package's __init__ gathers the public API from every layer
+            continue
+        row = _layer_of(mod, table)
+        assert row is not None, f"{mod} has no row in docs/design.md's table"
+        own = {".".join(mod.split(".")[:k]) for k in range(1, mod.count(".") + 1)}
+        for target in _runtime_imports(path):
+            parts = target.split(".")
+            for dep in {".".join(parts[:k]) for k in range(2, len(parts) + 1)} - own - {mod}:
+                dep_row = _layer_of(dep, table)
+                if dep_row is None or dep_row > row:
+                    wrong.append(f"{mod} ({table[row][0]}) imports {dep} "
+                                 f"({'no row' if dep_row is None else table[dep_row][0]})")
+    assert not wrong, "\n".join(sorted(wrong))
 
 
 def test_imports_form_no_cycle() -> None:
