@@ -15,6 +15,7 @@ mirrors the compiled kernels. Three independent pieces:
 * :func:`mass_matrix_jacobian`: ``H = sum_i m_i Jv_i^T Jv_i + Jw_i^T I_i Jw_i`` from the geometric
   centre-of-mass Jacobians (no Newton-Euler at all), and :func:`static_bias_jacobian`, the
   velocity-free bias ``g(q) + J^T f_ext = -sum_i m_i Jv_i^T g + J_tip^T f_ext``.
+* :func:`forward_dynamics`: ``qdd = H^-1 (tau - u')`` with those two, by NumPy's LU solve.
 
 External wrench ``f_ext = [f_e; n_e]`` (base coordinates): the wrench the last link exerts on the
 environment, at ``f_ext_point`` (last link's frame), as in ``mrnea.dynamics``.
@@ -212,3 +213,10 @@ def static_bias_jacobian(robot: Robot, q, f_ext=None, f_ext_point=None) -> np.nd
             J[:3, k] = np.cross(z[k], p - o[k])
             J[3:, k] = z[k]
     return u + J.T @ fe
+
+
+def forward_dynamics(robot: Robot, q, qd, tau, f_ext=None, f_ext_point=None) -> np.ndarray:
+    """``qdd`` of ``H qdd = tau - u'`` (Eq. 2): H from the Jacobians, u' by the spatial
+    Newton-Euler recursion, solved by ``np.linalg.solve`` (LU, not a Cholesky factorisation)."""
+    u = bias(robot, q, qd, f_ext, f_ext_point)
+    return np.linalg.solve(mass_matrix_jacobian(robot, q), np.asarray(tau, dtype=float) - u)
