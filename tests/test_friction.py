@@ -1,6 +1,13 @@
-"""Model details of issue 11, part 5: asymmetric Coulomb friction ``[positive direction,
-negative direction]`` through every way a robot is made or read, and a program's wrench point
-given in the DH flange frame."""
+"""Coulomb friction as a model field and as a law: a magnitude or an asymmetric pair ``[positive
+direction, negative direction]`` (issue 11, part 5) through every way a robot is made or read;
+static friction holds a joint at rest while the net effort on it is below ``F_s``, through
+``achievable_accelerations`` and through the simulator.
+
+Friction is also tested where it meets another feature: the drive law's cycle solve against
+enumeration (test_drive_solve.py) and MuJoCo (test_drive_mujoco.py), stick-slip through
+``simulate`` (test_stick_slip.py), the achievable accelerations' Coulomb cases at rest by closed
+form and Pinocchio (test_achievable.py, "Coulomb friction at rest"), viscous friction's energy
+balance (test_physics.py), the program's requirement with friction (test_verdict.py)."""
 
 from __future__ import annotations
 
@@ -8,13 +15,13 @@ import math
 
 import numpy as np
 import pytest
-from naive import forward_kinematics
 
 import mrnea
 from mrnea import Joint, ModelError, RobotFileError
-from mrnea.errors import ProgramFileError
-from mrnea.io import load_program, load_robot, load_urdf
+from mrnea.achievable import achievable_accelerations
+from mrnea.io import load_robot, load_urdf
 from mrnea.io.native import loads_native
+from mrnea.simulate import simulate
 
 
 def test_joint_takes_one_or_two_magnitudes():
@@ -78,80 +85,37 @@ def test_urdf_writes_the_mean_of_an_asymmetric_pair(tmp_path):
     np.testing.assert_array_equal(again.coulomb_friction, sym.coulomb_friction)
 
 
-DH_ROBOT = """
-[robot]
-name = "dh2"
-dh = "standard"
-[[joint]]
-name = "j1"
-type = "revolute"
-a = 0.4
-alpha = 0.3
-d = 0.2
-[joint.link]
-mass = 2.0
-com = [-0.2, 0.0, 0.0]
-inertia = { ixx = 0.01, iyy = 0.02, izz = 0.02 }
-[[joint]]
-name = "j2"
-type = "revolute"
-a = 0.3
-alpha = 1.5707963267948966
-d = 0.1
-theta = 0.2
-[joint.link]
-mass = 1.0
-com = [-0.1, 0.0, 0.0]
-inertia = { ixx = 0.01, iyy = 0.01, izz = 0.01 }
-"""
+# --- Coulomb friction at rest ---------------------------------------------------------------------
+@pytest.mark.parametrize("gravity", [(0.0, 0.0, 0.0), (0.0, 0.0, -9.81)], ids=["free", "gravity"])
+@pytest.mark.parametrize("mode", ["hybrid", "paper"])
+def test_static_friction_holds_a_joint_at_rest(gravity, mode: str) -> None:
+    """Static (Coulomb) friction: a joint at rest stays at rest while the net effort on it (motor
+    plus gravity) is below F_s. Puma 560 at rest, every motor limited to 1 N m, each joint's
+    F_s = |gravity load| + 2 N m: whatever acceleration is asked for, qdd = 0 exactly, the motors
+    give their limit and nothing moves. Exact zeros: the stick decision is a comparison, not a
+    computation with rounding. The same robot with weak friction moves (the test can fail)."""
+    base = mrnea.robots.puma560().with_gravity(gravity)
+    rng = np.random.default_rng(3)
+    q, z = rng.uniform(-1.0, 1.0, 6), np.zeros(6)
+    _, hold = mrnea.mass_matrix_and_bias(base, q, z)
+    robot = base.with_actuators(coulomb_friction=np.abs(hold) + 2.0, effort_limit=1.0)
+    for _ in range(5):
+        res = achievable_accelerations(robot, q, z, rng.normal(0.0, 50.0, 6), mode=mode)
+        np.testing.assert_array_equal(res.qdd, 0.0)
+        assert np.all(np.abs(res.tau) <= 1.0)
+    weak = base.with_actuators(coulomb_friction=0.5, effort_limit=np.abs(hold) + 2.0)
+    res = achievable_accelerations(weak, q, z, rng.normal(0.0, 50.0, 6), mode=mode)
+    assert np.all(res.qdd != 0.0)
 
 
-def dh_frame(a, alpha, d, theta):
-    """Standard DH: Rz(theta) Tz(d) Tx(a) Rx(alpha), written out."""
-    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
-    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st],
-                     [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]])
-
-
-def test_wrench_point_in_the_dh_flange_frame(tmp_path):
-    """``point_frame = "flange"``: the point is given in DH frame n (the paper's frame of the
-    last link); the program converts it to mrnea's last link frame. Checked in the base frame:
-    the DH product A_1 A_2 p (written out here) equals the last link's pose (tests/naive.py)
-    times the converted point."""
-    (tmp_path / "dh2.toml").write_text(DH_ROBOT)
-    prog = """
-[program]
-robot = "dh2.toml"
-dt = 0.01
-[path]
-profile = "quintic"
-waypoints = [[0, 0], [0.5, -0.4]]
-velocity_limit = 1.0
-acceleration_limit = 2.0
-[wrench]
-times = [0.0]
-values = [[0, 0, -10, 0, 0, 0]]
-point = [0.05, -0.02, 0.1]
-"""
-    (tmp_path / "link.toml").write_text(prog)
-    (tmp_path / "flange.toml").write_text(prog + 'point_frame = "flange"\n')
-    p_link = load_program(tmp_path / "link.toml").f_ext_point
-    flange = load_program(tmp_path / "flange.toml")
-    robot = flange.load_robot()
-    p = np.array([0.05, -0.02, 0.1, 1.0])
-    for q in (np.zeros(2), np.array([0.7, -1.1])):
-        dh = dh_frame(0.4, 0.3, 0.2, q[0]) @ dh_frame(0.3, math.pi / 2, 0.1, 0.2 + q[1])
-        T = forward_kinematics(robot, q)[0][-1]
-        np.testing.assert_allclose(T[:3, :3] @ flange.f_ext_point + T[:3, 3], (dh @ p)[:3],
-                                   atol=1e-14)
-    np.testing.assert_array_equal(p_link, p[:3])  # the default: the last link's frame
-    assert not np.allclose(flange.f_ext_point, p_link)
-    # a robot not given by a DH table has no flange frame
-    bad = prog.replace('"dh2.toml"', '"sdt"') + 'point_frame = "flange"\n'
-    (tmp_path / "bad.toml").write_text(bad.replace("[[0, 0], [0.5, -0.4]]",
-                                                   "[[0, 0, 0, 0], [0.5, -0.4, 0, 0]]"))
-    with pytest.raises(ProgramFileError, match="DH table"):
-        load_program(tmp_path / "bad.toml")
-    (tmp_path / "typo.toml").write_text(prog + 'point_frame = "tool"\n')
-    with pytest.raises(ProgramFileError, match="point_frame"):
-        load_program(tmp_path / "typo.toml")
+def test_static_friction_holds_through_a_simulation() -> None:
+    """The same through the simulator: a program that asks the stuck Puma to move 0.5 rad per
+    joint in 0.5 s leaves every joint exactly where it started, at rest, for all 100 cycles."""
+    base = mrnea.robots.puma560()
+    q0 = np.random.default_rng(3).uniform(-1.0, 1.0, 6)
+    _, hold = mrnea.mass_matrix_and_bias(base, q0, np.zeros(6))
+    robot = base.with_actuators(coulomb_friction=np.abs(hold) + 2.0, effort_limit=1.0)
+    res = simulate(robot, np.linspace(q0, q0 + 0.5, 100), 0.005)
+    np.testing.assert_array_equal(res.q, np.broadcast_to(q0, res.q.shape))
+    np.testing.assert_array_equal(res.qd, 0.0)
+    assert not res.achievable and res.saturated[:-1].all()

@@ -15,8 +15,10 @@ import zlib
 
 import numpy as np
 import pytest
+from naive import forward_kinematics
 
-from mrnea.errors import ModelError, RobotFileError
+from mrnea.errors import ModelError, ProgramFileError, RobotFileError
+from mrnea.io import load_program
 from mrnea.io.dh import DHRow, dh_joint_chain, dh_tip_transform
 from mrnea.io.dispatch import BUILTIN_ROBOTS, load_builtin
 from mrnea.io.native import load_native, loads_native
@@ -550,3 +552,76 @@ def test_format_doc_examples_load() -> None:
     assert len(robots) >= 2 and len(blocks) - len(robots) == 2  # + a sidecar and a payload
     for block in robots:
         assert loads_native(block, "robot-format.md").n >= 2
+
+
+# --- a program's wrench point in the DH flange frame (issue 11, part 5) ------------------------
+DH_ROBOT = """
+[robot]
+name = "dh2"
+dh = "standard"
+[[joint]]
+name = "j1"
+type = "revolute"
+a = 0.4
+alpha = 0.3
+d = 0.2
+[joint.link]
+mass = 2.0
+com = [-0.2, 0.0, 0.0]
+inertia = { ixx = 0.01, iyy = 0.02, izz = 0.02 }
+[[joint]]
+name = "j2"
+type = "revolute"
+a = 0.3
+alpha = 1.5707963267948966
+d = 0.1
+theta = 0.2
+[joint.link]
+mass = 1.0
+com = [-0.1, 0.0, 0.0]
+inertia = { ixx = 0.01, iyy = 0.01, izz = 0.01 }
+"""
+
+
+def test_wrench_point_in_the_dh_flange_frame(tmp_path):
+    """``point_frame = "flange"``: the point is given in DH frame n (the paper's frame of the
+    last link); the program converts it to mrnea's last link frame. Checked in the base frame:
+    the DH product A_1 A_2 p (written out here) equals the last link's pose (tests/naive.py)
+    times the converted point."""
+    (tmp_path / "dh2.toml").write_text(DH_ROBOT)
+    prog = """
+[program]
+robot = "dh2.toml"
+dt = 0.01
+[path]
+profile = "quintic"
+waypoints = [[0, 0], [0.5, -0.4]]
+velocity_limit = 1.0
+acceleration_limit = 2.0
+[wrench]
+times = [0.0]
+values = [[0, 0, -10, 0, 0, 0]]
+point = [0.05, -0.02, 0.1]
+"""
+    (tmp_path / "link.toml").write_text(prog)
+    (tmp_path / "flange.toml").write_text(prog + 'point_frame = "flange"\n')
+    p_link = load_program(tmp_path / "link.toml").f_ext_point
+    flange = load_program(tmp_path / "flange.toml")
+    robot = flange.load_robot()
+    p = np.array([0.05, -0.02, 0.1, 1.0])
+    for q in (np.zeros(2), np.array([0.7, -1.1])):
+        dh = dh_standard(0.4, 0.3, 0.2, q[0]) @ dh_standard(0.3, math.pi / 2, 0.1, 0.2 + q[1])
+        T = forward_kinematics(robot, q)[0][-1]
+        np.testing.assert_allclose(T[:3, :3] @ flange.f_ext_point + T[:3, 3], (dh @ p)[:3],
+                                   atol=1e-14)
+    np.testing.assert_array_equal(p_link, p[:3])  # the default: the last link's frame
+    assert not np.allclose(flange.f_ext_point, p_link)
+    # a robot not given by a DH table has no flange frame
+    bad = prog.replace('"dh2.toml"', '"sdt"') + 'point_frame = "flange"\n'
+    (tmp_path / "bad.toml").write_text(bad.replace("[[0, 0], [0.5, -0.4]]",
+                                                   "[[0, 0, 0, 0], [0.5, -0.4, 0, 0]]"))
+    with pytest.raises(ProgramFileError, match="DH table"):
+        load_program(tmp_path / "bad.toml")
+    (tmp_path / "typo.toml").write_text(prog + 'point_frame = "tool"\n')
+    with pytest.raises(ProgramFileError, match="point_frame"):
+        load_program(tmp_path / "typo.toml")

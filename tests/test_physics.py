@@ -221,42 +221,6 @@ def test_viscous_friction_dissipates_energy() -> None:
     assert abs((E[0] - E[-1]) - work) <= 1e-8 * work, (E[0] - E[-1], work)
 
 
-# --- Coulomb friction at rest ---------------------------------------------------------------------
-@pytest.mark.parametrize("gravity", [(0.0, 0.0, 0.0), (0.0, 0.0, -9.81)], ids=["free", "gravity"])
-@pytest.mark.parametrize("mode", ["hybrid", "paper"])
-def test_static_friction_holds_a_joint_at_rest(gravity, mode: str) -> None:
-    """Static (Coulomb) friction: a joint at rest stays at rest while the net effort on it (motor
-    plus gravity) is below F_s. Puma 560 at rest, every motor limited to 1 N m, each joint's
-    F_s = |gravity load| + 2 N m: whatever acceleration is asked for, qdd = 0 exactly, the motors
-    give their limit and nothing moves. Exact zeros: the stick decision is a comparison, not a
-    computation with rounding. The same robot with weak friction moves (the test can fail)."""
-    base = mrnea.robots.puma560().with_gravity(gravity)
-    rng = np.random.default_rng(3)
-    q, z = rng.uniform(-1.0, 1.0, 6), np.zeros(6)
-    _, hold = mrnea.mass_matrix_and_bias(base, q, z)
-    robot = base.with_actuators(coulomb_friction=np.abs(hold) + 2.0, effort_limit=1.0)
-    for _ in range(5):
-        res = achievable_accelerations(robot, q, z, rng.normal(0.0, 50.0, 6), mode=mode)
-        np.testing.assert_array_equal(res.qdd, 0.0)
-        assert np.all(np.abs(res.tau) <= 1.0)
-    weak = base.with_actuators(coulomb_friction=0.5, effort_limit=np.abs(hold) + 2.0)
-    res = achievable_accelerations(weak, q, z, rng.normal(0.0, 50.0, 6), mode=mode)
-    assert np.all(res.qdd != 0.0)
-
-
-def test_static_friction_holds_through_a_simulation() -> None:
-    """The same through the simulator: a program that asks the stuck Puma to move 0.5 rad per
-    joint in 0.5 s leaves every joint exactly where it started, at rest, for all 100 cycles."""
-    base = mrnea.robots.puma560()
-    q0 = np.random.default_rng(3).uniform(-1.0, 1.0, 6)
-    _, hold = mrnea.mass_matrix_and_bias(base, q0, np.zeros(6))
-    robot = base.with_actuators(coulomb_friction=np.abs(hold) + 2.0, effort_limit=1.0)
-    res = simulate(robot, np.linspace(q0, q0 + 0.5, 100), 0.005)
-    np.testing.assert_array_equal(res.q, np.broadcast_to(q0, res.q.shape))
-    np.testing.assert_array_equal(res.qd, 0.0)
-    assert not res.achievable and res.saturated[:-1].all()
-
-
 # --- ill-conditioned but valid models -------------------------------------------------------------
 def test_large_gear_ratio_rotor_dominates() -> None:
     """G = 1e3, J_m = 1e-4 kg m^2 on every Puma joint: the reflected rotor inertia G^2 J_m = 100
