@@ -21,7 +21,7 @@ from mrnea.describe import describe
 from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import as_path
-from mrnea.io.writer import check_new, create
+from mrnea.io.writer import check_new, write_file
 from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_uri
 from mrnea.report.figures import plot_result, require_result
 from mrnea.report.view3d import result_scene
@@ -204,6 +204,31 @@ def _params_html(result: SimulationResult, interpolation: str | None) -> str:
     ])
 
 
+def stamp() -> str:
+    """The time a page is generated, UTC, to the second."""
+    return datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+
+
+def page(title: str, heading: str, body: str) -> str:
+    """One self-contained HTML page of the reports (simulation, and the pages that reuse it):
+    the document head with the reports' style sheet, ``title`` and the ``<h1>`` ``heading``
+    (both text, escaped here), then ``body`` (HTML)."""
+    return f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{_e(title)}</title>
+<style>{_CSS}</style>
+</head>
+<body>
+<h1>{_e(heading)}</h1>
+{body}
+</body>
+</html>
+"""
+
+
 def write_report(
     result: SimulationResult,
     path: str | os.PathLike[str],
@@ -256,7 +281,7 @@ def write_report(
     OutputError
         If ``path`` exists and ``overwrite`` is False, or is a directory (checked before any
         work is done), or cannot be written. The file is written through
-        :func:`mrnea.io.writer.create`: whole or not at all.
+        :func:`mrnea.io.writer.write_file`: whole or not at all.
     """
     require_result(result)
     path = as_path(path, "path", OutputError)
@@ -291,18 +316,8 @@ def write_report(
             f"<figcaption><b>{_e(name)}</b>{caption}</figcaption></figure>")
     view_html = (f"<h2>3D view</h2>\n{scene_html(result_scene(result))}" if view3d else "")
 
-    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
-    doc = f"""<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<meta name="viewport" content="width=device-width, initial-scale=1">
-<title>{_e(f"mrnea simulation report: {result.robot.name}")}</title>
-<style>{_CSS}</style>
-</head>
-<body>
-<h1>Simulation report: {_e(result.robot.name)}</h1>
-<p class="note">Will the robot make the programmed motion? Generated {_e(stamp)} by mrnea.</p>
+    body = f"""\
+<p class="note">Will the robot make the programmed motion? Generated {_e(stamp())} by mrnea.</p>
 <div class="verdict {cls}" id="verdict">{_e(verdict)}</div>
 {view_html}
 <h2>First infeasible instant</h2>
@@ -319,10 +334,7 @@ across it. Rows in red: the joint saturated or its command was clamped.</p>
 <p class="note">Series longer than {MAX_POINTS:,} samples are drawn as min/max envelopes;
 peaks are exact.</p>
 {"".join(fig_html)}
-{license_html() if view3d else ""}
-</body>
-</html>
-"""
-    with create(path, overwrite) as fh:
-        fh.write(doc)
-    return path
+{license_html() if view3d else ""}"""
+    name = result.robot.name
+    return write_file(path, page(f"mrnea simulation report: {name}", f"Simulation report: {name}",
+                                 body), overwrite)
