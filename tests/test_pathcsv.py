@@ -182,3 +182,68 @@ def test_cli_interpolation_option_and_report(tmp_path: Path) -> None:
 
 def test_top_level_names() -> None:
     assert mrnea.PathWarning is PathWarning and issubclass(PathWarning, UserWarning)
+
+
+# --- from_csv ---------------------------------------------------------------------------------
+
+
+def write(path: Path, text: str) -> Path:
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_from_csv_linear_exact(tmp_path: Path) -> None:
+    times = [0.2, 0.213, 0.25, 0.51, 0.7]  # non-uniform rows; span 0.5 s = 50 cycles
+    rows = "\n".join(f"{x!r}, {2 + 3 * x!r}, {-x!r}" for x in times)
+    p = write(tmp_path / "lin.csv", f"# a comment\n\ntime,q1,q2\n{rows}\n")
+    t, q = from_csv(p, 0.01)
+    assert q.shape == (51, 2)
+    np.testing.assert_allclose(t, 0.2 + 0.01 * np.arange(51), atol=1e-12)
+    np.testing.assert_allclose(q[:, 0], 2 + 3 * t, atol=1e-12)
+    np.testing.assert_allclose(q[:, 1], -t, atol=1e-12)
+    _, q2 = from_csv(str(p), 0.01, n=2)
+    np.testing.assert_array_equal(q2, q)
+
+
+def test_from_csv_holds_last_row(tmp_path: Path) -> None:
+    p = write(tmp_path / "p.csv", "\ufefft,a\n0,0\n0.105,1.05\n")  # BOM, span 10.5 cycles
+    t, q = from_csv(p, 0.01)
+    assert q.shape == (12, 1)  # ceil(10.5) + 1
+    np.testing.assert_allclose(q[:11, 0], 10 * t[:11], atol=1e-12)
+    assert q[-1, 0] == 1.05
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("t,q1\n0,0\n0.1,abc\n",
+     r"line 3 \(data row 2\), column 2 \('q1'\): not a number: 'abc' \(numbers are "),
+    ("t,q1\n0,0\n0.1,nan\n", r"line 3 .*column 2 .*not a finite number"),
+    ("t,q1\n0,0\n0.1,inf\n", r"line 3 .*column 2 .*not a finite number"),
+    ("t,q1\n0,0\n0.1,\n", r"line 3 .*column 2 .*empty cell"),
+    ("t,q1\n0,0\n0.1,1\n0.1,2\n", r"line 4 .*column 1 \('t'\).*strictly increasing"),
+    ("t,q1\n0,0\n0.2,1\n0.1,2\n", r"line 4 .*not greater than"),
+    ("t,q1,q2\n0,0,0\n0.1,1\n", r"line 3 .*expected 3 columns.*got 2"),
+    ("t,q1\n0,0,0\n", r"line 2 .*expected 2 columns.*got 3"),
+    ("", "empty file"),
+    ("\n# only a comment\n", "empty file"),
+    ("t,q1\n", "0 data row"),
+    ("t,q1\n0,1\n", "1 data row"),
+    ("0,1\n0.1,2\n", "line 1: the first row must be a header"),
+    ("t\n0\n1\n", "line 1: the header row needs a time column"),
+])
+def test_from_csv_errors(tmp_path: Path, text: str, match: str) -> None:
+    p = write(tmp_path / "bad.csv", text)
+    with pytest.raises(ProgramFileError, match=match) as info:
+        from_csv(p, 0.01)
+    assert "bad.csv" in str(info.value)
+
+
+def test_from_csv_other_errors(tmp_path: Path) -> None:
+    with pytest.raises(ProgramFileError, match=r"missing\.csv: path CSV file not found"):
+        from_csv(tmp_path / "missing.csv", 0.01)
+    p = write(tmp_path / "p.csv", "t,a,b\n0,0,0\n1,1,1\n")
+    with pytest.raises(ProgramFileError, match=r"line 1: expected 4 columns \(time \+ 3 joints\)"):
+        from_csv(p, 0.01, n=3)
+    with pytest.raises(StateError, match="dt"):
+        from_csv(p, 0.0)
+    with pytest.raises(StateError, match="n:"):
+        from_csv(p, 0.01, n=0)
