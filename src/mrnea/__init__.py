@@ -17,12 +17,14 @@ from mrnea.errors import (
     MrneaError,
     OutputError,
     ProgramFileError,
+    RetimeError,
     RobotFileError,
     SingularMassMatrixError,
     StateError,
 )
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot, transform
+from mrnea.retime import RetimeResult, retime
 
 __version__ = "0.1.0"
 
@@ -34,6 +36,8 @@ __all__ = [
     "MrneaError",
     "OutputError",
     "ProgramFileError",
+    "RetimeError",
+    "RetimeResult",
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
@@ -46,6 +50,7 @@ __all__ = [
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "retime",
     "robots",
     "transform",
 ]

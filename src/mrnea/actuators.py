@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
-from mrnea.kernels.drive import actuator_terms_batch, effort_limit
+from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.model import Robot
 
@@ -63,12 +63,27 @@ def actuator_efforts(
 
 
 def effort_limits_at(robot: Robot, qd: ArrayLike) -> NDArray[np.float64]:
-    """Each joint's effort limit [N m | N] at joint speed qd, (n,) or (B, n)."""
+    """Each joint's effort limit [N m | N] at joint speed qd [rad/s | m/s], (n,) or (B, n):
+    the torque-speed curve of :mod:`mrnea.kernels.drive`, one compiled loop over the batch."""
     _, (qd,), _, _ = validate.inputs(robot, {"qd": qd}, None, None)
-    act = compiled.of(robot)[3]
-    flat = np.atleast_2d(qd)
-    out = np.array([[effort_limit(act, i, row[i]) for i in range(robot.n)] for row in flat])
+    flat = np.ascontiguousarray(np.atleast_2d(qd))
+    out = np.empty_like(flat)
+    effort_limits(compiled.of(robot)[3], flat, out)
     return out.reshape(np.shape(qd))
+
+
+def effort_limit_branches(robot: Robot, speed: ArrayLike) -> NDArray[np.float64]:
+    """The falling branches of each joint's torque-speed curve at ``speed`` >= 0 [rad/s | m/s],
+    (n,) or (B, n), with their slopes: (..., n, 4) ``[P / w, -P / w^2, line, -gamma]`` (constant
+    power ``P = peak corner``; the line ``gamma (no_load - w)`` down to the no-load speed,
+    ``gamma = peak / (no_load - corner)``). A joint with a constant limit gets
+    ``[inf, 0, inf, 0]``. The limit is ``max(0, min(peak, P / w, line))`` (each branch is convex
+    in w: a tangent is a lower bound), for linearising it, as :mod:`mrnea.retime` does."""
+    _, (w,), _, _ = validate.inputs(robot, {"speed": speed}, None, None)
+    flat = np.ascontiguousarray(np.abs(np.atleast_2d(w)))
+    out = np.empty((*flat.shape, 4))
+    limit_tangents(compiled.of(robot)[3], flat, out)
+    return out.reshape((*np.shape(w), 4))
 
 
 def motor_torque(robot: Robot, tau: ArrayLike) -> NDArray[np.float64]:

@@ -150,6 +150,20 @@ def _load_program(robot: Robot, program: str, dt: float | None):
     return prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode
 
 
+def _suggest(res, robot: Robot, robot_arg: str, program: str, q_cmd: np.ndarray, dt: float,
+             f_ext: np.ndarray | None, f_pt: np.ndarray | None, quiet: bool,
+             as_json: bool) -> None:
+    """Under a completed run that is not achievable: the retime command and the duration
+    uniform scaling would give (:func:`mrnea.cli.retime.suggestion`); command line only (stderr
+    with --json), never in the summary."""
+    if quiet or not res.completed or res.achievable is not False:
+        return
+    from mrnea.cli.retime import suggestion
+
+    click.echo(suggestion(robot, robot_arg, program, np.asarray(q_cmd), dt, f_ext, f_pt),
+               err=as_json)
+
+
 @main.command()
 @program_args
 @fd_opt
@@ -169,6 +183,7 @@ def simulate(robot: str, program: str, dt: float | None, mode: str, catch_up: fl
                    force)
         report = _write_outputs(res, folder, force)
     _print_result(res, report, as_json, quiet)
+    _suggest(res, rob, robot, program, q_cmd, dt, f_ext, f_pt, quiet, as_json)
     if not res.completed:
         exit_interrupted()
 
@@ -184,6 +199,7 @@ def check(robot: str, program: str, dt: float | None, mode: str, catch_up: float
     q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
+    _suggest(res, rob, robot, program, q_cmd, dt, f_ext, f_pt, quiet, as_json)
     if not res.completed:
         exit_interrupted()
     checkpoint()

@@ -8,7 +8,10 @@ waypoint profiles'.
 from __future__ import annotations
 
 import csv
+import io
 import math
+import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -16,10 +19,11 @@ from numpy.typing import NDArray
 
 from mrnea.errors import ProgramFileError, StateError
 from mrnea.io.tomlcheck import read_text
+from mrnea.io.writer import create
 from mrnea.trajectory import cycles
 from mrnea.validate import time_step
 
-__all__ = ["from_csv", "read_table", "resample"]
+__all__ = ["from_csv", "read_table", "resample", "save_csv"]
 
 
 def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64]]:
@@ -172,3 +176,24 @@ def resample(time: NDArray, q: NDArray, dt: float) -> tuple[NDArray, NDArray]:
     out[0] = q[0]
     out[-1] = q[-1]
     return t, out
+
+
+def save_csv(path: str | os.PathLike[str], t: NDArray, q: NDArray, names: Sequence[str],
+             overwrite: bool = False) -> Path:
+    """Write a path CSV (the format :func:`from_csv` reads): a header ``t, <names>``, then one
+    row per sample, time [s] and positions [rad | m], every number as Python's shortest repr
+    (it reads back bit for bit). Through :func:`mrnea.io.writer.create`: whole or not at all,
+    never through a link, an existing file replaced only with ``overwrite``.
+
+    Parameters
+    ----------
+    t : (K,) time [s]. q : (K, n) positions. names : the n joint column names.
+    """
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["t", *names])
+    writer.writerows([repr(float(a)), *map(repr, row)] for a, row in zip(
+        np.asarray(t, dtype=float).tolist(), np.asarray(q, dtype=float).tolist(), strict=True))
+    with create(path, overwrite) as fh:
+        fh.write(buf.getvalue())
+    return Path(path)

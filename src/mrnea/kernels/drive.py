@@ -1,11 +1,13 @@
 """The drive: what an actuator adds to the rigid body, and what it can give (paper Eqs. 42-43).
 
 Usage: ``status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)`` fills H_a
-(n, n) and u'_a (n,) (``actuator_terms_batch(compiled, ...)``, ``compiled = (model, act)``, over a
-batch); ``effort_limit(act, i, qd_i)``; the friction law at rest, ``static_friction``, ``slips``,
-``sliding_friction``. The actuator array ``act`` (n, NACT) as kernels/layout.py describes it:
-per joint, joint side, gear ratio G (motor turns per joint turn), rotor inertia J_m (motor
-side), viscous friction F_v, Coulomb friction F_s, the torque-speed curve and the joint limits.
+(n, n) and u'_a (n,) (``actuator_terms_batch(compiled, ...)``, ``compiled = (model, act)``, over
+a batch); ``effort_limit(act, i, qd_i)`` (``effort_limits`` over a batch, ``limit_tangents``
+the curve's branches and slopes for a linearisation); the friction law at rest,
+``static_friction``, ``slips``, ``sliding_friction``. The actuator array ``act`` (n, NACT) as
+kernels/layout.py describes it: per joint, joint side, gear ratio G (motor turns per joint
+turn), rotor inertia J_m (motor side), viscous friction F_v, Coulomb friction F_s, the
+torque-speed curve and the joint limits.
 
 Actuator equation (Eqs. 42-43), joint side, on the rigid-body H and u' of one engine
 (kernels/engines.py)::
@@ -53,6 +55,17 @@ from mrnea.kernels.layout import (
 from mrnea.kernels.status import OK
 
 
+@nb.njit(**INLINE)
+def curve_branches(act, i, w):
+    """The falling branches of joint i's torque-speed curve at speed w > 0, and their slopes:
+    ``(P / w, -P / w^2, gamma (no_load - w), -gamma)``, ``P = peak corner``,
+    ``gamma = peak / (no_load - corner)``. Only for a finite corner below the no-load speed."""
+    peak, corner, no_load = act[i, PEAK], act[i, CORNER], act[i, NOLOAD]
+    power = peak * corner / w
+    gamma = peak / (no_load - corner)
+    return power, -power / w, gamma * (no_load - w), -gamma
+
+
 @nb.njit(**JIT)
 def effort_limit(act, i, qd_i):
     """Effort limit of joint i at speed qd_i: torque-speed curve or constant (module docstring)."""
@@ -62,7 +75,32 @@ def effort_limit(act, i, qd_i):
         return peak
     if w >= no_load:
         return 0.0
-    return min(peak * corner / w, peak * (no_load - w) / (no_load - corner))
+    power, _, line, _ = curve_branches(act, i, w)
+    return min(power, line)
+
+
+@nb.njit(**JIT)
+def effort_limits(act, QD, out):
+    """``effort_limit`` of every joint over a batch of speeds: out (B, n) from QD (B, n)."""
+    for b in range(QD.shape[0]):
+        for i in range(QD.shape[1]):
+            out[b, i] = effort_limit(act, i, QD[b, i])
+
+
+@nb.njit(**JIT)
+def limit_tangents(act, W, out):
+    """Each falling branch of the torque-speed curve at speeds W (B, n) >= 0, for a tangent:
+    out (B, n, 4) = ``curve_branches`` (values and slopes d/dw). A joint without a falling
+    branch (a constant limit, or corner = no-load speed: a step to zero, i.e. a speed limit)
+    gets (inf, 0, inf, 0). The limit is ``max(0, min(peak, P / w, line))``: each branch bounds
+    it from above wherever it is >= 0."""
+    for b in range(W.shape[0]):
+        for i in range(W.shape[1]):
+            if act[i, CORNER] < act[i, NOLOAD] and W[b, i] > 0.0:
+                out[b, i, 0], out[b, i, 1], out[b, i, 2], out[b, i, 3] = curve_branches(
+                    act, i, W[b, i])
+            else:
+                out[b, i, 0], out[b, i, 1], out[b, i, 2], out[b, i, 3] = np.inf, 0.0, np.inf, 0.0
 
 
 @nb.njit(**INLINE)

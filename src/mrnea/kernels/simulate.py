@@ -1,6 +1,7 @@
 """The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code.
 
-Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run)``
+Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions,
+k0, k1, run)``
 with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
 ``run = (q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``, unpacked once per call:
 the per-cycle ``step`` takes its arrays one by one (docs/design.md).
@@ -10,7 +11,9 @@ at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity),
 q[k], qd[k] (qd[k] is the velocity the drives held over that interval), and what cycle k does:
 qdd_des[k] = (v - qd[k]) / dt with v the velocity wanted over the next interval, the achievable
 qdd[k], the efforts, the limits, saturation and clamp flags, and each joint's reaction wrench
-(kernels/rnea.py ``reactions``) at q[k], qd[k], qdd[k]. Then q[k+1], qd[k+1] follow.
+(kernels/rnea.py ``reactions``) at q[k], qd[k], qdd[k] (only if ``reactions``: a check that
+needs the verdict alone skips that pass, about a third of a cycle's time). Then q[k+1], qd[k+1]
+follow.
 
 v is the program's qd_cmd[k+1] (the paper's behaviour: after a saturation the robot lags its
 program and keeps the lag), plus, with a position-loop gain ``catch_up`` > 0 [1/s],
@@ -33,7 +36,7 @@ from mrnea.kernels.status import OK
 
 
 @nb.njit(**ALLOC)
-def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
+def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0, k1, run):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
@@ -52,11 +55,12 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
                       limit[k], sat[k], q_next, qd_next, clamp[k], ws)
         if status != OK:
             return k, status
-        # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
-        status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws,
-                              engine == ENGINE_MRNEA)
-        if status != OK:
-            return k, status
+        if reactions:
+            # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
+            status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws,
+                                  engine == ENGINE_MRNEA)
+            if status != OK:
+                return k, status
         if not last:
             q[k + 1] = q_next
             qd[k + 1] = qd_next
