@@ -62,8 +62,7 @@ def curve_branches(act, i, w):
     ``gamma = peak / (no_load - corner)``. Only for a finite corner below the no-load speed."""
     peak, corner, no_load = act[i, PEAK], act[i, CORNER], act[i, NOLOAD]
     power = peak * corner / w
-    gamma = peak / (no_load - corner)
-    return power, -power / w, gamma * (no_load - w), -gamma
+    return power, -power / w, peak * (no_load - w) / (no_load - corner), -peak / (no_load - corner)
 
 
 @nb.njit(**JIT)

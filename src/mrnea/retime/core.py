@@ -161,7 +161,8 @@ def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
         qp = job.q[k0:k1 + 1]
         spline = piece_spline(qp, job.program_dt)
         N = grid or int(np.clip(qp.shape[0] // 2, *GRID))
-        s = grid_points(np.arange(qp.shape[0]) * job.program_dt, qp, N)
+        knots = np.arange(qp.shape[0]) * job.program_dt
+        s = grid_points(knots, qp, N, spline(knots, 2))
         pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
         moving = (pc.qs != 0) | ~np.isfinite(pc.sign)
         out[j] = (spline, pc, holding_need(pc.c, pc.sign, moving, job.robot.coulomb_friction))
