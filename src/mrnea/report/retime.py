@@ -46,7 +46,10 @@ _CAPTIONS = {
                    "speed at which some path acceleration keeps every joint within its effort "
                    "limit at that speed and its velocity limit (the true model: rotor inertia, "
                    "viscous and Coulomb friction, torque-speed curves, the wrench); blue: the "
-                   "retimed program; grey bands: dwells, kept as holds of the same duration.",
+                   "retimed program; grey bands: dwells, kept as holds of the same duration. "
+                   "The retimed speed stays below the curve where a joint needs its whole "
+                   "effort to keep accelerating or to brake in time for what follows, and "
+                   "touches it where the speed itself is the limit.",
     "effort_ratio": "Per joint, the effort the program's own commanded motion requires over "
                     "the effort limit at the commanded speed: the program as given (grey, "
                     "dashed) and retimed (blue), each on its own clock; above 1 the program is "
