@@ -14,7 +14,8 @@ Hypothesis mutates valid robot files and feeds them to :func:`mrnea.load_robot`:
 The property: ``load_robot`` raises a :class:`mrnea.errors.MrneaError` or returns a Robot, and
 then every dynamics call (inverse and forward dynamics by all methods, mass matrix, joint
 reactions, achievable accelerations, single states and a batch) returns finite numbers or raises
-a MrneaError; the robot can be described and written to URDF and read back.
+a MrneaError; the robot can be described and written to URDF and read back, and written as a
+native TOML file and read back equal, bit for bit.
 
 A model that loads must give finite results or a package error from every call, and survive
 ``to_urdf`` and a reload (the bugs this found, overflowing results, an axis normalised to zero,
@@ -343,9 +344,10 @@ def exercise(robot: Robot, tmp: Path) -> Counter:
         counts["call returned"] += 1
         _finite(out, what, robot)
     assert robot.describe().count("\n") == n + 1
-    # what loaded can be written as URDF and read back
-    back = load_robot(robot.to_urdf(tmp / "roundtrip.urdf"))
+    # what loaded can be written as URDF and read back; as a native file, read back equal
+    back = load_robot(robot.to_urdf(tmp / "roundtrip.urdf", overwrite=True))
     assert back.joint_names == robot.joint_names and back.n == n
+    assert load_robot(robot.to_toml(tmp / "roundtrip.toml", overwrite=True)) == robot
     return counts
 
 

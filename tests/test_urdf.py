@@ -489,8 +489,11 @@ def test_round_trip_handmade(tmp_path: Path) -> None:
     model = pin.buildModelFromUrdf(str(out))
     compare_with_pinocchio(back, model)
     assert model.upperPositionLimit[model.joints[2].idx_q] == sys.float_info.max
-    # overwriting (here through Robot.to_urdf) is atomic and leaves no temporary file behind
-    assert robot.with_actuators(gear_ratio=1.0).to_urdf(out) == out
+    # never over a file without overwrite; overwriting (here through Robot.to_urdf) is atomic
+    # and leaves no temporary file behind
+    with pytest.raises(OutputError, match="exists"):
+        robot.to_urdf(out)
+    assert robot.with_actuators(gear_ratio=1.0).to_urdf(out, overwrite=True) == out
     assert "<transmission" not in out.read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["h.urdf"]
 

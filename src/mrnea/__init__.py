@@ -7,7 +7,9 @@ the joint accelerations the real actuators can achieve and simulates the motion 
 from mrnea import robots
 from mrnea.dynamics import (
     forward_dynamics,
+    forward_kinematics,
     inverse_dynamics,
+    jacobian,
     joint_reactions,
     mass_matrix_and_bias,
 )
@@ -16,6 +18,7 @@ from mrnea.errors import (
     ModelWarning,
     MrneaError,
     OutputError,
+    PathWarning,
     ProgramFileError,
     RetimeError,
     RobotFileError,
@@ -35,6 +38,7 @@ __all__ = [
     "ModelWarning",
     "MrneaError",
     "OutputError",
+    "PathWarning",
     "ProgramFileError",
     "RetimeError",
     "RetimeResult",
@@ -44,7 +48,9 @@ __all__ = [
     "StateError",
     "__version__",
     "forward_dynamics",
+    "forward_kinematics",
     "inverse_dynamics",
+    "jacobian",
     "joint_reactions",
     "load_program",
     "load_robot",

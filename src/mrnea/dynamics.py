@@ -1,4 +1,5 @@
-"""Rigid-body dynamics, the public NumPy API (paper Eq. 1: no rotor inertia, no friction).
+"""Rigid-body dynamics and kinematics, the public NumPy API (paper Eq. 1: no rotor inertia, no
+friction).
 
 Every function takes one state, arrays of shape ``(n,)``, or a batch, shape ``(B, n)``; arguments
 of both kinds broadcast against each other, and a batch runs as one compiled, parallel loop.
@@ -14,15 +15,15 @@ environment applies *to* the robot, Pinocchio's and MuJoCo's convention, is the 
 The caller's arrays are never modified. Errors are :class:`mrnea.errors.StateError` (shapes, NaN,
 unknown method) and :class:`mrnea.errors.SingularMassMatrixError`.
 
-The fast path. A single state of one-dimensional float64 ndarrays without a wrench goes straight
-to a kernel's compiled ``free`` entry (:class:`_Entry`), on the robot's compiled arrays and the
-scratch :mod:`mrnea.compiled` keeps: at n = 6 the kernel takes about 2 us, so every check in
-Python counts. The wrapper checks only what the entry cannot (dtype and ndim: the entry would
-read another dtype or ndim wrongly); the kernel checks the lengths (status SIZE) and
-finiteness. Anything else (lists, a batch, a wrong length, NaN, a Robot not compiled yet or a
-non-Robot, which fail with KeyError, AttributeError or the entry's TypeError) takes the
-validated path, :func:`_evaluate`, which converts the inputs (:mod:`mrnea.validate`) or names
-the offending one.
+The fast path. A single state of one-dimensional float64 ndarrays without a wrench (a Jacobian: with
+or without its point) goes straight to a kernel's compiled ``free`` entry (:class:`_Entry`), on the
+robot's compiled arrays and the scratch :mod:`mrnea.compiled` keeps: at n = 6 the kernel takes about
+2 us, so every check in Python counts. The wrapper checks only what the entry cannot (dtype and
+ndim: the entry would read another dtype or ndim wrongly); the kernel checks the lengths (status
+SIZE) and finiteness. Anything else (lists, a batch, a wrong length, NaN, a Robot not compiled yet
+or a non-Robot, which fail with KeyError, AttributeError or the entry's TypeError) takes the
+validated path, :func:`_evaluate`, which converts the inputs (:mod:`mrnea.validate`) or names the
+offending one.
 """
 
 from __future__ import annotations
@@ -45,7 +46,9 @@ from mrnea.kernels.engines import (
     fd_engine_batch,
     fd_walker_orin,
 )
-from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, SCRATCH_T
+from mrnea.kernels.kinematics import frames, frames_batch, jacobian_batch
+from mrnea.kernels.kinematics import jacobian as jacobian_kernel
+from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, OUT3_T, SCRATCH_T
 from mrnea.kernels.mrnea import fd_mrnea, fd_mrnea_batch, mrnea, mrnea_batch
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
 from mrnea.kernels.status import OK
@@ -66,20 +69,23 @@ class _Entry:
     arrays.
     ``Dispatcher.compile`` compiles an entry (or loads it from Numba's disk cache) on its first
     call and returns it.
+    The kernel's arguments are ``(model, *states, *optional, *outputs, scratch)``: ``optional``
+    counts the inputs ``free`` passes as None (the wrench and its point; a Jacobian's point).
     """
 
     __slots__ = ("_kernel", "call", "free")
 
-    def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type) -> None:
+    def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type,
+                 optional: int = 2) -> None:
         py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT
-        states = [IN_T] * (py_func.__code__.co_argcount - 4 - len(outputs))
+        states = [IN_T] * (py_func.__code__.co_argcount - 2 - optional - len(outputs))
         self._kernel = kernel
         if hasattr(kernel, "compile"):
-            none = nb.types.none
+            given, none = [IN_T] * optional, [nb.types.none] * optional
             self.call = self._first(
-                "call", nb.types.int64(MODEL_T, *states, IN_T, IN_T, *outputs, SCRATCH_T))
+                "call", nb.types.int64(MODEL_T, *states, *given, *outputs, SCRATCH_T))
             self.free = self._first(
-                "free", nb.types.int64(MODEL_T, *states, none, none, *outputs, SCRATCH_T))
+                "free", nb.types.int64(MODEL_T, *states, *none, *outputs, SCRATCH_T))
         else:
             self.call = self.free = kernel
 
@@ -105,6 +111,8 @@ _HB = {"mrnea": (_Entry(mrnea, OUT2_T, OUT1_T), mrnea_batch),
        "walker_orin": (_Entry(walker_orin, OUT2_T, OUT1_T), walker_orin_batch)}
 _RNEA = _Entry(rnea, OUT1_T)
 _REACTIONS = _Entry(reactions, OUT2_T)
+_FRAMES = _Entry(frames, OUT3_T, optional=0)
+_JACOBIAN = _Entry(jacobian_kernel, OUT2_T, optional=1)
 _F64 = np.dtype(np.float64)
 _FAST_MISS = (KeyError, AttributeError, TypeError)  # what sends a fast-path call to _evaluate
 
@@ -255,3 +263,85 @@ def joint_reactions(
     (out,) = _evaluate(robot, _REACTIONS, reactions_batch, args, f_ext, f_ext_point,
                        lambda n: ((n, 6),))
     return out
+
+
+def forward_kinematics(robot: Robot, q: ArrayLike) -> NDArray[np.float64]:
+    """Homogeneous poses of the base and of every link frame, in base coordinates.
+
+    Parameters
+    ----------
+    robot : Robot
+    q : (n,) or (B, n) joint positions [rad | m].
+
+    Returns
+    -------
+    T : (n + 1, 4, 4) or (B, n + 1, 4, 4). ``T[0]`` is the base frame (the identity);
+        ``T[i + 1]`` is link i's frame ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)`` (URDF
+        conventions, :mod:`mrnea.model`): its rotation ``T[i + 1, :3, :3]`` (the link's axes in
+        base coordinates) and origin ``T[i + 1, :3, 3]`` [m]. The order of Pinocchio's
+        ``data.oMi`` (index 0 the universe). The last link's pose is ``T[-1]``.
+    """
+    try:  # the fast path (module docstring)
+        m, shape, ws, _ = BY_ID[id(robot)]
+        if q.dtype is _F64 and q.ndim == 1:
+            T = np.empty((shape[0] + 1, 4, 4))
+            if _FRAMES.free(m, q, T, ws) == OK:
+                return T
+    except _FAST_MISS:
+        pass
+    batched, q, _ = validate.kinematics_inputs(robot, q, None)
+    m, _, ws, _ = compiled.of(robot)
+    T = np.empty((*q.shape[:-1], robot.n + 1, 4, 4))
+    if batched:
+        status = np.empty(q.shape[0], dtype=np.int64)
+        frames_batch(m, q, T, status)
+    else:
+        status = _FRAMES.free(m, q, T, ws)
+    validate.check_status(robot, status, {"q": q})
+    return T
+
+
+def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None) -> NDArray[np.float64]:
+    """The geometric Jacobian of a point of the last link, in base coordinates.
+
+    ``J @ qd = [v; w]``: the linear velocity [m/s] of the point and the angular velocity
+    [rad/s] of the last link, both in base coordinates (rows linear then angular, Pinocchio's
+    order; its ``LOCAL_WORLD_ALIGNED`` Jacobian of a frame at the point). Column k is
+    ``[z_k x (p - o_k); z_k]`` for a revolute joint k and ``[z_k; 0]`` for a prismatic one
+    (z_k, o_k: joint k's axis and a point on it; p: the point). ``J.T @ f_ext`` is the effort
+    the joints supply against a wrench ``f_ext = [f; n]`` the last link exerts at the point
+    (:func:`inverse_dynamics` with ``f_ext_point=point``).
+
+    Parameters
+    ----------
+    robot : Robot
+    q : (n,) or (B, n) joint positions [rad | m].
+    point : (3,) or (B, 3) [m], in the last link's frame; None: that frame's origin.
+
+    Returns
+    -------
+    J : (6, n) or (B, 6, n) [m/rad or -, rad/rad or rad/m: per unit joint rate].
+    """
+    try:  # the fast path (module docstring); a point must be a (3,) float64 array
+        m, shape, ws, _ = BY_ID[id(robot)]
+        if q.dtype is _F64 and q.ndim == 1 and (point is None or (
+                point.dtype is _F64 and point.ndim == 1)):
+            J = np.empty((6, shape[0]))
+            if point is None:
+                status = _JACOBIAN.free(m, q, None, J, ws)
+            else:
+                status = _JACOBIAN.call(m, q, point, J, ws)
+            if status == OK:
+                return J
+    except _FAST_MISS:
+        pass
+    batched, q, p = validate.kinematics_inputs(robot, q, point)
+    m, _, ws, _ = compiled.of(robot)
+    J = np.empty((*q.shape[:-1], 6, robot.n))
+    if batched:
+        status = np.empty(q.shape[0], dtype=np.int64)
+        jacobian_batch(m, q, p, J, status)
+    else:
+        status = _JACOBIAN.call(m, q, p, J, ws)
+    validate.check_status(robot, status, {"q": q, "point": p})
+    return J

@@ -53,3 +53,8 @@ class OutputError(MrneaError):
 class ModelWarning(UserWarning):
     """A robot description is valid but physically doubtful (an inertia that violates the
     triangle inequality, a massless moving link); mrnea goes on and says so."""
+
+
+class PathWarning(UserWarning):
+    """A commanded path is valid but doubtful: its interpolation between a CSV's rows leaves a
+    position limit the rows respect (the simulator would clamp it); mrnea goes on and says so."""

@@ -32,7 +32,7 @@ import dataclasses
 import math
 import numbers
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -70,6 +70,9 @@ ACTUATOR_FIELDS = (
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
 )
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
+# a joint axis whose 2-norm is within this of 1 is kept as given (a normalised vector's computed
+# norm is within 1.5 eps of 1, measured over 2e5 random axes)
+UNIT_TOL = 4 * np.finfo(float).eps
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
 
 
@@ -108,7 +111,11 @@ def _number(x: object, what: str, *, allow_inf: bool = False) -> float:
 
 
 def rotation_from_rpy(rpy: ArrayLike) -> NDArray[np.float64]:
-    """Rotation matrix of URDF roll-pitch-yaw angles [rad]: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``."""
+    """Rotation matrix of URDF roll-pitch-yaw angles [rad]: ``Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    Without negative zeros (``+ 0.0``): zero angles give ``np.eye(3)`` bit for bit, so that a
+    robot file writer can name such a rotation by its angles and read the same bits back.
+    """
     r, p, y = (float(v) for v in np.asarray(rpy, dtype=float))
     cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
                               math.cos(y), math.sin(y))
@@ -116,7 +123,7 @@ def rotation_from_rpy(rpy: ArrayLike) -> NDArray[np.float64]:
         [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
         [-sp, cp * sr, cp * cr],
-    ])
+    ]) + 0.0
 
 
 def rpy_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
@@ -220,9 +227,12 @@ class Joint(Frozen):
         big = float(np.max(np.abs(axis)))
         if big < 1e-12:
             raise ModelError(f"{what}: axis is zero")
-        axis = axis / big  # first to a max-norm of 1: the 2-norm cannot overflow
-        axis = axis / np.linalg.norm(axis)
-        axis.setflags(write=False)
+        # normalised unless it is a unit vector already (to rounding, UNIT_TOL): normalising
+        # twice can move an ulp, and a robot written to a file must read back bit for bit
+        if not abs(float(np.linalg.norm(axis)) - 1.0) <= UNIT_TOL:
+            axis = axis / big  # first to a max-norm of 1: the 2-norm cannot overflow
+            axis = axis / np.linalg.norm(axis)
+            axis.setflags(write=False)
         lower = _number(self.lower, f"{what}: lower limit", allow_inf=True)
         upper = _number(self.upper, f"{what}: upper limit", allow_inf=True)
         if self.type == "continuous":
@@ -268,6 +278,12 @@ class Joint(Frozen):
     @property
     def is_prismatic(self) -> bool:
         return self.type == "prismatic"
+
+
+#: The robot file writers behind :meth:`Robot.to_urdf` and :meth:`Robot.to_toml`, by format:
+#: ``writer(robot, path, overwrite) -> path``. :mod:`mrnea.io` (which imports this module, never
+#: the reverse) fills it when it is imported, and ``import mrnea`` imports it (docs/design.md).
+WRITERS: dict[str, Callable[[Robot, str | Path, bool], Path]] = {}
 
 
 class Robot(Frozen):
@@ -443,11 +459,15 @@ class Robot(Frozen):
         return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]
 
     # --- export ---------------------------------------------------------------------------------
-    def to_urdf(self, path: str | Path) -> Path:
-        """Write this robot as a URDF file (actuator fields as limit/dynamics/transmission)."""
-        from mrnea.io.urdf import write_urdf
+    def to_urdf(self, path: str | Path, overwrite: bool = False) -> Path:
+        """Write this robot as a URDF file: :func:`mrnea.io.write_urdf` (what URDF cannot hold,
+        the rotor inertia and a torque-speed curve, is dropped). Returns ``path``."""
+        return WRITERS["urdf"](self, path, overwrite)
 
-        return write_urdf(self, path)
+    def to_toml(self, path: str | Path, overwrite: bool = False) -> Path:
+        """Write this robot as a native TOML robot file, every field exactly:
+        :func:`mrnea.io.write_native`. Returns ``path``."""
+        return WRITERS["toml"](self, path, overwrite)
 
     def __repr__(self) -> str:
         return f"Robot(name={self._name!r}, n={self.n}, joints={list(self.joint_names)})"

@@ -7,7 +7,9 @@ makes them from waypoints:
 * :func:`trapezoidal` -- rest-to-rest segments through waypoints with synchronised trapezoidal
   (or triangular) velocity profiles, within per-joint velocity and acceleration limits;
 * :func:`quintic` -- rest-to-rest quintic polynomial segments (zero velocity and acceleration at
-  both ends of every segment), synchronised, within the same limits.
+  both ends of every segment), synchronised, within the same limits;
+* :func:`scurve` -- rest-to-rest jerk-limited (S-curve, seven-phase) segments, synchronised,
+  within velocity, acceleration and jerk limits: the time-optimal profile computed by ruckig.
 
 Paths from files are read in :mod:`mrnea.io`: a recorded path CSV (:func:`mrnea.io.from_csv`,
 resampled to dt on the same cycle grid as here, :func:`cycles`) and a program file
@@ -28,12 +30,13 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+import ruckig
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import StateError
 from mrnea.validate import time_step
 
-__all__ = ["cycles", "quintic", "trapezoidal"]
+__all__ = ["cycles", "quintic", "scurve", "trapezoidal"]
 
 #: A normalised profile s(u), u = time / segment duration in [0, 1], s(0) = 0, s(1) = 1.
 Shape = Callable[[NDArray], NDArray]
@@ -340,3 +343,97 @@ def quintic(
     return _through_waypoints(
         waypoints, dt, velocity_limit, acceleration_limit, t0, dwell,
         lambda dq, vmax, amax: (_quintic_timing(dq, vmax, amax), _quintic_shape))
+
+
+def _scurve_timing(dq: NDArray, vmax: NDArray, amax: NDArray, jmax: NDArray
+                   ) -> tuple[float, Shape]:
+    """(T, s): shortest duration [s] and normalised profile of a synchronised jerk-limited
+    segment.
+
+    Every joint follows ``q_i = q0_i + dq_i s(t)``, so joint i's velocity, acceleration and jerk
+    are ``dq_i`` times those of s: s must keep within ``min_i v_i / |dq_i|``, and likewise for
+    the acceleration and jerk (moving joints only). ruckig computes the time-optimal
+    rest-to-rest profile of s from 0 to 1 within those limits (seven phases, or fewer where a
+    limit is not reached); ``s(u) = p(u T)``, with s(1) = 1 exactly.
+    """
+    d = np.abs(dq)
+    moving = d > 0.0
+    if not moving.any():
+        return 0.0, lambda u: np.ones_like(u)
+    inp = ruckig.InputParameter(1)
+    inp.current_position, inp.target_position = [0.0], [1.0]
+    inp.max_velocity = [float(np.min(vmax[moving] / d[moving]))]
+    inp.max_acceleration = [float(np.min(amax[moving] / d[moving]))]
+    inp.max_jerk = [float(np.min(jmax[moving] / d[moving]))]
+    traj = ruckig.Trajectory(1)
+    result = ruckig.Ruckig(1).calculate(inp, traj)
+    if result not in (ruckig.Result.Working, ruckig.Result.Finished):
+        raise StateError(f"ruckig found no jerk-limited profile ({result.name}) for a move of "
+                         f"{dq.tolist()} within the limits")
+    T = float(traj.duration)
+
+    def shape(u: NDArray) -> NDArray:
+        s = np.array([traj.at_time(x * T)[0][0] for x in u.tolist()])
+        return np.where(u >= 1.0, 1.0, s)
+
+    return T, shape
+
+
+def scurve(
+    waypoints: ArrayLike,
+    dt: float,
+    velocity_limit: ArrayLike,
+    acceleration_limit: ArrayLike,
+    jerk_limit: ArrayLike,
+    t0: float = 0.0,
+    dwell: ArrayLike = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rest-to-rest synchronised jerk-limited (S-curve) segments through waypoints.
+
+    Each segment is ``q(t) = q_j + (q_{j+1} - q_j) s(t)``: every joint moves along one
+    normalised profile s, so the joints start and stop together and the path is a straight
+    line in joint space (phase synchronisation). s is the time-optimal rest-to-rest profile with
+    limited velocity, acceleration and jerk (zero velocity and acceleration at both ends), which
+    ruckig computes; its limits are the tightest of the joints' own divided by their distances,
+    so no joint exceeds any of its limits. With one joint and every limit reached (``v >= a²/j``
+    and ``|dq| >= v (v/a + a/j)``) the duration is ``|dq|/v + v/a + a/j``. It is never shorter
+    than :func:`trapezoidal`'s with the same velocity and acceleration limits. The duration is
+    rounded **up** to a whole number of cycles N and the profile stretched in time to ``N dt``:
+    velocities scale by ``T / (N dt) <= 1``, accelerations by its square and jerks by its cube,
+    so the limits still hold and each waypoint is reached exactly on a cycle.
+
+    (ruckig's own multi-joint phase synchronisation, ``Synchronization.Phase``, takes the
+    slowest joint's profile and scales it to the others; where that breaks another joint's
+    limit it falls back to time synchronisation, whose path is no straight line. Posing the
+    problem for s gives the same profile where ruckig's is phase synchronised, and a phase
+    synchronised one always. Its intermediate-waypoint mode needs ruckig's cloud service: each
+    segment here is a rest-to-rest move of its own.)
+
+    Parameters
+    ----------
+    waypoints : (W, n) joint positions [rad | m], W >= 1.
+    dt : interpolation cycle [s], finite and > 0.
+    velocity_limit : (n,) or scalar, > 0 [rad/s | m/s]; ``inf`` = unlimited.
+    acceleration_limit : (n,) or scalar, > 0 [rad/s² | m/s²]; ``inf`` = unlimited.
+    jerk_limit : (n,) or scalar, finite and > 0 [rad/s³ | m/s³].
+    t0 : time of the first cycle [s].
+    dwell : hold time at each waypoint [s], scalar (every waypoint) or (W,); rounded up to whole
+        cycles.
+
+    Returns
+    -------
+    t, q : (K,) cycle times [s] and (K, n) commanded positions, as :func:`trapezoidal`'s.
+
+    Raises
+    ------
+    StateError
+        Bad shapes or values, as for :func:`trapezoidal`; a jerk limit that is not finite.
+    """
+    n = _waypoints(waypoints).shape[1]
+    jmax = _limit(jerk_limit, n, "jerk_limit")
+    if not np.isfinite(jmax).all():
+        i = int(np.argmax(~np.isfinite(jmax)))
+        raise StateError(f"jerk_limit: must be finite for every joint, joint {i} has {jmax[i]}")
+    return _through_waypoints(
+        waypoints, dt, velocity_limit, acceleration_limit, t0, dwell,
+        lambda dq, vmax, amax: _scurve_timing(dq, vmax, amax, jmax))

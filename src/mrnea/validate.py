@@ -135,20 +135,36 @@ def inputs(
     (batched, states, f_ext, f_ext_point); batched arrays are 2-D."""
     require_robot(robot)
     n = robot.n
-    arrays = [array(v, k, n) for k, v in states.items()]
-    fe = _ZERO_WRENCH if f_ext is None else array(f_ext, "f_ext", 6)
-    pe = _ZERO_POINT if f_ext_point is None else array(f_ext_point, "f_ext_point", 3)
-    all_ = [*arrays, fe, pe]
-    if all(a.ndim == 1 for a in all_):
-        return False, arrays, fe, pe
-    sizes = {a.shape[0] for a in all_ if a.ndim == 2}
+    arrays = {k: array(v, k, n) for k, v in states.items()}
+    arrays["f_ext"] = _ZERO_WRENCH if f_ext is None else array(f_ext, "f_ext", 6)
+    arrays["f_ext_point"] = (_ZERO_POINT if f_ext_point is None
+                             else array(f_ext_point, "f_ext_point", 3))
+    batched, out = _broadcast(arrays)
+    return batched, out[:-2], out[-2], out[-1]
+
+
+def kinematics_inputs(robot: Robot, q: ArrayLike, point: ArrayLike | None
+                      ) -> tuple[bool, NDArray, NDArray]:
+    """Check and broadcast the arguments of a kinematics call: q (n,) or (B, n), a point
+    (3,) or (B, 3) (None: zero). Returns (batched, q, point); batched arrays are 2-D."""
+    require_robot(robot)
+    arrays = {"q": array(q, "q", robot.n),
+              "point": _ZERO_POINT if point is None else array(point, "point", 3)}
+    batched, (q, p) = _broadcast(arrays)
+    return batched, q, p
+
+
+def _broadcast(arrays: dict[str, NDArray]) -> tuple[bool, list[NDArray]]:
+    """Arrays of one state (1-D) or a batch (2-D, one B for all) by name: (batched, arrays),
+    every array 2-D with B rows when any is."""
+    if all(a.ndim == 1 for a in arrays.values()):
+        return False, list(arrays.values())
+    sizes = {a.shape[0] for a in arrays.values() if a.ndim == 2}
     if len(sizes) > 1:
-        names = [*states, "f_ext", "f_ext_point"]
-        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(names, all_, strict=True))
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in arrays.items())
         raise StateError(f"batch sizes differ: {shapes}")
     B = sizes.pop()
-    out = [a if a.ndim == 2 else np.repeat(a[None], B, axis=0) for a in all_]
-    return True, out[:-2], out[-2], out[-1]
+    return True, [a if a.ndim == 2 else np.repeat(a[None], B, axis=0) for a in arrays.values()]
 
 
 def one_state(
@@ -183,7 +199,7 @@ def check_status(robot: Robot, status: int | NDArray, states: dict[str, object])
     if np.any(st == NONFINITE):
         for k, v in states.items():
             if v is not None:
-                array(v, k, 6 if k == "f_ext" else 3 if k == "f_ext_point" else robot.n)
+                array(v, k, {"f_ext": 6, "f_ext_point": 3, "point": 3}.get(k, robot.n))
     if np.any(st == OVERFLOW):
         b = int(np.flatnonzero(st == OVERFLOW)[0])
         where = f"state {b}: " if batched else ""

@@ -32,6 +32,7 @@ import click
 
 from mrnea.errors import MrneaError
 from mrnea.io import load_robot_spec
+from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.model import Robot
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
@@ -157,11 +158,15 @@ force_opt = click.option("--force", is_flag=True,
 
 
 def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """ROBOT PROGRAM [--dt] [--mode] [--catch-up]: what a command simulating a program takes."""
+    """ROBOT PROGRAM [--dt] [--interpolation] [--mode] [--catch-up]: what a command simulating
+    a program takes."""
     for option in reversed([
         click.argument("robot"),
         click.argument("program", type=click.Path(dir_okay=False)),
         click.option("--dt", type=float, default=None, help="Cycle time [s] (needed for a CSV)."),
+        click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
+                     help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic]; "
+                          "a program file sets it in [path]."),
         mode_opt,
         catch_opt,
     ]):

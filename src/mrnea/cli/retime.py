@@ -89,6 +89,7 @@ def retime(robot_or_program: str, program: str | None, out: str, method: str, ma
         prog = load_program(program)
         spec = _robot_spec(prog.robot if robot_arg is None else robot_arg)
         rob = prog.load_robot() if robot_arg is None else load_any(robot_arg)
+        prog.check_path(rob)
         prog_mode = prog.mode
     with own_folder(Path(out)) as folder:
         paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}

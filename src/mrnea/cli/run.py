@@ -79,7 +79,8 @@ def _outputs(out: Path, extra: tuple[str, ...] = ()) -> list[Path]:
     return [out / f for f in (TABLE, SUMMARY, REPORT, *(f"{n}.png" for n in (*FIGURES, *extra)))]
 
 
-def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None) -> Path:
+def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None,
+                   interpolation: str | None = None) -> Path:
     from mrnea.report import plot_result, write_report
     from mrnea.report.drawing import save_figure
 
@@ -90,7 +91,8 @@ def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = Non
         checkpoint()
         save_figure(fig, out / f"{name}.png", force, dpi=110)
     checkpoint()
-    return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures)
+    return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures,
+                        interpolation=interpolation)
 
 
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
@@ -136,18 +138,26 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
         exit_interrupted()
 
 
-def _load_program(robot: Robot, program: str, dt: float | None):
-    """(q_cmd, dt, f_ext, f_ext_point, mode) from a program .toml or a CSV file."""
+def _load_program(robot: Robot, program: str, dt: float | None, interpolation: str | None):
+    """(q_cmd, dt, f_ext, f_ext_point, mode, interpolation) from a program .toml or a CSV file
+    (interpolation: of a CSV path's rows, None for waypoints)."""
     if program.lower().endswith(".csv"):
         if dt is None:
             raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
-        _, q = from_csv(program, dt, n=robot.n)
-        return q, dt, None, None, None
+        interpolation = interpolation or "cubic"
+        _, q = from_csv(program, dt, interpolation=interpolation, robot=robot)
+        return q, dt, None, None, None, interpolation
     prog = load_program(program)
     if dt is not None and not np.isclose(dt, prog.dt):
         raise click.UsageError(
             f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
-    return prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode
+    if interpolation is not None and interpolation != prog.interpolation:
+        raise click.UsageError(
+            f"--interpolation {interpolation} differs from the program's "
+            f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
+    prog.check_path(robot)
+    return (prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode,
+            prog.interpolation)
 
 
 def _suggest(res, robot: Robot, robot_arg: str, program: str, q_cmd: np.ndarray, dt: float,
@@ -172,16 +182,17 @@ def _suggest(res, robot: Robot, robot_arg: str, program: str, q_cmd: np.ndarray,
 @force_opt
 @quiet_opt
 @json_opt
-def simulate(robot: str, program: str, dt: float | None, mode: str, catch_up: float, fd: str,
-             out: str | None, force: bool, quiet: bool, as_json: bool) -> None:
+def simulate(robot: str, program: str, dt: float | None, interpolation: str | None, mode: str,
+             catch_up: float, fd: str, out: str | None, force: bool, quiet: bool,
+             as_json: bool) -> None:
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json."""
     rob = load_any(robot)
-    q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
+    q_cmd, dt, f_ext, f_pt, prog_mode, interp = _load_program(rob, program, dt, interpolation)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
                    force)
-        report = _write_outputs(res, folder, force)
+        report = _write_outputs(res, folder, force, interpolation=interp)
     _print_result(res, report, as_json, quiet)
     _suggest(res, rob, robot, program, q_cmd, dt, f_ext, f_pt, quiet, as_json)
     if not res.completed:
@@ -192,11 +203,11 @@ def simulate(robot: str, program: str, dt: float | None, mode: str, catch_up: fl
 @program_args
 @quiet_opt
 @json_opt
-def check(robot: str, program: str, dt: float | None, mode: str, catch_up: float, quiet: bool,
-          as_json: bool) -> None:
+def check(robot: str, program: str, dt: float | None, interpolation: str | None, mode: str,
+          catch_up: float, quiet: bool, as_json: bool) -> None:
     """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input, 130: interrupted."""
     rob = load_any(robot)
-    q_cmd, dt, f_ext, f_pt, prog_mode = _load_program(rob, program, dt)
+    q_cmd, dt, f_ext, f_pt, prog_mode, _ = _load_program(rob, program, dt, interpolation)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
     _suggest(res, rob, robot, program, q_cmd, dt, f_ext, f_pt, quiet, as_json)

@@ -6,8 +6,13 @@ suffix), :func:`load_builtin` (a built-in robot by name), :func:`load_robot_spec
 :func:`load_urdf`, :func:`load_native`, :func:`apply_actuator_file` (a sidecar file),
 :func:`load_program` (a program file into a :class:`Program`) and :func:`from_csv` (a path CSV
 resampled to dt). Every TOML reader checks its document with :mod:`mrnea.io.tomlcheck`.
+
+The robot writers, :func:`write_urdf` and :func:`write_native`, are also
+:meth:`mrnea.Robot.to_urdf` and :meth:`mrnea.Robot.to_toml`: importing this package registers
+them in :data:`mrnea.model.WRITERS` (the model imports no io; docs/design.md).
 """
 
+from mrnea import model
 from mrnea.io.dispatch import (
     BUILTIN_ROBOTS,
     load_builtin,
@@ -15,16 +20,19 @@ from mrnea.io.dispatch import (
     load_robot_spec,
     resolve_robot,
 )
-from mrnea.io.native import load_native, loads_native
+from mrnea.io.native import dumps_native, load_native, loads_native, write_native
 from mrnea.io.pathcsv import from_csv
 from mrnea.io.program import Program, load_program, loads_program
 from mrnea.io.sidecar import apply_actuator_file
-from mrnea.io.urdf import load_urdf
+from mrnea.io.urdf import load_urdf, write_urdf
+
+model.WRITERS.update(urdf=write_urdf, toml=write_native)
 
 __all__ = [
     "BUILTIN_ROBOTS",
     "Program",
     "apply_actuator_file",
+    "dumps_native",
     "from_csv",
     "load_builtin",
     "load_native",
@@ -35,4 +43,6 @@ __all__ = [
     "loads_native",
     "loads_program",
     "resolve_robot",
+    "write_native",
+    "write_urdf",
 ]

@@ -26,11 +26,16 @@ The full description, with a complete example, is in ``docs/robot-format.md``. I
 Every problem is reported as :class:`mrnea.errors.RobotFileError` (a :class:`ModelError`) whose
 message names the file and the joint or link at fault: TOML syntax errors (with line and column),
 unknown keys (typos), missing required keys, wrong types and shapes, unphysical values.
+
+:func:`write_native` (behind :meth:`mrnea.Robot.to_toml`) writes a Robot in this format with
+every field, the actuator's included, each number in its shortest exact decimal form
+(``repr``): :func:`load_native` reads it back equal to the Robot, bit for bit.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -40,16 +45,26 @@ from mrnea.errors import ModelError, RobotFileError
 from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.tomlcheck import TomlCheck, read_text
-from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot, transform
+from mrnea.io.writer import create
+from mrnea.model import (
+    DEFAULT_GRAVITY,
+    JOINT_TYPES,
+    Joint,
+    Link,
+    Robot,
+    rotation_from_rpy,
+    rpy_from_rotation,
+    transform,
+)
 
-__all__ = ["load_native", "loads_native"]
+__all__ = ["dumps_native", "load_native", "loads_native", "write_native"]
 
 _TOP_KEYS = ("robot", "joint")
 _ROBOT_KEYS = ("name", "gravity", "dh", "base")
 _COMMON_JOINT_KEYS = ("name", "type", "link", *JOINT_FIELDS)
 _ORIGIN_JOINT_KEYS = ("origin", "axis")
 _DH_JOINT_KEYS = ("a", "alpha", "d", "theta")
-_ORIGIN_KEYS = ("xyz", "rpy")
+_ORIGIN_KEYS = ("xyz", "rpy", "rotation")
 _LINK_KEYS = ("name", "mass", "com", "inertia")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 
@@ -86,6 +101,26 @@ def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) ->
     return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia}
 
 
+def _origin(check: TomlCheck, table: Mapping[str, Any], joint: str) -> np.ndarray:
+    """The 4x4 origin of ``{xyz, rpy}`` or ``{xyz, rotation}`` (a 3x3 rotation matrix) of the
+    joint ``joint`` (its label in messages)."""
+    where = f"{joint}: origin"
+    check.check_keys(table, _ORIGIN_KEYS, where)
+    xyz = check.vector(table.get("xyz", [0.0, 0.0, 0.0]), where, "xyz", 3)
+    if "rotation" not in table:
+        rpy = check.vector(table.get("rpy", [0.0, 0.0, 0.0]), where, "rpy", 3)
+        try:
+            return transform(xyz, rpy)
+        except ModelError as exc:
+            raise check.error(joint, str(exc)) from None
+    if "rpy" in table:
+        raise check.error(where, "give 'rpy' or 'rotation', not both")
+    T = np.eye(4)
+    T[:3, :3] = check.matrix(table["rotation"], where, "rotation", width=3, rows=3)
+    T[:3, 3] = xyz
+    return T
+
+
 def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: str
                   ) -> tuple[list[Joint], list[Link]]:
     allowed = _COMMON_JOINT_KEYS + (_DH_JOINT_KEYS if dh else _ORIGIN_JOINT_KEYS)
@@ -118,16 +153,13 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
             params["theta"] = check.number(entry.get("theta", 0.0), where, "theta")
             rows.append(DHRow(type=jtype, name=jname, **params, **link, joint=fields))
             continue
-        origin = check.table(entry.get("origin", {}), where, "origin")
-        check.check_keys(origin, _ORIGIN_KEYS, f"{where}: origin")
-        xyz = check.vector(origin.get("xyz", [0.0, 0.0, 0.0]), f"{where}: origin", "xyz", 3)
-        rpy = check.vector(origin.get("rpy", [0.0, 0.0, 0.0]), f"{where}: origin", "rpy", 3)
+        origin = _origin(check, check.table(entry.get("origin", {}), where, "origin"), where)
         axis = check.vector(check.require(entry, "axis", where), where, "axis", 3)
         lname = link.pop("link_name")
         try:
             links.append(Link(lname, **link))
-            joints.append(Joint(jname, jtype, parent, lname, origin=transform(xyz, rpy),
-                                axis=axis, **fields))
+            joints.append(Joint(jname, jtype, parent, lname, origin=origin, axis=axis,
+                                **fields))
         except ModelError as exc:
             raise check.error(where, str(exc)) from None
         parent = lname
@@ -207,3 +239,111 @@ def load_native(path: str | Path, actuators: str | Path | None = None) -> Robot:
     """
     robot = loads_native(read_text(path, "robot file", RobotFileError), source=str(path))
     return robot if actuators is None else apply_actuator_file(robot, actuators)
+
+
+# --- writer -----------------------------------------------------------------------------------
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(Joint) if f.name in JOINT_FIELDS}
+
+
+def _string(text: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters escaped."""
+    return '"' + "".join(
+        f"\\u{ord(ch):04x}" if ch in '"\\' or ord(ch) < 0x20 or ord(ch) == 0x7F else ch
+        for ch in text) + '"'
+
+
+def _number(x: float) -> str:
+    """Shortest exact decimal form (``repr``), which TOML and ``float`` read back bit for bit;
+    infinities as TOML's ``inf``, ``-inf``."""
+    return repr(float(x))
+
+
+def _numbers(xs: Iterable[float]) -> str:
+    return "[" + ", ".join(_number(x) for x in xs) + "]"
+
+
+def _origin_lines(origin: np.ndarray) -> list[str]:
+    """``xyz`` and the rotation: ``rpy`` where those angles give back the same matrix bit for
+    bit (the identity, rotations about one axis by exact angles...), else ``rotation``."""
+    R = origin[:3, :3]
+    rpy = rpy_from_rotation(R) + 0.0  # no "-0.0" in the file
+    lines = [f"xyz = {_numbers(origin[:3, 3])}"]
+    if rotation_from_rpy(rpy).tobytes() == R.tobytes():
+        return [*lines, f"rpy = {_numbers(rpy)}"]
+    return [*lines, "rotation = [" + ", ".join(_numbers(row) for row in R) + "]"]
+
+
+def _inertia_value(inertia: np.ndarray) -> str:
+    """The ``{ixx, ...}`` table of a symmetric inertia, else the 3x3 array."""
+    if not np.array_equal(inertia, inertia.T):
+        return "[" + ", ".join(_numbers(row) for row in inertia) + "]"
+    keys = (("ixx", 0, 0), ("iyy", 1, 1), ("izz", 2, 2), ("ixy", 0, 1), ("ixz", 0, 2),
+            ("iyz", 1, 2))
+    return "{ " + ", ".join(f"{k} = {_number(inertia[a, b])}" for k, a, b in keys) + " }"
+
+
+def _joint_field_lines(joint: Joint) -> list[str]:
+    """``key = value`` for each of :data:`JOINT_FIELDS` that differs from its default (a
+    number, or a tuple of numbers such as ``torque_speed``; ``effort_limit`` is the peak of a
+    torque-speed curve, so it is not written with one)."""
+    out = []
+    for key in JOINT_FIELDS:
+        value = getattr(joint, key)
+        if value is None or repr(value) == repr(_DEFAULTS[key]) or (
+                key == "effort_limit" and joint.torque_speed is not None):
+            continue
+        text = _numbers(value) if isinstance(value, tuple) else _number(value)
+        out.append(f"{key} = {text}")
+    return out
+
+
+def dumps_native(robot: Robot) -> str:
+    """The native TOML text of ``robot`` (format: ``docs/robot-format.md``): ``[robot]``, then
+    per joint a ``[[joint]]`` table with its limit and actuator fields (those that differ from
+    the defaults), ``[joint.origin]`` and ``[joint.link]``. :func:`loads_native` reads it back
+    equal to ``robot``, every number bit for bit."""
+    if not isinstance(robot, Robot):
+        raise TypeError(f"dumps_native: expected a Robot, got {type(robot).__name__}")
+    lines = ["# mrnea robot file (docs/robot-format.md); SI units: m, rad, kg, kg m^2, N m, s",
+             "[robot]", f"name = {_string(robot.name)}", f"base = {_string(robot.base)}",
+             f"gravity = {_numbers(robot.gravity)}"]
+    for j, lk in zip(robot.joints, robot.links, strict=True):
+        lines += ["", "[[joint]]", f"name = {_string(j.name)}", f"type = {_string(j.type)}",
+                  f"axis = {_numbers(j.axis)}", *_joint_field_lines(j),
+                  "[joint.origin]", *_origin_lines(j.origin),
+                  "[joint.link]", f"name = {_string(lk.name)}", f"mass = {_number(lk.mass)}",
+                  f"com = {_numbers(lk.com)}", f"inertia = {_inertia_value(lk.inertia)}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_native(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
+    """Write ``robot`` as a native TOML robot file (:func:`dumps_native`).
+
+    Everything a Robot holds is written, what URDF cannot hold included (rotor inertia,
+    torque-speed curves, gravity), every number exactly: :func:`load_native` reads the file back
+    equal to ``robot``, bit for bit.
+
+    Parameters
+    ----------
+    robot : Robot
+    path : str or Path
+        The ``.toml`` file; its folder must exist. Written through
+        :func:`mrnea.io.writer.create`: whole or not at all.
+    overwrite : bool, default False
+        Replace an existing file (a symbolic link: the link itself, never its target).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OutputError
+        ``path`` exists and ``overwrite`` is False, is a directory or cannot be written.
+    """
+    text = dumps_native(robot)
+    path = Path(path)
+    with create(path, overwrite) as fh:
+        fh.write(text)
+    return path

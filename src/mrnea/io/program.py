@@ -22,18 +22,18 @@ from numpy.typing import NDArray
 
 from mrnea.errors import ProgramFileError, StateError
 from mrnea.io.dispatch import BUILTIN_ROBOTS, load_robot_spec, resolve_robot
-from mrnea.io.pathcsv import read_table, resample
+from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean, read_text
 from mrnea.io.writer import create
 from mrnea.model import Robot
-from mrnea.trajectory import quintic, trapezoidal
+from mrnea.trajectory import quintic, scurve, trapezoidal
 
 __all__ = ["Program", "dumps_program", "load_program", "loads_program", "save_program"]
 
 #: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
 #: and ``[path] units``.
 MODES = ("hybrid", "paper")
-PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic}
+PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic, "scurve": scurve}
 UNITS = ("rad", "deg")
 
 
@@ -57,6 +57,10 @@ class Program:
     mode : ``"hybrid"``, ``"paper"`` or None (the simulator's default).
     name : the program's name.
     source : the program file it was read from (for messages).
+    interpolation : how a CSV path's rows were resampled to dt (a name of
+        :data:`mrnea.io.pathcsv.INTERPOLATIONS`); None for a waypoint path.
+    csv_rows : (R, 1 + n) the CSV path's rows, time [s] and positions [rad | m]; None for a
+        waypoint path.
 
     The arrays are read-only.
     """
@@ -70,6 +74,8 @@ class Program:
     mode: Literal["hybrid", "paper"] | None
     name: str
     source: str = ""
+    interpolation: str | None = None
+    csv_rows: NDArray[np.float64] | None = None
 
     @property
     def K(self) -> int:
@@ -101,14 +107,24 @@ class Program:
             raise ProgramFileError(
                 f"{self.source or self.name}: the program commands {self.n} joints but robot "
                 f"'{robot.name}' ({self.robot}) has {robot.n}")
+        self.check_path(robot)
         return robot
+
+    def check_path(self, robot: Robot) -> None:
+        """A :class:`mrnea.errors.PathWarning` for each joint whose resampled CSV path leaves
+        ``robot``'s position limits although the CSV's rows stay within them
+        (:func:`mrnea.io.pathcsv.limit_warnings`; :meth:`load_robot` calls it). Nothing for a
+        waypoint path."""
+        if self.csv_rows is not None:
+            limit_warnings(robot, self.t, self.q_cmd, self.csv_rows, str(self.interpolation),
+                           self.source or self.name)
 
 
 _TOP_KEYS = ("program", "path", "wrench")
 _PROGRAM_KEYS = ("name", "robot", "dt", "mode")
-_CSV_KEYS = ("csv", "units")
-_PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "dwell", "csv",
-              "units")
+_CSV_KEYS = ("csv", "units", "interpolation")
+_PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
+              "dwell", "csv", "units", "interpolation")
 _WRENCH_KEYS = ("times", "values", "point")
 
 
@@ -134,7 +150,9 @@ def _limit(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArra
 
 
 def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
-          ) -> tuple[NDArray, NDArray]:
+          ) -> tuple[NDArray, NDArray, str | None, NDArray | None]:
+    """(t, q_cmd, interpolation, CSV rows) of the [path] table (the last two None for
+    waypoints)."""
     where = "[path]"
     check.check_keys(table, _PATH_KEYS, where)
     units = table.get("units", "rad")
@@ -151,8 +169,18 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         p = Path(check.string(table["csv"], where, "csv")).expanduser()
         if not p.is_absolute():
             p = base_dir / p
+        interpolation = table.get("interpolation", "cubic")
+        if not isinstance(interpolation, str) or interpolation not in INTERPOLATIONS:
+            raise check.error(where, f"'interpolation' must be one of "
+                                     f"{', '.join(map(repr, INTERPOLATIONS))}, got "
+                                     f"{interpolation!r}")
         _, data = read_table(p, None)
-        return resample(data[:, 0], data[:, 1:] * scale, dt)
+        data[:, 1:] *= scale
+        return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)), interpolation,
+                data)
+    if "interpolation" in table:
+        raise check.error(where, "'interpolation' applies to a 'csv' path only (waypoints are "
+                                 "joined by the profile)")
     if "waypoints" not in table and "profile" not in table:
         raise check.error(where, "give either 'csv' (a path CSV file) or 'profile' and "
                                  "'waypoints' (with velocity_limit and acceleration_limit)")
@@ -173,8 +201,15 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                  else check.number(d, where, "dwell"))
         if np.any(np.asarray(dwell) < 0):
             raise check.error(where, f"'dwell' must be >= 0 s, got {np.asarray(dwell).tolist()}")
+    jerk = {}
+    if profile == "scurve":
+        jerk["jerk_limit"] = _limit(check, check.require(table, "jerk_limit", where), where,
+                                    "jerk_limit", n) * scale
+    elif "jerk_limit" in table:
+        raise check.error(where, f"'jerk_limit' applies to profile = \"scurve\" only, not "
+                                 f"{profile!r}")
     try:
-        return PROFILES[profile](w, dt, vmax, amax, dwell=dwell)
+        return (*PROFILES[profile](w, dt, vmax, amax, dwell=dwell, **jerk), None, None)
     except StateError as exc:
         raise check.error(where, str(exc)) from None
 
@@ -238,18 +273,19 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
                                        f"got {mode!r}")
     path = check.table(check.require(doc, "path", "top level"), "top level", "path")
-    t, q = _path(check, path, dt, base)
+    t, q, interpolation, rows = _path(check, path, dt, base)
     if q.shape[0] < 2:
         raise check.error("[path]", "the program is a single cycle (all waypoints equal and no "
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
         f_ext, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"), t)
-    for a in (t, q, f_ext, point):
+    for a in (t, q, f_ext, point, rows):
         if a is not None:
             a.setflags(write=False)
     return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
-                   mode=mode, name=name, source=source)
+                   mode=mode, name=name, source=source, interpolation=interpolation,
+                   csv_rows=rows)
 
 
 def load_program(path: str | Path) -> Program:

@@ -498,8 +498,8 @@ def _fmt(*values: float) -> str:
     return " ".join(out)
 
 
-def write_urdf(robot: Robot, path: str | Path) -> Path:
-    """Write ``robot`` as a URDF file, replacing ``path`` if it exists.
+def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
+    """Write ``robot`` as a URDF file.
 
     The file has the base link, then per joint its ``<origin xyz rpy>`` (rpy [rad] from
     :func:`mrnea.model.rpy_from_rotation`), ``<axis>``, ``<limit>``, ``<dynamics damping
@@ -514,8 +514,9 @@ def write_urdf(robot: Robot, path: str | Path) -> Path:
         The robot to write.
     path : str or Path
         The output file; its directory must exist. Written through
-        :func:`mrnea.io.writer.create`: whole or not at all; an existing file or symbolic link
-        at ``path`` is replaced (the link itself, never its target).
+        :func:`mrnea.io.writer.create`: whole or not at all.
+    overwrite : bool, default False
+        Replace an existing file (a symbolic link: the link itself, never its target).
 
     Returns
     -------
@@ -525,7 +526,8 @@ def write_urdf(robot: Robot, path: str | Path) -> Path:
     Raises
     ------
     OutputError
-        ``path`` is a directory or cannot be written (missing folder, permission...).
+        ``path`` exists and ``overwrite`` is False, is a directory or cannot be written
+        (missing folder, permission...).
 
     Notes
     -----
@@ -535,7 +537,8 @@ def write_urdf(robot: Robot, path: str | Path) -> Path:
       :func:`load_urdf` reads that value back as infinite. Continuous joints get no
       ``lower``/``upper``.
     * Not representable in plain URDF, hence dropped: the rotor inertia, a torque-speed curve
-      (its peak is the ``effort`` written) and a non-default gravity.
+      (its peak is the ``effort`` written) and a non-default gravity
+      (:func:`mrnea.io.write_native` keeps them all).
     * Numbers are written in their shortest exact decimal form, so masses, centres of mass,
       inertias, translations, axes and limits round-trip exactly.
     """
@@ -582,6 +585,6 @@ def write_urdf(robot: Robot, path: str | Path) -> Path:
     text = ET.tostring(root, encoding="unicode")
     data = f'<?xml version="1.0" encoding="utf-8"?>\n{text}\n'.encode()
 
-    with create(path, overwrite=True, binary=True) as fh:
+    with create(path, overwrite, binary=True) as fh:
         fh.write(data)
     return path

@@ -39,7 +39,8 @@ arithmetic of its own; :func:`scratch` is told what the scratch is for (``POSE``
 byte). The slots of kernels that call one another are disjoint; the others share rows, which
 holds because every kernel writes a slot before it reads it::
 
-    pose_buffers      R = T[:n], Ic = T[n:], o, z, c = V[:3n]     the kinematics pass
+    pose_buffers      R = T[:n], Ic = T[n:], o, z, c = V[:3n]     the kinematics pass (and
+                                                                   kinematics.py's frames, J)
     mrnea_buffers     e, d, E, M = V[3n:7n]                        the mRNEA pass
     force_buffers     f, nm = V[3n:5n]                             the Newton-Euler passes
     effort_buffer     S[0]                                         reactions' efforts
@@ -103,6 +104,7 @@ MODEL_T = nb.types.Array(nb.types.float64, 2, "C", readonly=True)  # the compile
 IN_T = nb.types.Array(nb.types.float64, 1, "A")  # a state: any layout
 OUT1_T = nb.types.Array(nb.types.float64, 1, "C")  # outputs, as the wrappers allocate them
 OUT2_T = nb.types.Array(nb.types.float64, 2, "C")
+OUT3_T = nb.types.Array(nb.types.float64, 3, "C")
 SCRATCH_T = nb.types.Tuple((nb.types.Array(nb.types.float64, 3, "C"), OUT2_T, OUT2_T,
                             nb.types.Array(nb.types.int64, 2, "C")))  # entry_scratch
 

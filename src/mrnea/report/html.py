@@ -16,9 +16,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
+from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.writer import check_new, create
 from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_uri
 from mrnea.report.figures import plot_result
+from mrnea.validate import choice
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -152,15 +154,18 @@ def _joints_html(result: SimulationResult) -> str:
     return f'<div class="scroll"><table>{"".join(rows)}</table></div>'
 
 
-def _params_html(result: SimulationResult) -> str:
+def _params_html(result: SimulationResult, interpolation: str | None) -> str:
     s = result.summary()
     from mrnea import __version__
 
+    path = ([("CSV path resampled by", f"{interpolation}: {INTERPOLATIONS[interpolation]}")]
+            if interpolation else [])
     return _kv_table([
         ("robot", result.robot.name),
         ("degrees of freedom n", str(result.robot.n)),
         ("joints", ", ".join(result.robot.joint_names)),
         ("interpolation cycle dt", f"{result.dt:.6g} s"),
+        *path,
         ("cycles", f"{result.K:,}"),
         ("duration", f"{s['duration']:.6g} s"),
         ("saturation mode", result.mode),
@@ -176,6 +181,7 @@ def write_report(
     path: str | os.PathLike[str],
     overwrite: bool = False,
     extra_figures: Mapping[str, Figure] | None = None,
+    interpolation: str | None = None,
 ) -> Path:
     """Write one self-contained HTML report of a simulation run.
 
@@ -198,6 +204,9 @@ def write_report(
         Without it anything at ``path`` is left untouched and OutputError is raised.
     extra_figures : mapping of str to matplotlib.figure.Figure, optional
         More figures to append, e.g. ``{"Fig. 3": fig3(robot, t, q, qd, qdd)}``.
+    interpolation : str, optional
+        How the program's CSV path was resampled to dt (:attr:`mrnea.io.Program.interpolation`,
+        a name of :data:`mrnea.io.pathcsv.INTERPOLATIONS`): the run parameters say it.
 
     Returns
     -------
@@ -213,6 +222,8 @@ def write_report(
     """
     path = Path(path)
     check_new([path], overwrite)  # before any rendering
+    if interpolation is not None:
+        choice("interpolation", interpolation, INTERPOLATIONS)
     path.parent.mkdir(parents=True, exist_ok=True)
     s = result.summary()
     verdict = result.verdict()
@@ -250,7 +261,7 @@ def write_report(
 is τ/G. Reaction loads are in each joint's frame: axial along the joint axis, radial / bending
 across it. Rows in red: the joint saturated or its command was clamped.</p>
 <h2>Run parameters</h2>
-{_params_html(result)}
+{_params_html(result, interpolation)}
 <details><summary>Robot model</summary><pre>{_e(result.robot.describe())}</pre></details>
 <h2>Figures</h2>
 <p class="note">Series longer than {MAX_POINTS:,} samples are drawn as min/max envelopes;

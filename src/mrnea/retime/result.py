@@ -223,7 +223,9 @@ class RetimeResult:
                    f"{self.original_duration:.6g} s. Verified: "
                    f"{'achievable' if self.achievable else 'NOT achievable'}.\n"
                    f"Run: mrnea check {robot} {Path(path).name}")
-        return save_program(path, program, {"csv": csv}, wrench, comment, overwrite)
+        # the rows are the program, one per cycle: read back as they are
+        return save_program(path, program, {"csv": csv, "interpolation": "linear"}, wrench,
+                            comment, overwrite)
 
     def save_summary(self, path: str | os.PathLike[str], overwrite: bool = False) -> Path:
         """Write :meth:`summary` as strict JSON through :func:`mrnea.io.writer.create`."""
