@@ -96,9 +96,9 @@ def grid_points(s: NDArray, q: NDArray, N: int, qss: NDArray | None = None,
     |d^2q/ds^2| or more; that row is a grid point. Between two such grid points d^2q/ds^2 is
     then monotone, so the constraints at the grid points bound it. A program whose rows are
     piecewise linear (a CSV resampled linearly) swings at every row: measured on
-    ``examples/sdt_csv.toml``, 300 grid intervals without the swings gave no margin the
-    simulation accepted; smooth programs have few or none (the Puma quintic and the SDT
-    profile none, the trapezoidal pick example 48 where its accelerations step).
+    ``examples/sdt_csv.toml`` read linearly, 300 grid intervals without the swings gave no
+    margin the simulation accepted; smooth programs have few or none (the Puma quintic and the
+    SDT profile none, the trapezoidal pick example 48 where its accelerations step).
 
     Rests are the piece's ends and the rows where the program passes through rest (via points:
     the slower of a row's two intervals a local minimum below :data:`VIA` of the fastest). Each
