@@ -5,7 +5,9 @@ refused without ``--force`` before any work): ``retimed.csv`` (time, q1..qn at d
 ROBOT DIR/retimed.csv --dt DT`` reads it), ``retimed.toml`` (a program file naming the robot, the
 csv, dt, the mode and the retimed wrench: ``mrnea check ROBOT DIR/retimed.toml`` reproduces the
 verification), ``summary.json`` (strict JSON: :meth:`mrnea.retime.RetimeResult.summary`) and
-``report.html`` (the phase plane, the effort ratios before and after, the verdict).
+``report.html`` (the phase plane, the effort ratios before and after, the verdict). A stop
+request (Ctrl-C, SIGTERM) during the retiming writes nothing; once it is done, the four files
+are written together.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
@@ -98,10 +100,9 @@ def retime(robot_or_program: str, program: str | None, out: str, method: str, ma
             res = retime_program(rob, prog, dt=dt, method=method, margin=margin,
                                  mode=prog_mode or mode)
         checkpoint()
-        res.save_csv(paths[CSV], force)
+        res.save_csv(paths[CSV], force)  # the four files are written together or not at all
         res.save_program(paths[PROGRAM], spec, CSV, name=f"{name}-retimed", overwrite=force)
         res.save_summary(paths[SUMMARY], force)
-        checkpoint()
         write_retime_report(res, paths[REPORT], force, files={
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
             "summary": paths[SUMMARY]})

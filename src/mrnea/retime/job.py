@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea import validate
+from mrnea.achievable import MODES
 from mrnea.errors import RetimeError, StateError
 from mrnea.io.program import Program
 from mrnea.model import Robot
@@ -94,8 +95,7 @@ class Job:
             if pe.ndim == 2 and pe.shape[0] != K:
                 raise StateError(f"f_ext_point: expected (3,) or ({K}, 3), got {pe.shape}")
         mode = mode or pmode or "hybrid"
-        if mode not in ("hybrid", "paper"):
-            raise StateError(f"mode: unknown {mode!r}; expected one of 'hybrid', 'paper'")
+        validate.choice("mode", mode, MODES)
         lower, upper = robot.lower, robot.upper
         out = np.any((q < lower) | (q > upper), axis=0)
         if out.any():
