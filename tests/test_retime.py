@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +22,7 @@ from mrnea.simulate import simulate
 from mrnea.trajectory import quintic, trapezoidal
 
 DT = 0.005
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 PUMA_WAYPOINTS_DEG = [[0, 45, -135, 0, -45, 0], [60, 20, -100, 90, 40, 120],
                       [-30, 60, -160, -60, -20, -90], [0, 45, -135, 0, -45, 0]]
 PUMA_V = np.deg2rad([90, 90, 90, 180, 180, 180])
@@ -310,3 +312,23 @@ def test_bad_programs():
     limited = turntable(effort_limit=20.0, lower=-0.5, upper=0.5)
     with pytest.raises(RetimeError, match="leaves its position limits"):
         mrnea.retime(limited, (t, q))
+
+
+def test_program_file_reads_back_the_retimed_program(tmp_path):
+    """save_csv + save_program: the program file alone gives back the rows bit for bit, the
+    cycle, the mode and the retimed wrench at every cycle (from its breakpoints); a result
+    with a wrench point per cycle is refused."""
+    prog = mrnea.load_program(EXAMPLES / "puma_pick.toml")
+    res = mrnea.retime(prog.load_robot(), prog)
+    res.save_csv(tmp_path / "r.csv")
+    res.save_program(tmp_path / "r.toml", "puma560", "r.csv", name="again")
+    back = mrnea.load_program(tmp_path / "r.toml")
+    assert np.array_equal(back.q_cmd, res.q_cmd) and back.dt == res.dt
+    assert back.mode == res.mode and back.name == "again" and back.robot == "puma560"
+    np.testing.assert_allclose(back.f_ext, res.f_ext, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(back.f_ext_point, res.f_ext_point)
+    assert "interpolation = \"linear\"" in (tmp_path / "r.toml").read_text()
+    per_cycle = mrnea.retime(prog.load_robot(), prog, f_ext_point=np.tile(
+        prog.f_ext_point, (prog.K, 1)))
+    with pytest.raises(StateError, match="one point"):
+        per_cycle.save_program(tmp_path / "p.toml", "puma560", "r.csv")
