@@ -6,6 +6,7 @@ Usage: ``res = retime(robot, program, dt=None, method="toppra", margin=0.98)``; 
 
 from __future__ import annotations
 
+import numbers
 import time
 from typing import Any, Literal
 
@@ -107,14 +108,15 @@ def retime(
         acc = validate.per_joint(acceleration_limit, "acceleration_limit", robot.n)
         if not np.all(acc > 0):
             raise StateError(f"acceleration_limit: must be > 0, got {acc.tolist()}")
-    if grid is not None and (isinstance(grid, bool) or not isinstance(grid, int) or grid < 10):
+    if grid is not None and (isinstance(grid, bool) or not isinstance(grid, numbers.Integral)
+                             or grid < 10):
         raise StateError(f"grid: expected an int >= 10, got {grid!r}")
+    if method == "scale" and acc is not None:
+        raise StateError("acceleration_limit: only method 'toppra' takes it")
     _check_holds(job, margin if method == "toppra" else 1.0)
     if not job.moving:
         raise RetimeError("the program never moves: there is nothing to retime")
     if method == "scale":
-        if acc is not None:
-            raise StateError("acceleration_limit: only method 'toppra' takes it")
         f, used, (Q, FE, PE, _, sim), log = retime_scale(job)
         paths = _pieces(job, grid, timed=False)
         phase = _phase(job, paths, {j: np.full(v[1].s.size, 1.0 / f) for j, v in paths.items()})
@@ -160,7 +162,7 @@ def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
     for j, k0, k1 in job.moving:
         qp = job.q[k0:k1 + 1]
         spline = piece_spline(qp, job.program_dt)
-        N = grid or int(np.clip(qp.shape[0] // 2, *GRID))
+        N = int(grid) if grid else int(np.clip(qp.shape[0] // 2, *GRID))
         knots = np.arange(qp.shape[0]) * job.program_dt
         s = grid_points(knots, qp, N, spline(knots, 2))
         pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
