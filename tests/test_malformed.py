@@ -32,7 +32,7 @@ import mrnea
 import mrnea.errors
 from mrnea.achievable import achievable_accelerations, achievable_step
 from mrnea.cli import main
-from mrnea.errors import ModelError, MrneaError, RobotFileError, StateError
+from mrnea.errors import ModelError, MrneaError, ProgramFileError, RobotFileError, StateError
 from mrnea.io import from_csv, load_robot
 from mrnea.io.native import loads_native
 from mrnea.model import Joint, Link, Robot, transform
@@ -476,7 +476,8 @@ def test_from_csv_with_a_tiny_dt_is_refused(tmp_path: Path) -> None:
     p.write_text("t,q1\n0,0\n1,1\n", encoding="utf-8")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        with pytest.raises(StateError):
+        with pytest.raises(ProgramFileError, match=r"path\.csv: the program would take 1e\+300 "
+                                                    r"cycles"):
             from_csv(p, 1e-300)
 
 

@@ -92,5 +92,5 @@ def test_bad_sidecar(urdf, tmp_path, text, match):
 
 
 def test_missing_sidecar(urdf, tmp_path):
-    with pytest.raises(RobotFileError, match="cannot read actuator file"):
+    with pytest.raises(RobotFileError, match="actuator file not found"):
         mrnea.load_urdf(urdf, actuators=tmp_path / "nope.toml")

@@ -319,7 +319,8 @@ def test_from_csv_holds_last_row(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("text", "match"), [
-    ("t,q1\n0,0\n0.1,abc\n", r"line 3 \(data row 2\), column 2 \('q1'\): not a number: 'abc'"),
+    ("t,q1\n0,0\n0.1,abc\n",
+     r"line 3 \(data row 2\), column 2 \('q1'\): not a number: 'abc' \(numbers are "),
     ("t,q1\n0,0\n0.1,nan\n", r"line 3 .*column 2 .*not a finite number"),
     ("t,q1\n0,0\n0.1,inf\n", r"line 3 .*column 2 .*not a finite number"),
     ("t,q1\n0,0\n0.1,\n", r"line 3 .*column 2 .*empty cell"),

@@ -2,9 +2,72 @@
 
 Every error mrnea raises on bad input is a subclass of :class:`MrneaError`, itself a
 :class:`ValueError`, and its message names the offending element (link, joint, file, argument).
+
+Messages quote what the user gave through two helpers, so that no input, however large, makes a
+message large: :func:`quote` (one value, its ``repr`` cut to :data:`QUOTE_LIMIT` characters),
+:func:`shorten` (a name, cut the same way) and :func:`listing` (a list of names: the first
+:data:`LIST_LIMIT`, then "and N more"); :func:`clip` shortens what a message built elsewhere
+quoted whole.
 """
 
 from __future__ import annotations
+
+import re
+import reprlib
+from collections.abc import Iterable
+
+QUOTE_LIMIT = 60
+"""At most this many characters of a value are quoted in a message (:func:`quote`)."""
+LIST_LIMIT = 10
+"""At most this many items of a list are named in a message (:func:`listing`)."""
+
+_REPR = reprlib.Repr()  # containers summarised: a few levels and items, strings cut
+_REPR.maxlevel, _REPR.maxstring, _REPR.maxother = 3, QUOTE_LIMIT, QUOTE_LIMIT
+
+
+def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` shortened to at most ``limit`` characters, ``...`` marking a cut.
+
+    Strings and bytes are cut before ``repr`` runs and containers are summarised
+    (:mod:`reprlib`), so quoting a value of any size costs little.
+    """
+    if isinstance(value, (str, bytes)):
+        text = repr(value[:limit + 1])
+        if len(text) > limit:  # cut inside the quotes: 'abc...'
+            text = repr(value[:limit - 5])
+            text = text[:-1][:limit - 4] + "..." + text[-1]
+        return text
+    else:
+        try:
+            text = _REPR.repr(value)
+        except Exception:  # a user object whose __repr__ fails
+            text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def listing(items: Iterable[object], limit: int = LIST_LIMIT, sep: str = ", ") -> str:
+    """The first ``limit`` items (each a name, shortened as :func:`quote` shortens a string),
+    then ``and N more``: ``a, b, c and 17 more``."""
+    items = list(items)
+    shown = [shorten(str(x)) for x in items[:limit]]
+    more = len(items) - len(shown)
+    return sep.join(shown) + (f" and {more} more" if more > 0 else "")
+
+
+# a name quoted whole: after a space or "(", before a colon, space, comma or ")"
+_LONG_QUOTE = re.compile(f"(?<=[ (])'([^'\\n]{{{QUOTE_LIMIT - 1},}})'(?=[:;,) ]|$)")
+
+
+def clip(message: str) -> str:
+    """``message`` with every quoted text longer than :data:`QUOTE_LIMIT` shortened: for a
+    message built elsewhere that quotes a name whole (``joint 'x...x': axis is zero``) before a
+    reader adds its file and element to it."""
+    return _LONG_QUOTE.sub(lambda m: quote(m.group(1)), message)
+
+
+def shorten(text: str, limit: int = QUOTE_LIMIT) -> str:
+    """``text`` (a name, say) cut to at most ``limit`` characters, ``...`` marking a cut."""
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 class MrneaError(ValueError):

@@ -40,7 +40,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError
+from mrnea.errors import ModelError, quote
 from mrnea.frozen import Frozen, warn
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
@@ -425,26 +425,46 @@ class Robot(Frozen):
                 f"with_actuators: unknown field(s) {sorted(unknown)}; "
                 f"expected some of {names}"
             )
+        n = self.n
+
+        def values(key: str, v: object) -> list[float]:
+            """A real number for every joint, or one for each (n,)."""
+            try:
+                arr = np.asarray(v)
+            except (TypeError, ValueError):  # ragged
+                arr = np.asarray(None)
+            if arr.dtype.kind not in "iuf" or arr.ndim > 1 or arr.size not in (1, n):
+                raise ModelError(f"with_actuators: {key} must be a real number or {n} of them "
+                                 f"(one per joint), got {type(v).__name__} {quote(v)}")
+            return [float(x) for x in np.broadcast_to(arr.astype(float), (n,))]
+
+        def triple(c: object, key: str) -> tuple[float, float, float]:
+            arr = np.asarray(c) if isinstance(c, (list, tuple, np.ndarray)) else np.asarray(None)
+            if arr.dtype.kind not in "iuf" or arr.shape != (3,):
+                raise ModelError(f"with_actuators: {key} must be (peak, corner_speed, "
+                                 f"no_load_speed), got {type(c).__name__} {quote(c)}")
+            return tuple(float(x) for x in arr)  # type: ignore[return-value]
+
         per_joint: dict[str, list] = {}
-        curves = fields.pop("torque_speed", "unset")
-        if not isinstance(curves, str):
-            if curves is None or all(isinstance(c, numbers.Real) for c in curves):  # one triple
-                curves = [curves] * self.n
-            if len(curves) != self.n:
-                raise ModelError(f"with_actuators: torque_speed needs {self.n} entries")
-            per_joint["torque_speed"] = [None if c is None else tuple(c) for c in curves]
+        if "torque_speed" in fields:
+            curves = fields.pop("torque_speed")
+            if curves is None:
+                per_joint["torque_speed"] = [None] * n
+            elif isinstance(curves, (list, tuple, np.ndarray)) and all(
+                    isinstance(c, numbers.Real) for c in curves):  # one triple for every joint
+                per_joint["torque_speed"] = [triple(curves, "torque_speed")] * n
+            elif isinstance(curves, (list, tuple, np.ndarray)) and len(curves) == n:
+                per_joint["torque_speed"] = [None if c is None else
+                                             triple(c, f"torque_speed[{i}]")
+                                             for i, c in enumerate(curves)]
+            else:
+                raise ModelError(f"with_actuators: torque_speed must be None, one (peak, "
+                                 f"corner_speed, no_load_speed) triple or {n} entries (a triple "
+                                 f"or None each), got {type(curves).__name__} {quote(curves)}")
         if "effort_limit" in fields:
-            per_joint["torque_speed"] = [None] * self.n
+            per_joint["torque_speed"] = [None] * n
         for k, v in fields.items():
-            arr = np.asarray(v, dtype=float)
-            if arr.ndim == 0:
-                arr = np.full(self.n, float(arr))
-            if arr.shape != (self.n,):
-                raise ModelError(
-                    f"with_actuators: {k} must be a scalar or have shape ({self.n},), "
-                    f"got {arr.shape}"
-                )
-            per_joint[k] = [float(x) for x in arr]
+            per_joint[k] = values(k, v)
         joints = [
             dataclasses.replace(j, **{k: v[i] for k, v in per_joint.items()})
             for i, j in enumerate(self._joints)

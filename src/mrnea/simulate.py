@@ -39,6 +39,7 @@ from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.simulate import simulate_cycles
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
+from mrnea.resources import require_memory
 
 _PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor", "tau_required",
               "limit", "margin", "saturated", "position_clamped", "velocity_clamped",
@@ -359,6 +360,7 @@ def simulate(
     Qc = validate.array(q_cmd, "q_cmd", n)
     if Qc.ndim != 2 or Qc.shape[0] < 2:
         raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")
+    _require_memory(Qc.shape[0], n)
     Qc = np.ascontiguousarray(Qc)
     K = Qc.shape[0]
     x0 = Qc[0] if q0 is None else validate.array(q0, "q0", n)
@@ -410,3 +412,11 @@ def simulate(
     return res if done == K else res._first(done)
 
 
+def _require_memory(K: int, n: int) -> None:
+    """Refuse, before it allocates, a run of K cycles of n joints that would not fit the memory
+    budget (:mod:`mrnea.resources`): the result's arrays, the program's copies and the
+    temporaries of :meth:`SimulationResult.summary` and the report take about 250 bytes per
+    cycle and joint, and 100 per cycle (measured with tracemalloc: tests/test_resources.py)."""
+    require_memory(8.0 * K * (32 * n + 12), f"simulating {K:.3g} cycles of {n} joints",
+                   "use a coarser dt or a shorter program, or split the program and simulate "
+                   "the parts one after another", StateError)

@@ -33,8 +33,9 @@ import numpy as np
 import ruckig
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import StateError
-from mrnea.validate import time_step
+from mrnea.errors import StateError, quote
+from mrnea.resources import require_memory
+from mrnea.validate import real, time_step
 
 __all__ = ["cycles", "quintic", "scurve", "trapezoidal"]
 
@@ -47,6 +48,9 @@ Segment = Callable[[NDArray, NDArray, NDArray], tuple[float, Shape]]
 #: it (guards against ``2.0 / 0.01 = 200.00000000000003``-style rounding adding a cycle).
 CYCLE_TOL = 1e-9
 MAX_CYCLES = 1e9  # cycles in one program (at 1 ms, 11.6 days)
+#: Peak memory of making a path, per cycle and per (joint + 1) [bytes]: the path itself, its
+#: pieces before they are joined, and a segment's temporaries (measured: tests/test_resources.py).
+PATH_BYTES = 48
 
 # Quintic rest-to-rest s(u) = 10u³ - 15u⁴ + 6u⁵: peak ds/du at u = 1/2 and peak |d²s/du²| at
 # u = 1/2 ± √3/6.
@@ -57,21 +61,27 @@ QUINTIC_PEAK_ACCELERATION = 10.0 / math.sqrt(3.0)
 # --- argument checks ------------------------------------------------------------------------
 
 
-def _t0(t0: object) -> float:
+def _numbers(x: object, name: str, what: str = "a number or numeric array"
+             ) -> NDArray[np.float64]:
+    """``x`` as a float64 array if it holds real numbers (not strings, booleans or complex)."""
     try:
-        value = float(t0)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise StateError(f"t0: not a number: {t0!r}") from None
+        a = np.asarray(x)
+    except (TypeError, ValueError):  # ragged nesting
+        a = np.asarray(None)
+    if a.dtype.kind not in "iuf":
+        raise StateError(f"{name}: expected {what}, got {type(x).__name__} {quote(x)}")
+    return a.astype(np.float64)
+
+
+def _t0(t0: object) -> float:
+    value = real(t0, "t0")
     if not math.isfinite(value):
         raise StateError(f"t0: must be finite, got {value}")
     return value
 
 
 def _waypoints(waypoints: ArrayLike) -> NDArray[np.float64]:
-    try:
-        w = np.array(waypoints, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise StateError(f"waypoints: not a numeric (W, n) array ({exc})") from None
+    w = _numbers(waypoints, "waypoints", "a numeric (W, n) array")
     if w.ndim != 2 or w.shape[0] < 1 or w.shape[1] < 1:
         raise StateError(f"waypoints: expected shape (W, n) with W >= 1 waypoints of n >= 1 "
                          f"joints, got {w.shape}")
@@ -83,10 +93,7 @@ def _waypoints(waypoints: ArrayLike) -> NDArray[np.float64]:
 
 def _per_item(x: ArrayLike, size: int, name: str, item: str) -> NDArray[np.float64]:
     """A scalar (repeated) or ``size`` values, one per ``item``, as a (size,) float array."""
-    try:
-        a = np.array(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise StateError(f"{name}: not a number or numeric array: {x!r}") from None
+    a = _numbers(x, name)
     if a.ndim == 0:
         a = np.full(size, float(a))
     if a.shape != (size,):
@@ -130,14 +137,31 @@ def cycles(duration: float | NDArray, dt: float) -> NDArray[np.int64]:
     Raises
     ------
     StateError
-        Beyond :data:`MAX_CYCLES` (a program that long is a mistake: a tiny dt or limit).
+        Beyond :data:`MAX_CYCLES` (a program that long is a mistake: a tiny dt or limit), or
+        arguments that are not numbers.
     """
-    k = np.ceil(np.asarray(duration, dtype=float) / dt - CYCLE_TOL).clip(0)
+    dt = time_step(dt)
+    k = np.ceil(_numbers(duration, "duration") / dt - CYCLE_TOL).clip(0)
     if not (np.all(np.isfinite(k)) and np.all(k <= MAX_CYCLES)):
         raise StateError(
             f"the program would take {np.max(k):.3g} cycles of dt = {dt:g} s "
             f"(more than {MAX_CYCLES:.0e}): check dt and the velocity and acceleration limits")
     return k.astype(np.int64)
+
+
+def require_path_memory(K: float, n: int) -> None:
+    """Refuse, before it is made, a path of ``K`` cycles of ``n`` joints that does not fit the
+    memory budget (:func:`mrnea.resources.require_memory`).
+
+    Raises
+    ------
+    StateError
+        Saying how much memory the path needs and what to change.
+    """
+    require_memory(PATH_BYTES * float(K) * (n + 1),
+                   f"a path of {float(K):.3g} cycles of {n} joint{'s' if n != 1 else ''}",
+                   "use a coarser dt or a shorter program (fewer or closer waypoints, shorter "
+                   "dwells, a shorter CSV path), or split it into several programs", StateError)
 
 
 # --- normalised profiles s(u), u = time / segment duration in [0, 1] -------------------------
@@ -201,13 +225,17 @@ def _assemble(w: NDArray, dt: float, t0: float, dwell: NDArray, durations: list[
     """Concatenate the segments, each rounded up to whole cycles, plus the dwells."""
     n = w.shape[1]
     dwell_cycles = cycles(dwell, dt)
+    Ns = [max(int(cycles(T, dt)), 1 if T > 0.0 else 0) for T in durations]
+    K = 1 + float(np.sum(dwell_cycles, dtype=float)) + float(sum(Ns))
+    if K > MAX_CYCLES:
+        raise StateError(
+            f"the program would take {K:.3g} cycles of dt = {dt:g} s (more than "
+            f"{MAX_CYCLES:.0e}): check dt and the velocity and acceleration limits")
+    require_path_memory(K, n)
     pieces = [w[:1]]
     if dwell_cycles[0]:
         pieces.append(np.broadcast_to(w[0], (int(dwell_cycles[0]), n)))
-    for j, (T, shape) in enumerate(zip(durations, shapes, strict=True)):
-        N = int(cycles(T, dt))
-        if T > 0.0:
-            N = max(N, 1)
+    for j, (N, shape) in enumerate(zip(Ns, shapes, strict=True)):
         if N:
             u = np.arange(1, N + 1, dtype=float) / N
             s = shape(u)[:, None]

@@ -3,8 +3,13 @@
 Every command module (``run``, ``info``, ``paper``...) adds its commands to :data:`main` with
 ``@main.command()`` and takes the shared options from here.
 
-Errors: an :class:`~mrnea.errors.MrneaError` (or an OSError) ends the command with one
-``mrnea: error:`` line on stderr and exit code 2 (``--debug``: the traceback instead).
+Errors: every bad input ends the command with exactly one ``mrnea: error:`` line on stderr and
+exit code 2: an :class:`~mrnea.errors.MrneaError` or an OSError, click's usage errors (a missing
+argument, an unknown option or command, a bad value), and, as a last resort, any other exception
+(said to be an internal error). The line is one line whatever it quotes (control characters are
+escaped) and of bounded length. ``--debug`` lets an exception (and its traceback) through.
+Warnings print once each as one ``mrnea: warning:`` line (no source line); NumPy's floating-point
+warnings are off during a command (the values that matter are checked).
 
 Interrupts: Ctrl-C (SIGINT) and SIGTERM are handled alike. The first one is a request that the
 command honours at its next :func:`checkpoint` (between two chunks of a simulation, between two
@@ -21,39 +26,82 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
 import click
+import numpy as np
+from numba.core import event as numba_event
 
-from mrnea.errors import MrneaError
+from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import load_robot_spec
 from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.source import parse_number
 from mrnea.model import Robot
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report an interrupted command
+MAX_LINE = 1000  # characters of an error or warning line (a safety net: messages quote briefly)
+COMPILE_NOTICE = "Compiling mrnea's kernels (first run only, about a minute; cached afterwards)..."
+
+
+class _CompileNotice(numba_event.Listener):
+    """Prints :data:`COMPILE_NOTICE` when Numba starts compiling a kernel, once per process.
+
+    Numba raises the ``numba:compile`` event only when it really compiles (a kernel loaded from
+    its disk cache raises none), so a cached run never sees the notice, and listening costs
+    nothing there.
+    """
+
+    shown = False
+
+    def on_start(self, event: numba_event.Event) -> None:
+        if not _CompileNotice.shown:
+            _CompileNotice.shown = True
+            click.echo(COMPILE_NOTICE, err=True)
+
+    def on_end(self, event: numba_event.Event) -> None:
+        pass
 
 
 @contextlib.contextmanager
-def compile_notice(delay: float = 2.0) -> Iterator[None]:
-    """Say once on stderr that the kernels are compiling, if the block takes longer than delay.
+def compile_notice(quiet: bool = False) -> Iterator[None]:
+    """Say once on stderr that the kernels are compiling, if Numba compiles one within the
+    block (never with ``quiet``).
 
-    Numba compiles each kernel on its first call and caches it on disk; later runs skip this.
+    Numba compiles each kernel on its first call and caches it on disk; later runs load it.
     """
-    timer = threading.Timer(delay, lambda: click.echo(
-        "Compiling mrnea's kernels (first run only, about a minute; cached afterwards)...",
-        err=True))
-    timer.daemon = True
-    timer.start()
-    try:
+    if quiet:
         yield
-    finally:
-        timer.cancel()
+        return
+    with numba_event.install_listener("numba:compile", _CompileNotice()):
+        yield
+
+
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+
+
+def one_line(text: str) -> str:
+    """``text`` as one printable line: control characters (a newline in a file name...) escaped,
+    characters the terminal cannot encode (a file name's undecodable bytes) escaped, at most
+    :data:`MAX_LINE` characters."""
+    text = _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), str(text))
+    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    if len(text) > MAX_LINE:
+        text = f"{text[:MAX_LINE // 2]} ... {text[-MAX_LINE // 3:]}"
+    return text
+
+
+def fail(message: str) -> NoReturn:
+    """End the command with one ``mrnea: error:`` line and exit code 2."""
+    click.echo(f"mrnea: error: {one_line(clip(message))}", err=True)
+    sys.exit(EXIT_BAD_INPUT)
 
 
 def load_any(spec: str) -> Robot:
@@ -111,11 +159,64 @@ def _stop_requests() -> Iterator[None]:
         _Stop.requested = False
 
 
+@contextlib.contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Within the block every warning of the UserWarning family (ModelWarning included) prints
+    once, as one ``mrnea: warning:`` line; other warnings (NumPy's RuntimeWarnings, deprecations
+    in libraries) and NumPy's floating-point warnings are off."""
+    seen: set[str] = set()
+
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: object = None, line: str | None = None) -> None:
+        text = one_line(str(message))
+        if text not in seen:
+            seen.add(text)
+            click.echo(f"mrnea: warning: {text}", err=True)
+
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        warnings.simplefilter("always", UserWarning)
+        warnings.showwarning = show
+        yield
+
+
+def _usage_line(exc: click.UsageError) -> str:
+    """A click usage error as one line naming the command and pointing to its ``--help``."""
+    names = []
+    ctx = exc.ctx
+    while ctx is not None and ctx.parent is not None:
+        names.append(ctx.info_name or "")
+        ctx = ctx.parent
+    command = " ".join(["mrnea", *reversed(names)])
+    where = f"{command.removeprefix('mrnea ')}: " if names else ""
+    message = exc.format_message().strip().rstrip(".")
+    return f"{where}{message} (see '{command} --help')"
+
+
 class _Group(click.Group):
-    """Turns input errors into one line on stderr and exit code 2, interrupts into exit 130."""
+    """Turns every error into one line on stderr and exit code 2, interrupts into exit 130."""
+
+    def main(self, args: Any = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True, **extra: Any) -> Any:
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.exceptions.NoArgsIsHelpError as exc:  # ``mrnea`` alone: the help
+            click.echo(exc.ctx.get_help() if exc.ctx else "")
+            rv = 0
+        except click.UsageError as exc:
+            fail(_usage_line(exc))
+        except click.ClickException as exc:
+            fail(exc.format_message())
+        except click.Abort:  # Ctrl-C while click parsed the command line
+            click.echo("mrnea: interrupted", err=True)
+            exit_interrupted()
+        if not standalone_mode:
+            return rv
+        sys.exit(rv if isinstance(rv, int) else 0)
 
     def invoke(self, ctx: click.Context) -> object:
-        with _stop_requests():
+        debug = bool(ctx.params.get("debug"))
+        with _stop_requests(), _warnings_as_lines():
             try:
                 result = super().invoke(ctx)
                 checkpoint()  # a request after the command's last checkpoint
@@ -123,11 +224,21 @@ class _Group(click.Group):
             except KeyboardInterrupt:
                 click.echo("mrnea: interrupted", err=True)
                 exit_interrupted()
+            except (click.ClickException, click.exceptions.Exit, click.Abort):
+                raise  # usage errors, --help, --version: main() deals with them
             except (MrneaError, OSError) as exc:
-                if ctx.params.get("debug"):
+                if debug:
                     raise
-                click.echo(f"mrnea: error: {exc}", err=True)
-                sys.exit(EXIT_BAD_INPUT)
+                fail(str(exc))
+            except MemoryError:
+                if debug:
+                    raise
+                fail("out of memory; use a coarser dt or a shorter program")
+            except Exception as exc:  # a bug: still one line, the traceback with --debug
+                if debug:
+                    raise
+                fail(f"internal error, please report it ({type(exc).__name__}: "
+                     f"{quote(str(exc), 200)}; --debug shows the traceback)")
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -147,7 +258,35 @@ mode_opt = click.option("--mode", type=click.Choice(["hybrid", "paper"]), defaul
 fd_opt = click.option("--fd", type=click.Choice(["mrnea", "walker_orin", "crba"]),
                       default="mrnea", show_default=True,
                       help="How each cycle forms H and u' (results agree; cost differs).")
-catch_opt = click.option("--catch-up", type=float, default=0.0, metavar="GAIN",
+class Number(click.ParamType):
+    """A number option in the strict grammar of :func:`mrnea.io.source.parse_number` (ASCII
+    decimal or scientific notation; never ``1_0``, ``nan`` or ``inf``), finite, and either
+    > 0 (``positive``) or >= 0."""
+
+    name = "number"
+
+    def __init__(self, positive: bool) -> None:
+        self.positive = positive
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> float:
+        if isinstance(value, float):  # a default
+            number = value
+        else:
+            try:
+                number = parse_number(value)
+            except ValueError as exc:
+                self.fail(str(exc), param, ctx)
+        if self.positive and not number > 0:
+            self.fail(f"must be > 0, got {quote(value)}", param, ctx)
+        if not self.positive and not number >= 0:
+            self.fail(f"must be >= 0, got {quote(value)}", param, ctx)
+        return number
+
+
+POSITIVE, NON_NEGATIVE = Number(positive=True), Number(positive=False)
+
+catch_opt = click.option("--catch-up", type=NON_NEGATIVE, default=0.0, metavar="GAIN",
                          help="Position-loop gain [1/s] that steers back to the program after a "
                               "saturation (default 0: the paper's behaviour, the lag stays).")
 quiet_opt = click.option("--quiet", "-q", is_flag=True, help="No progress bar, no verdict text.")
@@ -163,7 +302,8 @@ def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
     for option in reversed([
         click.argument("robot"),
         click.argument("program", type=click.Path(dir_okay=False)),
-        click.option("--dt", type=float, default=None, help="Cycle time [s] (needed for a CSV)."),
+        click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",
+                     help="Cycle time [s] (needed for a CSV)."),
         click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
                      help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic]; "
                           "a program file sets it in [path]."),

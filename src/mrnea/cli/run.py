@@ -21,6 +21,7 @@ from mrnea import robots
 from mrnea.cli.base import (
     EXIT_ACHIEVABLE,
     EXIT_NOT_ACHIEVABLE,
+    POSITIVE,
     checkpoint,
     compile_notice,
     exit_interrupted,
@@ -54,7 +55,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
     checkpoint()
     K = q_cmd.shape[0]
     show_bar = not quiet and K >= 20_000
-    with compile_notice(), click.progressbar(length=K, label="simulating", file=sys.stderr,
+    with compile_notice(quiet), click.progressbar(length=K, label="simulating", file=sys.stderr,
                                              hidden=not show_bar) as bar:
         last = [0]
 
@@ -111,7 +112,8 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
 @main.command()
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-demo].")
-@click.option("--dt", type=float, default=0.005, show_default=True, help="Cycle time [s].")
+@click.option("--dt", type=POSITIVE, default=0.005, show_default=True, metavar="SECONDS",
+              help="Cycle time [s].")
 @mode_opt
 @force_opt
 @quiet_opt
@@ -131,7 +133,8 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
     with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
         check_new(_outputs(folder, ("fig3",)), force)
         res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
-        figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
+        with compile_notice(quiet):  # the batch dynamics kernels fig3 calls
+            figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, figs)
     _print_result(res, report, as_json, quiet)
     if not res.completed:

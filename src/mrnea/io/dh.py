@@ -34,6 +34,7 @@ Mapping to mrnea's frames (``T_i = T_{i-1} @ origin_i @ motion(q_i)``, axis z):
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
@@ -41,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelError
+from mrnea.errors import ModelError, clip, listing, quote
 from mrnea.model import JOINT_TYPES, Joint, Link
 
 CONVENTIONS = ("standard", "modified")
@@ -119,16 +120,16 @@ def _trans(x: float = 0.0, z: float = 0.0) -> NDArray[np.float64]:
 def _check_convention(convention: str) -> None:
     if convention not in CONVENTIONS:
         raise ModelError(
-            f"unknown DH convention {convention!r} (expected one of {', '.join(CONVENTIONS)})"
+            f"unknown DH convention {quote(convention)} (expected one of {', '.join(CONVENTIONS)})"
         )
 
 
 def _as_row(row: DHRow | Mapping[str, Any], i: int) -> DHRow:
     if isinstance(row, Mapping):
-        label = f"DH row {i + 1}" + (f" (joint '{row['name']}')" if "name" in row else "")
+        label = f"DH row {i + 1}" + (f" (joint {quote(row['name'])})" if "name" in row else "")
         unknown = sorted(set(row) - set(_ROW_FIELDS) - set(JOINT_FIELDS))
         if unknown:
-            raise ModelError(f"{label}: unknown field(s) {unknown}; allowed: "
+            raise ModelError(f"{label}: unknown field(s) {listing(unknown)}; allowed: "
                              f"{[*_ROW_FIELDS, *JOINT_FIELDS]}")
         missing = [k for k in ("a", "alpha", "d") if k not in row]
         if missing:
@@ -136,23 +137,20 @@ def _as_row(row: DHRow | Mapping[str, Any], i: int) -> DHRow:
         return DHRow(**{k: v for k, v in row.items() if k in _ROW_FIELDS},
                      joint={k: v for k, v in row.items() if k in JOINT_FIELDS})
     if not isinstance(row, DHRow):
-        raise ModelError(f"DH row {i + 1}: expected a DHRow or a mapping, got {row!r}")
+        raise ModelError(f"DH row {i + 1}: expected a DHRow or a mapping, got {quote(row)}")
     unknown = sorted(set(row.joint) - set(JOINT_FIELDS))
     if unknown:
-        label = f"DH row {i + 1}" + (f" (joint '{row.name}')" if row.name else "")
-        raise ModelError(f"{label}: unknown joint field(s) {unknown}; allowed: "
+        label = f"DH row {i + 1}" + (f" (joint {quote(row.name)})" if row.name else "")
+        raise ModelError(f"{label}: unknown joint field(s) {listing(unknown)}; allowed: "
                          f"{list(JOINT_FIELDS)}")
     return row
 
 
 def _param(row: DHRow, key: str, label: str) -> float:
     v = getattr(row, key)
-    if isinstance(v, bool):
-        raise ModelError(f"{label}: DH parameter {key} must be a number, got {v!r}")
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise ModelError(f"{label}: DH parameter {key} must be a number, got {v!r}") from None
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):  # not a string
+        raise ModelError(f"{label}: DH parameter {key} must be a number, got {quote(v)}")
+    x = float(v)
     if not math.isfinite(x):
         raise ModelError(f"{label}: DH parameter {key} must be finite, got {x}")
     return x
@@ -166,7 +164,7 @@ def dh_fixed_transform(row: DHRow | Mapping[str, Any], convention: str = "standa
     """
     _check_convention(convention)
     r = _as_row(row, 0)
-    label = f"joint '{r.name}'" if r.name else "DH row"
+    label = f"joint {quote(r.name)}" if r.name else "DH row"
     a, alpha, d, theta = (_param(r, k, label) for k in ("a", "alpha", "d", "theta"))
     if convention == "standard":
         return _rot_z(theta) @ _trans(z=d) @ _trans(x=a) @ _rot_x(alpha)
@@ -231,11 +229,10 @@ def dh_joint_chain(
     for i, r in enumerate(parsed, start=1):
         jname = r.name if r.name is not None else f"joint{i}"
         lname = r.link_name if r.link_name is not None else f"link{i}"
-        label = f"joint '{jname}'"
+        label = f"joint {quote(jname)}"
         if r.type not in JOINT_TYPES:
-            raise ModelError(
-                f"{label}: unsupported joint type {r.type!r} (supported: {', '.join(JOINT_TYPES)})"
-            )
+            raise ModelError(f"{label}: unsupported joint type {quote(r.type)} (supported: "
+                             f"{', '.join(JOINT_TYPES)})")
         B = dh_fixed_transform(r, convention)
         if convention == "standard":
             origin = prev_fixed
@@ -248,7 +245,7 @@ def dh_joint_chain(
         try:
             lk = Link(lname, mass=r.mass, com=r.com, inertia=r.inertia)
         except ModelError as exc:
-            raise ModelError(f"{label}: {exc}") from None
+            raise ModelError(clip(f"{label}: {exc}")) from None
         R = to_link[:3, :3]
         com = R @ lk.com + to_link[:3, 3]
         inertia = R @ lk.inertia @ R.T

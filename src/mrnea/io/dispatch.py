@@ -7,13 +7,15 @@ never the other way round.
 
 from __future__ import annotations
 
+import os
 import warnings
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from mrnea.errors import ModelWarning, RobotFileError
+from mrnea.errors import ModelWarning, RobotFileError, quote
 from mrnea.io import native, urdf
+from mrnea.io.source import as_path
 from mrnea.model import Robot
 
 __all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "load_builtin", "load_robot", "load_robot_spec",
@@ -47,15 +49,25 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
     RobotFileError
         Unsupported suffix (the message lists the supported ones), or any error of the reader.
     """
-    path = Path(path)
+    path = as_path(path, "path", RobotFileError)
+    if os.path.isdir(path):
+        raise RobotFileError(f"{path}: cannot read robot file: it is a directory, not a regular "
+                             "file")
     suffix = path.suffix.lower()
+    allowed = {".urdf": ("tip", "actuators"), ".xml": ("tip", "actuators"),
+               ".toml": ("actuators",)}.get(suffix, ())
+    for key in kw:
+        if key not in allowed:
+            raise RobotFileError(f"{key}: not an option of the {SUFFIXES.get(suffix, '')} reader "
+                                 f"(options: {', '.join(allowed) or 'none'})")
     if suffix in (".urdf", ".xml"):
         return urdf.load_urdf(path, **kw)
     if suffix == ".toml":
         return native.load_native(path, **kw)
     supported = ", ".join(f"{s} ({fmt})" for s, fmt in SUFFIXES.items())
     raise RobotFileError(
-        f"{path}: unsupported robot file suffix {path.suffix or '(none)'!r}; supported: {supported}"
+        f"{path}: unsupported robot file suffix {quote(path.suffix or '(none)')}; supported: "
+        f"{supported}"
     )
 
 
@@ -67,9 +79,12 @@ def load_builtin(name: str) -> Robot:
     RobotFileError
         If ``name`` is not a built-in robot.
     """
+    if not isinstance(name, str):
+        raise RobotFileError(f"name: expected a built-in robot's name (str), got "
+                             f"{type(name).__name__}")
     if name not in BUILTIN_ROBOTS:
         raise RobotFileError(
-            f"unknown built-in robot {name!r}; available: {', '.join(BUILTIN_ROBOTS)}")
+            f"unknown built-in robot {quote(name)}; available: {', '.join(BUILTIN_ROBOTS)}")
     resource = resources.files("mrnea").joinpath("robots", "data", f"{name}.toml")
     # Built-ins are curated, not the user's input: no ModelWarning. (The published Puma 560's
     # link 1 is a lumped inertia about its axis only, Izz = 0.35 with no mass, and its link 3's
@@ -95,11 +110,15 @@ def resolve_robot(spec: str, base_dir: str | Path | None = None) -> str:
         The built-in name, or the file's path (whether the file exists is not checked here: the
         reader says so, naming the file).
     """
+    if not isinstance(spec, str):
+        raise RobotFileError(f"spec: expected a built-in robot's name or a robot file's path "
+                             f"(str), got {type(spec).__name__} {quote(spec)}")
+    base = None if base_dir is None else as_path(base_dir, "base_dir", RobotFileError)
     if spec in BUILTIN_ROBOTS:
         return spec
-    p = Path(spec).expanduser()
-    if base_dir is not None and not p.is_absolute():
-        p = Path(base_dir) / p
+    p = as_path(spec, "spec", RobotFileError).expanduser()
+    if base is not None and not p.is_absolute():
+        p = base / p
     return str(p)
 
 

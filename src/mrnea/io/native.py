@@ -41,10 +41,11 @@ from typing import Any
 
 import numpy as np
 
-from mrnea.errors import ModelError, RobotFileError
+from mrnea.errors import ModelError, RobotFileError, quote
 from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
-from mrnea.io.tomlcheck import TomlCheck, read_text
+from mrnea.io.source import as_path, read_text
+from mrnea.io.tomlcheck import TomlCheck
 from mrnea.io.writer import create
 from mrnea.model import (
     DEFAULT_GRAVITY,
@@ -84,15 +85,15 @@ def _inertia(check: TomlCheck, value: Any, where: str) -> np.ndarray:
         return np.array([check.vector(r, where, f"inertia[{k}]", 3)
                          for k, r in enumerate(value)])
     raise check.error(where, "'inertia' must be a 3x3 array of numbers or a table "
-                             f"{{ixx, iyy, izz, ixy, ixz, iyz}}, got {value!r}")
+                             f"{{ixx, iyy, izz, ixy, ixz, iyz}}, got {quote(value)}")
 
 
 def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) -> dict[str, Any]:
-    where = f"joint '{jname}'"
+    where = f"joint {quote(jname)}"
     table = check.table(check.require(joint, "link", where), where, "link")
     lname = table.get("name", f"link{index}")
     lname = check.string(lname, f"{where}: link", "name")
-    lwhere = f"joint '{jname}': link '{lname}'"
+    lwhere = f"joint {quote(jname)}: link {quote(lname)}"
     check.check_keys(table, _LINK_KEYS, lwhere)
     mass = check.number(check.require(table, "mass", lwhere), lwhere, "mass")
     com = check.vector(table.get("com", [0.0, 0.0, 0.0]), lwhere, "com", 3)
@@ -132,10 +133,10 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
     parent = base
     for i, entry in enumerate(entries, start=1):
         if not isinstance(entry, dict):
-            raise check.error(f"joint #{i}", f"expected a table, got {entry!r}")
+            raise check.error(f"joint #{i}", f"expected a table, got {quote(entry)}")
         raw_name = entry.get("name")
         jname = raw_name if isinstance(raw_name, str) and raw_name else f"#{i}"
-        where = f"joint '{jname}'" if jname != f"#{i}" else f"joint #{i}"
+        where = f"joint {quote(jname)}" if jname != f"#{i}" else f"joint #{i}"
         for key in entry:
             if key not in allowed and key in (_DH_JOINT_KEYS + _ORIGIN_JOINT_KEYS):
                 raise check.error(where, f"key '{key}' not allowed here{hint_other}")
@@ -143,7 +144,7 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         jname = check.string(check.require(entry, "name", where), where, "name")
         jtype = check.string(check.require(entry, "type", where), where, "type")
         if jtype not in JOINT_TYPES:
-            raise check.error(where, f"unsupported joint type '{jtype}' "
+            raise check.error(where, f"unsupported joint type {quote(jtype)} "
                                      f"(supported: {', '.join(JOINT_TYPES)})")
         link = _link(check, entry, jname, i)
         fields = joint_fields(check, entry, where)
@@ -203,7 +204,7 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
     dh = robot.get("dh")
     if dh is not None and dh not in CONVENTIONS:
         raise check.error("[robot]", f"'dh' must be one of {', '.join(map(repr, CONVENTIONS))}, "
-                                     f"got {dh!r}")
+                                     f"got {quote(dh)}")
     entries = doc.get("joint")
     if entries is None:
         raise check.error("", "no [[joint]] tables: a robot needs at least one joint")
@@ -237,6 +238,8 @@ def load_native(path: str | Path, actuators: str | Path | None = None) -> Robot:
         If the file cannot be read or is malformed; the message names the file and the joint or
         link at fault (TOML syntax errors give line and column).
     """
+    if actuators is not None:
+        actuators = as_path(actuators, "actuators", RobotFileError)
     robot = loads_native(read_text(path, "robot file", RobotFileError), source=str(path))
     return robot if actuators is None else apply_actuator_file(robot, actuators)
 

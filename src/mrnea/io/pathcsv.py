@@ -22,20 +22,21 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import os
 import warnings
+from array import array
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import PathWarning, ProgramFileError, StateError
-from mrnea.io.tomlcheck import read_text
+from mrnea.errors import PathWarning, ProgramFileError, StateError, quote
+from mrnea.io.source import MAX_CSV_SIZE, as_path, parse_number, read_text
 from mrnea.io.writer import create
 from mrnea.model import Robot
-from mrnea.trajectory import cycles
+from mrnea.resources import format_bytes, require_memory
+from mrnea.trajectory import cycles, require_path_memory
 from mrnea.validate import choice, time_step
 
 __all__ = ["INTERPOLATIONS", "from_csv", "limit_warnings", "read_table", "resample", "save_csv"]
@@ -55,7 +56,8 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
 
     Parameters
     ----------
-    path : the ``.csv`` file.
+    path : the ``.csv`` file: a regular file of at most :data:`mrnea.io.source.MAX_CSV_SIZE`
+        bytes, whose reading fits the memory budget (:mod:`mrnea.resources`).
     n : expected number of joint columns; None: any (at least one).
 
     Returns
@@ -68,69 +70,76 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
     ProgramFileError
         Naming the file, the line (data row) and the column at fault.
     """
-    text = read_text(path, "path CSV file", ProgramFileError)
+    try:
+        size = os.stat(path).st_size
+    except (OSError, ValueError):
+        size = 0  # read_text says what is wrong with the file
+    # the text (up to 4 bytes a character) and the numbers (8 bytes for a cell of >= 2 bytes)
+    require_memory(9 * size, f"{path}: reading this {format_bytes(size)} path CSV file",
+                   "resample it more coarsely or split it", ProgramFileError)
+    text = read_text(path, "path CSV file", ProgramFileError, MAX_CSV_SIZE)
     header: list[str] | None = None
     header_line = 0
-    rows: list[list[float]] = []
-    reader = csv.reader(text.splitlines())
-    for cells in reader:
-        line = reader.line_num
-        cells = [c.strip() for c in cells]
-        if not any(cells) or cells[0].startswith("#"):
-            continue  # blank line or comment
-        if header is None:
-            header, header_line = cells, line
-            if len(header) < 2:
+    values = array("d")
+    rows = last_time = 0
+    reader = csv.reader(io.StringIO(text))
+    try:
+        for cells in reader:
+            line = reader.line_num
+            cells = [c.strip(" \t") for c in cells]
+            if not any(cells) or cells[0].startswith("#"):
+                continue  # blank line or comment
+            if header is None:
+                header, header_line = cells, line
+                _check_header(path, line, header, n)
+                continue
+            if len(cells) != len(header):
                 raise ProgramFileError(
-                    f"{path}: line {line}: the header row needs a time column and at least one "
-                    f"joint column, got {len(header)} column(s): {header}")
-            if n is not None and len(header) != n + 1:
-                raise ProgramFileError(
-                    f"{path}: line {line}: expected {n + 1} columns (time + {n} joints), the "
-                    f"header row has {len(header)}: {header}")
-            if _is_number(header[0]):
-                raise ProgramFileError(
-                    f"{path}: line {line}: the first row must be a header (e.g. t,q1,q2,...), "
-                    f"got numbers: {header}")
-            continue
-        if len(cells) != len(header):
-            raise ProgramFileError(
-                f"{path}: line {line} (data row {len(rows) + 1}): expected {len(header)} "
-                f"columns as in the header (line {header_line}), got {len(cells)}")
-        values = []
-        for col, cell in enumerate(cells):
-            where = (f"{path}: line {line} (data row {len(rows) + 1}), column {col + 1} "
-                     f"('{header[col]}')")
-            try:
-                v = float(cell)
-            except ValueError:
-                raise ProgramFileError(
-                    f"{where}: not a number: {cell!r}" if cell else f"{where}: empty cell"
-                ) from None
-            if not math.isfinite(v):
-                raise ProgramFileError(f"{where}: {cell!r} is not a finite number")
-            values.append(v)
-        if rows and values[0] <= rows[-1][0]:
-            raise ProgramFileError(
-                f"{path}: line {line} (data row {len(rows) + 1}), column 1 ('{header[0]}'): "
-                f"time {values[0]!r} s is not greater than the previous row's {rows[-1][0]!r} s "
-                "(time must be strictly increasing)")
-        rows.append(values)
+                    f"{path}: line {line} (data row {rows + 1}): expected {len(header)} "
+                    f"columns as in the header (line {header_line}), got {len(cells)}")
+            for col, cell in enumerate(cells):
+                try:
+                    v = parse_number(cell)
+                except ValueError as exc:
+                    where = (f"{path}: line {line} (data row {rows + 1}), column {col + 1} "
+                             f"({quote(header[col])})")
+                    raise ProgramFileError(f"{where}: {exc}" if cell else f"{where}: empty cell"
+                                           ) from None
+                if col == 0 and rows and v <= last_time:
+                    raise ProgramFileError(
+                        f"{path}: line {line} (data row {rows + 1}), column 1 "
+                        f"({quote(header[0])}): time {v!r} s is not greater than the previous "
+                        f"row's {last_time!r} s (time must be strictly increasing)")
+                values.append(v)
+            last_time = values[-len(cells)]
+            rows += 1
+    except csv.Error as exc:
+        raise ProgramFileError(f"{path}: line {reader.line_num}: not valid CSV: {exc}") from None
     if header is None:
         raise ProgramFileError(f"{path}: empty file: expected a header row (time, then one column "
                                "per joint) and at least two data rows")
-    if len(rows) < 2:
-        raise ProgramFileError(f"{path}: {len(rows)} data row(s) after the header: a path needs "
+    if rows < 2:
+        raise ProgramFileError(f"{path}: {rows} data row(s) after the header: a path needs "
                                "at least two (time strictly increasing)")
-    return header, np.array(rows, dtype=np.float64)
+    return header, np.frombuffer(values, dtype=np.float64).reshape(rows, len(header)).copy()
 
 
-def _is_number(s: str) -> bool:
+def _check_header(path: Path, line: int, header: list[str], n: int | None) -> None:
+    """The header row's shape (its text is never quoted: the file may not be a CSV at all)."""
+    if len(header) < 2:
+        raise ProgramFileError(
+            f"{path}: line {line}: the header row needs a time column and at least one "
+            f"joint column, got {len(header)} column (is this a path CSV file?)")
+    if n is not None and len(header) != n + 1:
+        raise ProgramFileError(
+            f"{path}: line {line}: expected {n + 1} columns (time + {n} joints), the "
+            f"header row has {len(header)}")
     try:
-        float(s)
+        parse_number(header[0])
     except ValueError:
-        return False
-    return True
+        return
+    raise ProgramFileError(f"{path}: line {line}: the first row must be a header (e.g. "
+                           "t,q1,q2,...), got numbers")
 
 
 def from_csv(
@@ -189,9 +198,12 @@ def from_csv(
         n = robot.n
     if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1):
         raise StateError(f"n: expected a number of joints >= 1 or None, got {n!r}")
-    p = Path(path)
+    p = as_path(path, "path", ProgramFileError)
     _, data = read_table(p, None if n is None else int(n))
-    t, q = resample(data[:, 0], data[:, 1:], dt, interpolation, str(p))
+    try:
+        t, q = resample(data[:, 0], data[:, 1:], dt, interpolation, str(p))
+    except StateError as exc:  # too many cycles for dt
+        raise ProgramFileError(f"{p}: {exc}") from None
     if robot is not None:
         limit_warnings(robot, t, q, data, interpolation, str(p))
     return t, q
@@ -224,6 +236,7 @@ def resample(time: NDArray, q: NDArray, dt: float, interpolation: str = "cubic",
         Too many cycles (:func:`mrnea.trajectory.cycles`).
     """
     K = int(cycles(time[-1] - time[0], dt)) + 1
+    require_path_memory(K, q.shape[1])
     t = time[0] + np.arange(K, dtype=float) * dt
     at = np.minimum(t, time[-1])  # past the last row: hold it
     out = np.empty((K, q.shape[1]))

@@ -20,10 +20,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import ProgramFileError, StateError
+from mrnea.errors import ProgramFileError, StateError, quote
 from mrnea.io.dispatch import BUILTIN_ROBOTS, load_robot_spec, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
-from mrnea.io.tomlcheck import TomlCheck, did_you_mean, read_text
+from mrnea.io.source import as_path, read_text
+from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
@@ -106,7 +107,7 @@ class Program:
         if robot.n != self.n:
             raise ProgramFileError(
                 f"{self.source or self.name}: the program commands {self.n} joints but robot "
-                f"'{robot.name}' ({self.robot}) has {robot.n}")
+                f"{quote(robot.name)} ({quote(self.robot)}) has {robot.n}")
         self.check_path(robot)
         return robot
 
@@ -130,10 +131,10 @@ _WRENCH_KEYS = ("times", "values", "point")
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
     source = resolve_robot(value, base_dir)
-    if source not in BUILTIN_ROBOTS and not Path(source).is_file():
-        raise check.error("[program]", f"robot {value!r} is neither a built-in robot "
+    if source not in BUILTIN_ROBOTS and not os.path.isfile(source):
+        raise check.error("[program]", f"robot {quote(value)} is neither a built-in robot "
                                        f"({', '.join(BUILTIN_ROBOTS)}) nor an existing robot "
-                                       f"file (looked for {source})")
+                                       f"file (looked for {quote(source)})")
     return source
 
 
@@ -158,12 +159,12 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
     units = table.get("units", "rad")
     if units not in UNITS:
         raise check.error(where, f"'units' must be one of {', '.join(map(repr, UNITS))}, got "
-                                 f"{units!r}")
+                                 f"{quote(units)}")
     scale = math.pi / 180.0 if units == "deg" else 1.0
     if "csv" in table:
         for key in table:
             if key not in _CSV_KEYS:
-                raise check.error(where, f"key '{key}' cannot be used with 'csv' (a CSV path "
+                raise check.error(where, f"key {quote(key)} cannot be used with 'csv' (a CSV path "
                                          "gives its own positions and times; allowed with csv: "
                                          f"{', '.join(_CSV_KEYS)})")
         p = Path(check.string(table["csv"], where, "csv")).expanduser()
@@ -176,8 +177,11 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                                      f"{interpolation!r}")
         _, data = read_table(p, None)
         data[:, 1:] *= scale
-        return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)), interpolation,
-                data)
+        try:
+            return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)),
+                    interpolation, data)
+        except StateError as exc:  # too many cycles for dt
+            raise check.error(where, f"{quote(str(p))}: {exc}") from None
     if "interpolation" in table:
         raise check.error(where, "'interpolation' applies to a 'csv' path only (waypoints are "
                                  "joined by the profile)")
@@ -186,7 +190,8 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                                  "'waypoints' (with velocity_limit and acceleration_limit)")
     profile = check.string(check.require(table, "profile", where), where, "profile")
     if profile not in PROFILES:
-        raise check.error(where, f"unknown profile {profile!r}{did_you_mean(profile, [*PROFILES])}"
+        raise check.error(where, f"unknown profile {quote(profile)}"
+                                 f"{did_you_mean(profile, [*PROFILES])}"
                                  f"; expected one of {', '.join(map(repr, PROFILES))}")
     w = check.matrix(check.require(table, "waypoints", where), where, "waypoints") * scale
     n = w.shape[1]
@@ -256,7 +261,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         wrong types and values; the message names ``source`` and the table and key at fault.
     """
     check = TomlCheck(source, ProgramFileError)
-    base = Path.cwd() if base_dir is None else Path(base_dir)
+    base = Path.cwd() if base_dir is None else as_path(base_dir, "base_dir", ProgramFileError)
     doc = check.parse(text)
     check.check_keys(doc, _TOP_KEYS, "top level")
     prog = check.table(check.require(doc, "program", "top level"), "top level", "program")
@@ -271,7 +276,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     mode = prog.get("mode")
     if mode is not None and mode not in MODES:
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
-                                       f"got {mode!r}")
+                                       f"got {quote(mode)}")
     path = check.table(check.require(doc, "path", "top level"), "top level", "path")
     t, q, interpolation, rows = _path(check, path, dt, base)
     if q.shape[0] < 2:
@@ -308,7 +313,7 @@ def load_program(path: str | Path) -> Program:
         Missing or unreadable file, TOML syntax error (line and column), unknown key (with a
         did-you-mean suggestion), missing key, bad value; or an error in the path CSV it names.
     """
-    p = Path(path)
+    p = as_path(path, "path", ProgramFileError)
     return loads_program(read_text(p, "program file", ProgramFileError), source=str(p),
                          base_dir=p.parent)
 

@@ -14,9 +14,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from mrnea.errors import ModelError, RobotFileError
+from mrnea.errors import ModelError, RobotFileError, listing, quote
 from mrnea.io.dh import JOINT_FIELDS
-from mrnea.io.tomlcheck import TomlCheck, did_you_mean, read_text
+from mrnea.io.source import read_text
+from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.model import Robot
 
 __all__ = ["apply_actuator_file", "joint_fields"]
@@ -70,15 +71,18 @@ def apply_actuator_file(robot: Robot, path: str | Path) -> Robot:
         Unreadable file, TOML syntax, a joint the robot does not have, an unknown key, a bad
         value; the message names the file and the joint.
     """
+    if not isinstance(robot, Robot):
+        raise RobotFileError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
+    text = read_text(path, "actuator file", RobotFileError)
     check = TomlCheck(str(path), RobotFileError, finite=False)
-    data = check.parse(read_text(path, "actuator file", RobotFileError))
+    data = check.parse(text)
     names = robot.joint_names
     joints = list(robot.joints)
     for jname, table in data.items():
         if jname not in names:
-            raise check.error("", f"no joint named '{jname}' in robot '{robot.name}'"
-                                  f"{did_you_mean(jname, names)}; its joints: {', '.join(names)}")
-        where = f"joint '{jname}'"
+            raise check.error("", f"no joint named {quote(jname)} in robot {quote(robot.name)}"
+                                  f"{did_you_mean(jname, names)}; its joints: {listing(names)}")
+        where = f"joint {quote(jname)}"
         table = check.table(table, "", jname)
         check.check_keys(table, JOINT_FIELDS, where)
         i = names.index(jname)

@@ -13,30 +13,18 @@ import difflib
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import MrneaError
+from mrnea.errors import MrneaError, clip, listing, quote
+from mrnea.io.source import read_text
 
-__all__ = ["TomlCheck", "did_you_mean", "read_text", "type_name"]
+__all__ = ["MAX_DEPTH", "TomlCheck", "did_you_mean", "read_text", "type_name"]
 
-
-def read_text(path: str | Path, what: str, error: type[MrneaError]) -> str:
-    """The text of a UTF-8 file (a byte-order mark is not an error).
-
-    Raises ``error`` naming the file and ``what`` it is (``"robot file"``, ...).
-    """
-    p = Path(path)
-    try:
-        return p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError as exc:
-        raise error(f"{p}: {what} not found (cannot read {what}: [Errno {exc.errno}] "
-                    f"{exc.strerror})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"{p}: cannot read {what}: {exc}") from None
+MAX_DEPTH = 32
+"""Deepest nesting of arrays and tables accepted in a TOML document (mrnea's formats use 4)."""
 
 
 def type_name(value: object) -> str:
@@ -64,19 +52,30 @@ class TomlCheck:
     """
 
     def __init__(self, source: str, error: type[MrneaError], *, finite: bool = True) -> None:
+        if not isinstance(source, str):
+            raise error(f"source: expected a name for the document (str), got "
+                        f"{type(source).__name__} {quote(source)}")
         self.source = source
         self._error = error
         self.finite = finite
 
     def error(self, where: str, what: str) -> MrneaError:
         """The error ``<source>: <where>: <what>`` (``<source>: <what>`` without ``where``)."""
-        return self._error(f"{self.source}: {where}: {what}" if where else
-                           f"{self.source}: {what}")
+        return self._error(clip(f"{self.source}: {where}: {what}" if where else
+                                f"{self.source}: {what}"))
 
     def parse(self, text: str) -> dict[str, Any]:
-        """The document, or an error with tomllib's message, line and column."""
+        """The document, or an error with tomllib's message, line and column; a document
+        nested deeper than :data:`MAX_DEPTH` is refused (tomllib would recurse until Python's
+        stack runs out)."""
+        if not isinstance(text, str):
+            raise self._error(f"text: expected a TOML document (str), got {type(text).__name__} "
+                              f"{quote(text)}")
         try:
-            return tomllib.loads(text)
+            doc = tomllib.loads(text)
+        except RecursionError:
+            raise self.error("", f"invalid TOML: arrays or tables nested too deeply (more than "
+                                 f"{MAX_DEPTH} levels)") from None
         except tomllib.TOMLDecodeError as exc:
             msg = str(exc)
             if "(at end of document)" in msg:  # give the line and column there too
@@ -84,13 +83,17 @@ class TomlCheck:
                 msg = msg.replace("(at end of document)", f"(at line {len(lines)}, column "
                                                           f"{len(lines[-1]) + 1}: end of document)")
             raise self.error("", f"invalid TOML: {msg}") from None
+        if _depth(doc) > MAX_DEPTH:
+            raise self.error("", f"invalid TOML: arrays or tables nested too deeply (more than "
+                                 f"{MAX_DEPTH} levels)")
+        return doc
 
     def check_keys(self, table: Mapping[str, Any], allowed: Sequence[str], where: str) -> None:
         """Every key of ``table`` is one of ``allowed`` (else: the closest one is suggested)."""
         for key in table:
             if key not in allowed:
-                raise self.error(where, f"unknown key '{key}'{did_you_mean(key, allowed)}; "
-                                        f"allowed keys: {', '.join(allowed)}")
+                raise self.error(where, f"unknown key {quote(key)}{did_you_mean(key, allowed)}; "
+                                        f"allowed keys: {listing(allowed, len(allowed))}")
 
     def require(self, table: Mapping[str, Any], key: str, where: str) -> Any:
         """``table[key]``; an error names the missing key."""
@@ -101,20 +104,21 @@ class TomlCheck:
     def table(self, value: Any, where: str, key: str) -> Mapping[str, Any]:
         """``value`` if it is a table."""
         if not isinstance(value, dict):
-            raise self.error(where, f"'{key}' must be a table, got {type_name(value)} {value!r}")
+            raise self.error(where, f"'{key}' must be a table, got {type_name(value)} "
+                                    f"{quote(value)}")
         return value
 
     def string(self, value: Any, where: str, key: str) -> str:
         """``value`` if it is a non-empty string."""
         if not isinstance(value, str) or not value:
-            raise self.error(where, f"'{key}' must be a non-empty string, got {value!r}")
+            raise self.error(where, f"'{key}' must be a non-empty string, got {quote(value)}")
         return value
 
     def number(self, value: Any, where: str, key: str, *, allow_inf: bool = False) -> float:
         """``value`` as a float: an integer or a float, not a boolean (finite: see the class)."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(where, f"'{key}' must be a number, got {type_name(value)} "
-                                    f"{value!r}")
+                                    f"{quote(value)}")
         v = float(value)
         if self.finite and (math.isnan(v) or (math.isinf(v) and not allow_inf)):
             raise self.error(where, f"'{key}' must be a finite number, got {v}")
@@ -127,7 +131,8 @@ class TomlCheck:
                                                          and len(value) != length):
             size = f"{length} numbers" if length is not None else "numbers"
             got = f"{len(value)} entries" if isinstance(value, list) else type_name(value)
-            raise self.error(where, f"'{key}' must be an array of {size}, got {got}: {value!r}")
+            raise self.error(where, f"'{key}' must be an array of {size}, got {got}: "
+                                    f"{quote(value)}")
         return np.array([self.number(v, where, f"{key}[{k}]", allow_inf=allow_inf)
                          for k, v in enumerate(value)])
 
@@ -136,7 +141,7 @@ class TomlCheck:
         """An array of equal-length arrays of numbers; an error names the row (1-based)."""
         if not isinstance(value, list) or not value:
             raise self.error(where, f"'{key}' must be a non-empty array of arrays, got "
-                                    f"{value!r}")
+                                    f"{quote(value)}")
         if rows is not None and len(value) != rows:
             raise self.error(where, f"'{key}' has {len(value)} rows, expected {rows}")
         expected = width if width is not None else (
@@ -145,10 +150,23 @@ class TomlCheck:
         for r, row in enumerate(value, start=1):
             if not isinstance(row, list):
                 raise self.error(where, f"'{key}' row {r} must be an array of numbers, got "
-                                        f"{type_name(row)} {row!r}")
+                                        f"{type_name(row)} {quote(row)}")
             if expected is not None and len(row) != expected:
                 ref = "" if width is not None else " (the length of row 1)"
                 raise self.error(where, f"'{key}' row {r} has {len(row)} values, expected "
                                         f"{expected}{ref}")
             out.append(self.vector(row, where, f"{key} row {r}"))
         return np.array(out)
+
+
+def _depth(value: Any) -> int:
+    """How deeply arrays and tables nest in a parsed document (a scalar: 0), without recursion."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        v, d = stack.pop()
+        if isinstance(v, dict):
+            v = list(v.values())
+        if isinstance(v, list):
+            deepest = max(deepest, d + 1)
+            stack.extend((x, d + 1) for x in v if isinstance(x, (dict, list)))
+    return deepest

@@ -30,6 +30,7 @@ written (a curve's peak is written as the effort limit).
 from __future__ import annotations
 
 import math
+import re
 import sys
 import warnings
 import xml.etree.ElementTree as ET
@@ -39,8 +40,18 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import ModelError, RobotFileError
+from mrnea.errors import (
+    ModelError,
+    OutputError,
+    RobotFileError,
+    StateError,
+    clip,
+    listing,
+    quote,
+    shorten,
+)
 from mrnea.io.sidecar import apply_actuator_file
+from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
 from mrnea.io.writer import create
 from mrnea.model import (
     DEFAULT_GRAVITY,
@@ -59,6 +70,10 @@ UNSUPPORTED_TYPES = ("floating", "planar")
 #: Written for an unbounded limit (urdfdom rejects ``inf``) and read back as infinite. It is the
 #: largest double, the value Pinocchio itself uses for "no limit".
 UNBOUNDED = sys.float_info.max
+#: Largest URDF file read [bytes]: real robots' files are well under a megabyte (meshes are
+#: separate files), a 1000-joint chain about 1 MB.
+MAX_URDF_SIZE = 16 * 2**20
+_XML_SPACE = re.compile("[ \t\n\r]+")  # what separates numbers in an attribute
 
 
 @dataclass
@@ -91,69 +106,70 @@ class _Reader:
         self.path = path
 
     def error(self, message: str) -> RobotFileError:
-        return RobotFileError(f"{self.path}: {message}")
+        return RobotFileError(clip(f"{self.path}: {message}"))
 
     # --- attribute helpers ----------------------------------------------------------------
     def required(self, elem: ET.Element, attr: str, what: str) -> str:
         value = elem.get(attr)
         if value is None:
-            raise self.error(f"{what}: <{elem.tag}> has no '{attr}' attribute")
+            raise self.error(f"{what}: <{shorten(elem.tag)}> has no '{attr}' attribute")
         return value
 
     def floats(self, elem: ET.Element | None, attr: str, n: int, what: str,
-               default: tuple[float, ...] | None = None) -> NDArray[np.float64]:
-        """``n`` numbers from a whitespace-separated attribute (``default`` if absent)."""
+               default: tuple[float, ...] | None = None, allow_inf: bool = False
+               ) -> NDArray[np.float64]:
+        """``n`` numbers from a whitespace-separated attribute (``default`` if absent), in
+        the strict grammar of :func:`mrnea.io.source.parse_number` (``inf``: only where
+        ``allow_inf``)."""
         text = None if elem is None else elem.get(attr)
         if text is None:
             if default is None:
-                tag = "element" if elem is None else f"<{elem.tag}>"
+                tag = "element" if elem is None else f"<{shorten(elem.tag)}>"
                 raise self.error(f"{what}: {tag} has no '{attr}' attribute")
             return np.array(default, dtype=float)
         assert elem is not None
-        parts = text.split()
+        attribute = f"<{shorten(elem.tag)} {attr}=\"{shorten(text)}\">"
+        parts = _XML_SPACE.split(text.strip(" \t\n\r")) if text.strip(" \t\n\r") else []
         if len(parts) != n:
-            raise self.error(
-                f"{what}: <{elem.tag} {attr}=\"{text}\">: expected {n} number(s), got {len(parts)}"
-            )
-        try:
-            return np.array([float(p) for p in parts])
-        except ValueError:
-            raise self.error(
-                f"{what}: <{elem.tag} {attr}=\"{text}\">: not a number"
-            ) from None
+            raise self.error(f"{what}: {attribute}: expected {n} number(s), got {len(parts)}")
+        out = np.empty(n)
+        for k, part in enumerate(parts):
+            try:
+                out[k] = parse_number(part, allow_inf)
+            except ValueError as exc:
+                raise self.error(f"{what}: {attribute}: {exc}") from None
+        return out
 
     def number(self, elem: ET.Element | None, attr: str, what: str,
-               default: float | None = None) -> float:
-        return float(self.floats(elem, attr, 1, what, None if default is None else (default,))[0])
+               default: float | None = None, allow_inf: bool = False) -> float:
+        return float(self.floats(elem, attr, 1, what, None if default is None else (default,),
+                                 allow_inf)[0])
 
     def text_number(self, elem: ET.Element, what: str) -> float:
         """The number that is ``elem``'s text content."""
-        text = (elem.text or "").strip()
+        text = (elem.text or "").strip(" \t\n\r")
         try:
-            return float(text)
-        except ValueError:
-            raise self.error(f"{what}: <{elem.tag}>{text}</{elem.tag}>: not a number") from None
+            return parse_number(text)
+        except ValueError as exc:
+            raise self.error(f"{what}: <{elem.tag}>{shorten(text)}</{elem.tag}>: {exc}"
+                             ) from None
 
     def origin(self, elem: ET.Element, what: str) -> NDArray[np.float64]:
         """The 4x4 transform of ``elem``'s ``<origin xyz rpy>`` child (identity if absent)."""
         o = elem.find("origin")
         xyz = self.floats(o, "xyz", 3, what, (0.0, 0.0, 0.0))
         rpy = self.floats(o, "rpy", 3, what, (0.0, 0.0, 0.0))
-        if not (np.all(np.isfinite(xyz)) and np.all(np.isfinite(rpy))):
-            raise self.error(f"{what}: <origin> has non-finite values: xyz {xyz.tolist()}, "
-                             f"rpy {rpy.tolist()}")
         return transform(xyz, rpy)
 
     # --- document ---------------------------------------------------------------------------
     def parse_root(self) -> ET.Element:
-        try:
-            data = self.path.read_bytes()
-        except FileNotFoundError:
-            raise self.error("file not found") from None
-        except OSError as exc:
-            raise self.error(f"cannot read file: {exc.strerror or exc}") from None
+        data = read_bytes(self.path, "robot file", RobotFileError, MAX_URDF_SIZE)
         if not data.strip():
             raise self.error("file is empty")
+        refused = refused_prolog(data)
+        if refused is not None:
+            raise self.error(f"refused: {refused}; URDF needs no DTD, and XML entities can "
+                             "expand a small file into a huge one or read other files")
         try:
             root = ET.fromstring(data)
         except ET.ParseError as exc:
@@ -162,7 +178,7 @@ class _Reader:
         except (LookupError, ValueError) as exc:  # e.g. an unknown encoding in the declaration
             raise self.error(f"invalid XML: {exc}") from None
         if root.tag != "robot":
-            raise self.error(f"root element is <{root.tag}>, expected <robot>")
+            raise self.error(f"root element is <{shorten(root.tag)}>, expected <robot>")
         return root
 
     def link(self, elem: ET.Element, index: int) -> _UrdfLink:
@@ -172,7 +188,7 @@ class _Reader:
         inertial = elem.find("inertial")
         if inertial is None:
             return _UrdfLink(name)
-        what = f"link '{name}' <inertial>"
+        what = f"link {quote(name)} <inertial>"
         T = self.origin(inertial, what)
         mass_el = inertial.find("mass")
         if mass_el is None:
@@ -200,16 +216,17 @@ class _Reader:
         name = self.required(elem, "name", f"joint #{index + 1}")
         if not name:
             raise self.error(f"joint #{index + 1}: empty name")
-        what = f"joint '{name}'"
+        what = f"joint {quote(name)}"
         jtype = self.required(elem, "type", what)
         if jtype in UNSUPPORTED_TYPES:
             raise self.error(
-                f"{what}: joint type '{jtype}' is not supported (a serial chain has only "
+                f"{what}: joint type {quote(jtype)} is not supported (a serial chain has only "
                 f"{', '.join(MOVING_TYPES)} and fixed joints)"
             )
         if jtype not in (*MOVING_TYPES, "fixed"):
             raise self.error(
-                f"{what}: unknown joint type '{jtype}' (known: {', '.join(MOVING_TYPES)}, fixed, "
+                f"{what}: unknown joint type {quote(jtype)} (known: {', '.join(MOVING_TYPES)}, "
+                f"fixed, "
                 f"{', '.join(UNSUPPORTED_TYPES)})"
             )
         ends = []
@@ -230,7 +247,7 @@ class _Reader:
                                        ("upper", "upper", math.inf),
                                        ("effort", "effort_limit", math.inf),
                                        ("velocity", "velocity_limit", math.inf)):
-                v = self.number(limit, attr, f"{what} <limit>", default)
+                v = self.number(limit, attr, f"{what} <limit>", default, allow_inf=True)
                 f[key] = math.copysign(math.inf, v) if abs(v) >= UNBOUNDED else v
         dyn = elem.find("dynamics")
         if dyn is not None:
@@ -247,7 +264,7 @@ class _Reader:
         out: dict[str, tuple[str, float | None]] = {}
         for k, tr in enumerate(root.findall("transmission")):
             tname = tr.get("name") or f"#{k + 1}"
-            what = f"transmission '{tname}'"
+            what = f"transmission {quote(tname)}"
             jnames = [self.required(je, "name", f"{what} <joint>") for je in tr.findall("joint")]
             # ros_control format: <actuator><mechanicalReduction>; old format: a direct child
             red_elems = [*tr.findall("actuator/mechanicalReduction"),
@@ -255,9 +272,8 @@ class _Reader:
             reductions = [self.text_number(r, f"{what} <mechanicalReduction>") for r in red_elems]
             for jn in jnames:
                 if jn in out:
-                    raise self.error(
-                        f"{what}: joint '{jn}' is already driven by transmission '{out[jn][0]}'"
-                    )
+                    raise self.error(f"{what}: joint {quote(jn)} is already driven by transmission "
+                                     f"{quote(out[jn][0])}")
             if len(jnames) == 1 and len(reductions) <= 1:
                 red = reductions[0] if reductions else 1.0
                 if red == 0 or not math.isfinite(red):
@@ -340,7 +356,12 @@ def load_urdf(
         (``floating``/``planar`` joints, a ``<mimic>`` joint on the chain) or non-physical
         values; the message names the file and the element.
     """
-    path = Path(path)
+    path = as_path(path, "path", RobotFileError)
+    if tip is not None and not isinstance(tip, str):
+        raise RobotFileError(f"tip: expected a link name (str) or None, got "
+                             f"{type(tip).__name__} {quote(tip)}")
+    if actuators is not None:
+        actuators = as_path(actuators, "actuators", RobotFileError)
     rd = _Reader(path)
     root = rd.parse_root()
     robot_name = root.get("name") or path.stem
@@ -349,7 +370,7 @@ def load_urdf(
     for k, elem in enumerate(root.findall("link")):
         lk = rd.link(elem, k)
         if lk.name in links:
-            raise rd.error(f"duplicate link name '{lk.name}'")
+            raise rd.error(f"duplicate link name {quote(lk.name)}")
         links[lk.name] = lk
     joints: dict[str, _UrdfJoint] = {}
     parent_joint: dict[str, _UrdfJoint] = {}  # child link -> the joint above it
@@ -357,22 +378,24 @@ def load_urdf(
     for k, elem in enumerate(root.findall("joint")):
         j = rd.joint(elem, k)
         if j.name in joints:
-            raise rd.error(f"duplicate joint name '{j.name}'")
+            raise rd.error(f"duplicate joint name {quote(j.name)}")
         for end in (j.parent, j.child):
             if end not in links:
-                raise rd.error(f"joint '{j.name}': refers to link '{end}', which does not exist")
+                raise rd.error(f"joint {quote(j.name)}: refers to link {quote(end)}, which does "
+                               "not exist")
         if j.child in parent_joint:
             raise rd.error(
-                f"joint '{j.name}': link '{j.child}' is already the child of joint "
-                f"'{parent_joint[j.child].name}' (a link can have only one parent)"
+                f"joint {quote(j.name)}: link {quote(j.child)} is already the child of joint "
+                f"{quote(parent_joint[j.child].name)} (a link can have only one parent)"
             )
         if j.parent == j.child:
-            raise rd.error(f"joint '{j.name}': link '{j.child}' is its own parent (cycle)")
+            raise rd.error(f"joint {quote(j.name)}: link {quote(j.child)} is its own parent "
+                           "(cycle)")
         joints[j.name] = j
         parent_joint[j.child] = j
         children[j.parent].append(j)
     if not links:
-        raise rd.error(f"robot '{robot_name}' has no <link>")
+        raise rd.error(f"robot {quote(robot_name)} has no <link>")
 
     # --- tree structure -------------------------------------------------------------------
     roots = [name for name in links if name not in parent_joint]
@@ -380,8 +403,8 @@ def load_urdf(
         raise rd.error("the links form a cycle: every link is some joint's child (no root link)")
     if len(roots) > 1:
         raise rd.error(
-            f"not a tree: several root links (links that are no joint's child): "
-            f"{', '.join(sorted(roots))}"
+            f"not a tree: {len(roots)} root links (links that are no joint's child): "
+            f"{listing(sorted(roots))}"
         )
     base = roots[0]
     order: list[str] = []  # depth-first, parents before children
@@ -393,8 +416,8 @@ def load_urdf(
     if len(order) != len(links):
         unreached = sorted(set(links) - set(order))
         raise rd.error(
-            f"not a tree: links {', '.join(unreached)} are not connected to root link '{base}' "
-            f"(their joints form a cycle)"
+            f"not a tree: links {listing(unreached)} are not connected to root link "
+            f"{quote(base)} (their joints form a cycle)"
         )
 
     def path_to(link: str) -> list[_UrdfJoint]:
@@ -408,7 +431,7 @@ def load_urdf(
     # --- choose the chain --------------------------------------------------------------------
     n_moving = sum(j.type in MOVING_TYPES for j in joints.values())
     if n_moving == 0:
-        raise rd.error(f"robot '{robot_name}' has no moving joint")
+        raise rd.error(f"robot {quote(robot_name)} has no moving joint")
     if tip is None:
         leaves = [name for name in order if not children[name]]
         moving_on_path = {lf: [j for j in path_to(lf) if j.type in MOVING_TYPES] for lf in leaves}
@@ -417,20 +440,20 @@ def load_urdf(
             candidates = sorted(lf for lf in leaves if moving_on_path[lf])
             raise rd.error(
                 f"the moving joints branch: pass tip=<link name> to choose the chain; candidate "
-                f"tip links: {', '.join(candidates)}"
+                f"tip links: {listing(candidates)}"
             )
         chain_path = moving_on_path[full[0]]
     else:
         if tip not in links:
-            raise rd.error(f"tip link '{tip}' does not exist")
+            raise rd.error(f"tip link {quote(tip)} does not exist")
         chain_path = [j for j in path_to(tip) if j.type in MOVING_TYPES]
         if not chain_path:
-            raise rd.error(f"the path from root link '{base}' to tip link '{tip}' has no moving "
-                           f"joint")
+            raise rd.error(f"the path from root link {quote(base)} to tip link {quote(tip)} has "
+                           "no moving joint")
     chain = {j.name: i + 1 for i, j in enumerate(chain_path)}  # joint -> body index (1..n)
     for j in chain_path:
         if j.mimic:
-            raise rd.error(f"joint '{j.name}': <mimic> joints are not supported on the chain")
+            raise rd.error(f"joint {quote(j.name)}: <mimic> joints are not supported on the chain")
 
     # --- lump every link into its chain body ---------------------------------------------------
     # body 0 is the fixed base; pose[name] is the link's frame in its body's frame (q = 0 for
@@ -476,7 +499,7 @@ def load_urdf(
         raise rd.error(str(exc)) from None
     for tname, jnames in coupled.items():
         warnings.warn(
-            f"{path}: transmission '{tname}' couples joint(s) {', '.join(jnames)} with other "
+            f"{path}: transmission {quote(tname)} couples joint(s) {listing(jnames)} with other "
             f"joints or actuators; mrnea models one motor per joint, so they get gear ratio 1",
             UserWarning,
             stacklevel=2,
@@ -543,8 +566,8 @@ def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
       inertias, translations, axes and limits round-trip exactly.
     """
     if not isinstance(robot, Robot):
-        raise TypeError(f"write_urdf: expected a Robot, got {type(robot).__name__}")
-    path = Path(path)
+        raise StateError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
+    path = as_path(path, "path", OutputError)
     root = ET.Element("robot", name=robot.name)
     ET.SubElement(root, "link", name=robot.base)
     transmissions = []

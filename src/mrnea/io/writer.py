@@ -34,7 +34,10 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-from mrnea.errors import OutputError
+import numpy as np
+
+from mrnea.errors import OutputError, quote
+from mrnea.io.source import as_path
 
 LOCK_NAME = ".mrnea.lock"
 """The lock file :func:`own_folder` keeps in an output folder while a run writes there."""
@@ -68,8 +71,11 @@ def check_new(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False) 
         A path is a directory, or exists (a symbolic link, dangling or not, included) and
         ``overwrite`` is False.
     """
+    overwrite = _flag(overwrite)
+    if isinstance(paths, (str, bytes, os.PathLike)):
+        raise OutputError(f"paths: expected a list of file paths, got one: {quote(paths)}")
     for p in paths:
-        reason = _refusal(Path(p), overwrite)
+        reason = _refusal(as_path(p, "path", OutputError), overwrite)
         if reason:
             raise OutputError(reason)
 
@@ -101,7 +107,8 @@ def create(path: str | os.PathLike[str], overwrite: bool = False, *,
         ``path`` is a directory, exists without ``overwrite``, or cannot be written (folder
         missing, permission, disk full...).
     """
-    path = Path(path)
+    path = as_path(path, "path", OutputError)
+    overwrite = _flag(overwrite)
     check_new([path], overwrite)
     tmp = path.with_name(f".{path.name[:40]}.{secrets.token_hex(8)}.tmp")
     try:
@@ -121,6 +128,15 @@ def create(path: str | os.PathLike[str], overwrite: bool = False, *,
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+
+
+def _flag(value: object, name: str = "overwrite") -> bool:
+    """``value`` if it is a boolean (Python's or NumPy's); an OutputError naming ``name``
+    otherwise (a string such as ``"no"`` is true, so none is taken for one)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise OutputError(f"{name}: expected True or False, got {type(value).__name__} "
+                      f"{quote(value)}")
 
 
 def _publish(tmp: Path, path: Path, overwrite: bool) -> None:
@@ -158,7 +174,7 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
     OutputError
         ``folder`` cannot be created, or another run holds it.
     """
-    folder = Path(folder)
+    folder = as_path(folder, "folder", OutputError)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:

@@ -16,15 +16,23 @@ inside a bucket (at most ``2 K / MAX_POINTS`` cycles) is lost. Shaded intervals 
 clamps) are computed at full resolution, merged where the gap between two intervals is below
 1/1500 of the run's duration, and drawn at least 1/600 of the duration wide so that a one-cycle
 saturation stays visible. Tables in the report always use the full-resolution data.
+
+Names. Any legal joint, link or robot name is drawn as it is written: :func:`label` escapes
+``$`` (matplotlib would otherwise read ``a$\\frac$1`` as math text and fail when the figure is
+drawn) and shortens long names; a character the font lacks is drawn as a box, without a warning.
+Figures of a robot with many joints draw at most :data:`MAX_JOINTS` of them (the report's tables
+and the CSV have every joint).
 """
 
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import math
 import os
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -34,7 +42,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-from mrnea.errors import OutputError
+from mrnea.errors import OutputError, shorten
 from mrnea.io.writer import create
 
 if TYPE_CHECKING:
@@ -46,12 +54,31 @@ MAX_POINTS = 5000
 """At most about this many points are drawn per line (see the module docstring)."""
 
 DPI = 100
+MAX_JOINTS = 12
+"""At most this many joints are drawn in a figure (one row of axes each)."""
+LABEL_LIMIT = 60
+"""Names longer than this are shortened in figures (:func:`label`)."""
 FORMATS = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
 """The file suffixes :func:`save_figure` writes (matplotlib's formats that need no LaTeX)."""
 
 _MERGE = 1500  # shaded intervals closer than duration / _MERGE are merged
 _MIN_SHADE = 600  # shaded intervals are drawn at least duration / _MIN_SHADE wide
 _OFF_SCALE = 3.0  # a series more than this times the axis' core range is drawn off scale
+
+
+def label(name: str) -> str:
+    """A name as matplotlib text: at most :data:`LABEL_LIMIT` characters, every ``$`` escaped so
+    that nothing in it is read as math text."""
+    return shorten(str(name), LABEL_LIMIT).replace("$", "\\$")
+
+
+@contextlib.contextmanager
+def _rendering() -> Iterator[None]:
+    """While a figure is drawn: a character missing from the font is drawn as a box, silently
+    (a name may use any script; the file is still right)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Glyph .* missing from", category=UserWarning)
+        yield
 
 
 def new_figure(width: float, height: float) -> Figure:
@@ -208,7 +235,8 @@ def fmt_number(x: float, sig: int = 4) -> str:
 def png_data_uri(fig: Figure) -> str:
     """``fig`` as a ``data:image/png;base64,...`` URI (for a self-contained HTML page)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None})
+    with _rendering():
+        fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None})
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -226,7 +254,7 @@ def figure_file(path: str | os.PathLike[str]) -> tuple[Path, str]:
     path = Path(path)
     fmt = path.suffix[1:].lower()
     if not fmt:
-        if path.is_dir():
+        if os.path.isdir(path):
             raise OutputError(f"{path} is a directory; name the figure file to write")
         return path.with_name(f"{path.name}.png"), "png"
     if fmt not in FORMATS:
@@ -253,6 +281,6 @@ def save_figure(fig: Figure, path: str | os.PathLike[str], overwrite: bool = Fal
     """
     path, fmt = figure_file(path)
     meta = {"Software": None} if fmt == "png" else None  # no version stamp: reproducible PNGs
-    with create(path, overwrite, binary=True) as fh:
+    with create(path, overwrite, binary=True) as fh, _rendering():
         fig.savefig(fh, format=fmt, dpi=dpi, metadata=meta)
     return path

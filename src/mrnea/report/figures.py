@@ -10,29 +10,30 @@ decimated to min/max envelopes (:mod:`mrnea.report.drawing`).
 from __future__ import annotations
 
 import os
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from mrnea.errors import OutputError, StateError
+from mrnea.io.source import as_path
 from mrnea.io.writer import check_new
 from mrnea.report.drawing import (
+    MAX_JOINTS,
     axes_grid,
     fit_ylim,
     fmt_number,
     header,
     joint_units,
+    label,
     peak,
     plot_line,
     save_figure,
     shade,
 )
-
-if TYPE_CHECKING:
-    from mrnea.simulate import SimulationResult
+from mrnea.simulate import SimulationResult
 
 FIGURES = ("motion", "efforts", "reactions", "tracking")
 """The names of :func:`plot_result`'s figures (and of their PNG files)."""
@@ -47,17 +48,59 @@ def _first_time(result: SimulationResult) -> float | None:
     return None if fi is None else float(fi["time"])
 
 
+def require_result(result: object) -> None:
+    """A StateError unless ``result`` is a :class:`~mrnea.simulate.SimulationResult`."""
+    if not isinstance(result, SimulationResult):
+        raise StateError(f"result: expected a SimulationResult (mrnea.simulate.simulate's), got "
+                         f"{type(result).__name__}")
+
+
+def shown_joints(r: SimulationResult) -> list[int]:
+    """The joints a figure draws, in chain order: every joint, or for a robot of more than
+    :data:`MAX_JOINTS` joints those that matter most: the first infeasible joint, then those
+    that exceeded a limit in the most cycles, then those whose effort came closest to its
+    limit."""
+    n = r.robot.n
+    if n <= MAX_JOINTS:
+        return list(range(n))
+    bad = (r.saturated | r.position_clamped | r.velocity_clamped).sum(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        use = np.where(r.limit > 0, np.abs(r.tau_required) / r.limit, 0.0)
+    use = np.nan_to_num(use, nan=0.0, posinf=np.finfo(float).max).max(axis=0, initial=0.0)
+    order = sorted(range(n), key=lambda i: (-int(bad[i]), -float(use[i]), i))
+    fi = r.summary()["first_infeasible"]
+    if fi is not None:
+        first = r.robot.joint_names.index(fi["joint"])
+        order.remove(first)
+        order.insert(0, first)
+    return sorted(order[:MAX_JOINTS])
+
+
+def _title(r: SimulationResult, what: str, shown: list[int]) -> str:
+    """A figure's title: the robot, what is drawn, and how many of its joints."""
+    cut = (f"\n{len(shown)} of {r.robot.n} joints: those that exceeded a limit or came closest; "
+           "every joint is in the report's table and in cycles.csv"
+           if len(shown) < r.robot.n else "")
+    return f"{label(r.robot.name)}: {what}{cut}"
+
+
+def _top(r: SimulationResult, shown: list[int]) -> float:
+    """The top margin [in] for the title :func:`_title` writes (a second line if joints are cut)."""
+    return 0.95 if len(shown) == r.robot.n else 1.2
+
+
 def _motion_figure(r: SimulationResult) -> Figure:
-    n, t, units = r.robot.n, r.t, joint_units(r.robot)
-    fig, axs = axes_grid(n, 3, 14.0, 1.7)
+    t, units, shown = r.t, joint_units(r.robot), shown_joints(r)
+    fig, axs = axes_grid(len(shown), 3, 14.0, 1.7, top=_top(r, shown))
     t_first = _first_time(r)
     clamp_seen = {"position": False, "velocity": False}
-    for i, (j, u) in enumerate(zip(r.robot.joints, units, strict=True)):
+    for row, i in enumerate(shown):
+        j, u = r.robot.joints[i], units[i]
         cols = (("position", "q", r.q_cmd, r.q, r.position_clamped),
                 ("velocity", "qd", r.qd_cmd, r.qd, r.velocity_clamped),
                 ("acceleration", "qdd", r.qdd_des, r.qdd, None))
         for c, (what, key, prog, real, clamp) in enumerate(cols):
-            ax = axs[i, c]
+            ax = axs[row, c]
             if clamp is not None and shade(ax, t, clamp[:, i], r.dt, _C_CLAMP):
                 clamp_seen[what] = True
             plot_line(ax, t, prog[:, i], color=_C_CMD, lw=1.0, ls="--")
@@ -66,7 +109,7 @@ def _motion_figure(r: SimulationResult) -> Figure:
                 ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
             if key == "qdd":
                 fit_ylim(ax, [real[:, i]], [("programmed", prog[:, i])])
-            ax.set_title(f"{j.name}: {what}", fontsize="medium", loc="left")
+            ax.set_title(f"{label(j.name)}: {what}", fontsize="medium", loc="left")
             sym = {"q": "q", "qd": "q̇", "qdd": "q̈"}[key]
             ax.set_ylabel(f"{sym} [{u[key]}]")
             ax.grid(True, alpha=0.3)
@@ -80,18 +123,18 @@ def _motion_figure(r: SimulationResult) -> Figure:
         handles.append(Line2D([], [], color=_C_SAT, ls=":", label="first infeasible instant"))
     if any(clamp_seen.values()):
         handles.append(Patch(color=_C_CLAMP, alpha=0.3, label="command clamped to a joint limit"))
-    header(fig, f"{r.robot.name}: programmed vs achieved motion", handles)
+    header(fig, _title(r, "programmed vs achieved motion", shown), handles)
     return fig
 
 
 def _efforts_figure(r: SimulationResult) -> Figure:
-    n, t, units = r.robot.n, r.t, joint_units(r.robot)
-    fig, axs = axes_grid(n, 1, 13.0, 1.8, right=1.0)
+    t, units, shown = r.t, joint_units(r.robot), shown_joints(r)
+    fig, axs = axes_grid(len(shown), 1, 13.0, 1.8, right=1.0, top=_top(r, shown))
     axs = axs[:, 0]
     t_first = _first_time(r)
     any_sat = False
-    for i, (j, u) in enumerate(zip(r.robot.joints, units, strict=True)):
-        ax = axs[i]
+    for row, i in enumerate(shown):
+        j, u, ax = r.robot.joints[i], units[i], axs[row]
         any_sat |= shade(ax, t, r.saturated[:, i], r.dt, _C_SAT)
         lim = r.limit[:, i]
         finite = np.isfinite(lim)
@@ -110,7 +153,7 @@ def _efforts_figure(r: SimulationResult) -> Figure:
         sec.set_ylabel(f"motor τ/G [{u['motor']}]\n(G = {G:g})", fontsize="small")
         ax.set_ylabel(f"τ [{u['tau']}]")
         sat_time = float(r.saturated[:, i].sum() * r.dt)
-        ax.set_title(f"{j.name}: joint effort (saturated {fmt_number(sat_time)} s)",
+        ax.set_title(f"{label(j.name)}: joint effort (saturated {fmt_number(sat_time)} s)",
                      fontsize="medium", loc="left")
         ax.grid(True, alpha=0.3)
     axs[-1].set_xlabel("time t [s]")
@@ -123,27 +166,29 @@ def _efforts_figure(r: SimulationResult) -> Figure:
         handles.append(Patch(color=_C_SAT, alpha=0.3, label="saturated"))
     if t_first is not None:
         handles.append(Line2D([], [], color=_C_SAT, ls=":", label="first infeasible instant"))
-    header(fig, f"{r.robot.name}: joint efforts against actuator limits (joint side left, "
-            "motor side right)", handles)
+    header(fig, _title(r, "joint efforts against actuator limits (joint side left, motor side "
+                       "right)", shown), handles)
     return fig
 
 
 def _reactions_figure(r: SimulationResult) -> Figure:
-    n, t = r.robot.n, r.t
-    fig, axs = axes_grid(n, 2, 14.0, 1.7)
+    t, shown = r.t, shown_joints(r)
+    fig, axs = axes_grid(len(shown), 2, 14.0, 1.7, top=_top(r, shown))
     loads = r.bearing_loads()
-    for i, j in enumerate(r.robot.joints):
-        a, b = axs[i]
+    for row, i in enumerate(shown):
+        j = r.robot.joints[i]
+        a, b = axs[row]
         plot_line(a, t, loads.force[:, i], color="k", lw=1.3)
         plot_line(a, t, loads.axial_force[:, i], color="C2", lw=1.0)
         plot_line(a, t, loads.radial_force[:, i], color="C4", lw=1.0)
         plot_line(b, t, loads.moment[:, i], color="k", lw=1.3)
         plot_line(b, t, loads.axial_moment[:, i], color="C2", lw=1.0)
         plot_line(b, t, loads.bending_moment[:, i], color="C4", lw=1.0)
-        a.set_title(f"{j.name}: reaction force (peak {fmt_number(peak(loads.force[:, i]))} N)",
-                    fontsize="medium", loc="left")
-        b.set_title(f"{j.name}: reaction moment (peak {fmt_number(peak(loads.moment[:, i]))} N m)",
-                    fontsize="medium", loc="left")
+        f_peak, m_peak = fmt_number(peak(loads.force[:, i])), fmt_number(peak(loads.moment[:, i]))
+        a.set_title(f"{label(j.name)}: reaction force (peak {f_peak} N)", fontsize="medium",
+                    loc="left")
+        b.set_title(f"{label(j.name)}: reaction moment (peak {m_peak} N m)", fontsize="medium",
+                    loc="left")
         a.set_ylabel("force [N]")
         b.set_ylabel("moment [N m]")
         for ax in (a, b):
@@ -151,7 +196,7 @@ def _reactions_figure(r: SimulationResult) -> Figure:
             ax.grid(True, alpha=0.3)
     for ax in axs[-1]:
         ax.set_xlabel("time t [s]")
-    header(fig, f"{r.robot.name}: joint reaction loads (joint frames, for bearing design)", [
+    header(fig, _title(r, "joint reaction loads (joint frames, for bearing design)", shown), [
         Line2D([], [], color="k", label="magnitude"),
         Line2D([], [], color="C2", label="axial (along the joint axis)"),
         Line2D([], [], color="C4", label="radial force / bending moment (across the axis)"),
@@ -160,20 +205,20 @@ def _reactions_figure(r: SimulationResult) -> Figure:
 
 
 def _tracking_figure(r: SimulationResult) -> Figure:
-    n, t, units = r.robot.n, r.t, joint_units(r.robot)
-    fig, axs = axes_grid(n, 1, 13.0, 1.4)
+    t, units, shown = r.t, joint_units(r.robot), shown_joints(r)
+    fig, axs = axes_grid(len(shown), 1, 13.0, 1.4, top=_top(r, shown))
     axs = axs[:, 0]
     t_first = _first_time(r)
     any_sat = False
-    for i, (j, u) in enumerate(zip(r.robot.joints, units, strict=True)):
-        ax = axs[i]
+    for row, i in enumerate(shown):
+        j, u, ax = r.robot.joints[i], units[i], axs[row]
         e = r.tracking_error[:, i]
         any_sat |= shade(ax, t, r.saturated[:, i], r.dt, _C_SAT)
         plot_line(ax, t, e, color=_C_ACT, lw=1.2)
         ax.axhline(0.0, color="0.5", lw=0.6)
         if t_first is not None:
             ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
-        title = f"{j.name}: tracking error q_cmd - q"
+        title = f"{label(j.name)}: tracking error q_cmd - q"
         if e.size:
             k = int(np.argmax(np.abs(e)))
             ax.plot([t[k]], [e[k]], "o", color=_C_SAT, ms=5)
@@ -189,7 +234,7 @@ def _tracking_figure(r: SimulationResult) -> Figure:
                           Line2D([], [], color=_C_SAT, marker="o", ls="", label="largest |error|")]
     if any_sat:
         handles.append(Patch(color=_C_SAT, alpha=0.3, label="effort saturated"))
-    header(fig, f"{r.robot.name}: tracking error (programmed - achieved position)", handles)
+    header(fig, _title(r, "tracking error (programmed - achieved position)", shown), handles)
     return fig
 
 
@@ -228,17 +273,21 @@ def plot_result(result: SimulationResult, path: str | os.PathLike[str] | None = 
     effort or programmed acceleration (a velocity step in the program) is clipped so that it
     does not flatten the rest; its peak is then written in the corner of the axes.
     """
-    if path is not None:
-        check_new([Path(path) / f"{name}.png" for name in FIGURES], overwrite)
+    require_result(result)
+    folder = None if path is None else as_path(path, "path", OutputError)
+    if folder is not None:
+        check_new([folder / f"{name}.png" for name in FIGURES], overwrite)
     figs = {
         "motion": _motion_figure(result),
         "efforts": _efforts_figure(result),
         "reactions": _reactions_figure(result),
         "tracking": _tracking_figure(result),
     }
-    if path is not None:
-        folder = Path(path)
-        folder.mkdir(parents=True, exist_ok=True)
+    if folder is not None:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"{folder}: cannot create the folder: {exc.strerror}") from None
         for name, fig in figs.items():
             save_figure(fig, folder / f"{name}.png", overwrite)
     return figs

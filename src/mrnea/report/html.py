@@ -11,19 +11,18 @@ import re
 from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, create
 from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_uri
-from mrnea.report.figures import plot_result
+from mrnea.report.figures import plot_result, require_result
+from mrnea.simulate import SimulationResult
 from mrnea.validate import choice
-
-if TYPE_CHECKING:
-    from mrnea.simulate import SimulationResult
 
 _CSS = """
 body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 0 auto;
@@ -220,11 +219,20 @@ def write_report(
         work is done), or cannot be written. The file is written through
         :func:`mrnea.io.writer.create`: whole or not at all.
     """
-    path = Path(path)
+    require_result(result)
+    path = as_path(path, "path", OutputError)
+    if extra_figures is not None and not (
+            isinstance(extra_figures, Mapping)
+            and all(isinstance(f, Figure) for f in extra_figures.values())):
+        raise StateError("extra_figures: expected a mapping of names to matplotlib Figures, got "
+                         f"{type(extra_figures).__name__}")
     check_new([path], overwrite)  # before any rendering
     if interpolation is not None:
         choice("interpolation", interpolation, INTERPOLATIONS)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{path.parent}: cannot create the folder: {exc.strerror}") from None
     s = result.summary()
     verdict = result.verdict()
     cls = {True: "ok", False: "bad", None: "partial"}[s["achievable"]]

@@ -12,7 +12,15 @@ from numpy.typing import ArrayLike
 
 from mrnea.dynamics import forward_dynamics, inverse_dynamics, mass_matrix_and_bias
 from mrnea.errors import StateError
-from mrnea.report.drawing import axes_grid, header, joint_units, peak, plot_line
+from mrnea.report.drawing import (
+    MAX_JOINTS,
+    axes_grid,
+    header,
+    joint_units,
+    label,
+    peak,
+    plot_line,
+)
 
 if TYPE_CHECKING:
     from mrnea.model import Robot
@@ -39,6 +47,14 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     matplotlib.figure.Figure
         One row per joint; column (a) torques, column (b) accelerations.
     """
+    for name, value in (("t", t), ("qdd", qdd)):  # q, qd: the dynamics functions check them
+        try:
+            kind = np.asarray(value).dtype.kind
+        except (TypeError, ValueError):  # ragged
+            kind = "O"
+        if kind not in "iuf":
+            raise StateError(f"{name}: expected an array of real numbers, got "
+                             f"{type(value).__name__}")
     t = np.asarray(t, dtype=float)
     qdd = np.asarray(qdd, dtype=float)
     if t.ndim != 1 or qdd.ndim != 2 or qdd.shape[0] != t.shape[0]:
@@ -53,19 +69,19 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     rel_u = float(du.max() / max(peak(u_rnea), 1e-300))
     rel_a = float(da.max() / max(peak(qdd), 1e-300))
 
-    n, units = robot.n, joint_units(robot)
+    n, units = min(robot.n, MAX_JOINTS), joint_units(robot)  # the first MAX_JOINTS joints
     fig, axs = axes_grid(n, 2, 14.0, 1.7, top=1.15)
     every = max(1, t.shape[0] // 40)
-    for i, (j, un) in enumerate(zip(robot.joints, units, strict=True)):
+    for i, (j, un) in enumerate(zip(robot.joints[:n], units[:n], strict=True)):
         a, b = axs[i]
         color = f"C{i % 10}"
         plot_line(a, t, u_rnea[:, i], color=color, lw=1.4)
         a.plot(t[::every], u_mrnea[::every, i], "o", ms=4, mfc="none", color="k", mew=0.9)
         plot_line(b, t, qdd[:, i], color=color, lw=1.4)
         b.plot(t[::every], qdd_fd[::every, i], "s", ms=4, mfc="none", color="k", mew=0.9)
-        a.set_title(f"(a) {j.name}: u  (max |Δu| = {float(du[:, i].max()):.2e} {un['tau']})",
+        a.set_title(f"(a) {label(j.name)}: u  (max |Δu| = {float(du[:, i].max()):.2e} {un['tau']})",
                     fontsize="medium", loc="left")
-        b.set_title(f"(b) {j.name}: q̈  (max |Δq̈| = {float(da[:, i].max()):.2e} {un['qdd']})",
+        b.set_title(f"(b) {label(j.name)}: q̈  (max |Δq̈| = {float(da[:, i].max()):.2e} {un['qdd']})",
                     fontsize="medium", loc="left")
         a.set_ylabel(f"u [{un['tau']}]")
         b.set_ylabel(f"q̈ [{un['qdd']}]")
@@ -74,7 +90,7 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     for ax in axs[-1]:
         ax.set_xlabel("time t [s]")
     header(fig, (
-        f"Fig. 3, {robot.name}: (a) joint torques, RNEA vs mRNEA: max difference "
+        f"Fig. 3, {label(robot.name)}: (a) joint torques, RNEA vs mRNEA: max difference "
         f"{du.max():.3e} (relative {rel_u:.3e})\n(b) input accelerations vs forward dynamics: "
         f"max difference {da.max():.3e} (relative {rel_a:.3e})"), [
         Line2D([], [], color="0.3", lw=1.4, label="(a) RNEA: inverse_dynamics"),

@@ -23,10 +23,12 @@ from matplotlib.patches import Patch
 
 from mrnea.io.writer import check_new, create
 from mrnea.report.drawing import (
+    MAX_JOINTS,
     axes_grid,
     fit_ylim,
     fmt_number,
     header,
+    label,
     new_figure,
     plot_line,
     png_data_uri,
@@ -80,8 +82,8 @@ def _phase_figure(res: RetimeResult) -> Figure:
     ax.grid(True, alpha=0.3)
     how = (f"TOPP-RA, planning margin {res.margin:.3g}" if res.method == "toppra"
            else f"uniform scaling, factor {res.factor:.4g}")
-    header(fig, f"{res.robot.name}: phase plane ({how}): {fmt_number(res.duration)} s instead "
-                f"of {fmt_number(res.original_duration)} s", [
+    header(fig, f"{label(res.robot.name)}: phase plane ({how}): {fmt_number(res.duration)} s "
+                f"instead of {fmt_number(res.original_duration)} s", [
         Line2D([], [], color=_C_LIM, label="limit curve (true limits)"),
         Line2D([], [], color=_C_NEW, label=f"retimed ({res.method})"),
         Line2D([], [], color="k", ls=":", label="the program's timing (ds/dt = 1)"),
@@ -93,22 +95,28 @@ def _phase_figure(res: RetimeResult) -> Figure:
 def _ratio_figure(res: RetimeResult) -> Figure:
     t0, before, t1, after = res.effort_ratios()
     n = res.robot.n
-    fig, axs = axes_grid(n, 1, 13.0, 1.5)
+    worst = np.nan_to_num(np.maximum(before.max(axis=0), after.max(axis=0)),
+                          posinf=np.finfo(float).max)
+    shown = sorted(sorted(range(n), key=lambda i: (-worst[i], i))[:MAX_JOINTS])
+    fig, axs = axes_grid(len(shown), 1, 13.0, 1.5, top=0.95 if len(shown) == n else 1.2)
     axs = axs[:, 0]
-    for i, j in enumerate(res.robot.joints):
-        ax = axs[i]
+    for ax, i in zip(axs, shown, strict=True):
+        j = res.robot.joints[i]
         b, a = np.where(np.isfinite(before[:, i]), before[:, i], np.nan), after[:, i]
         plot_line(ax, t0, b, color=_C_OLD, lw=1.0, ls="--")
         plot_line(ax, t1, np.where(np.isfinite(a), a, np.nan), color=_C_NEW, lw=1.2)
         ax.axhline(1.0, color=_C_LIM, lw=0.9)
         fit_ylim(ax, [a[np.isfinite(a)], np.ones(1)], [("before", b[np.isfinite(b)])])
         ax.set_ylim(bottom=0.0)
-        ax.set_title(f"{j.name}: peak {fmt_number(float(np.nanmax(b)))} before, "
+        ax.set_title(f"{label(j.name)}: peak {fmt_number(float(np.nanmax(b)))} before, "
                      f"{fmt_number(float(np.nanmax(a)))} after", fontsize="medium", loc="left")
         ax.set_ylabel("|τ| / limit")
         ax.grid(True, alpha=0.3)
     axs[-1].set_xlabel("time t [s] (each program on its own clock)")
-    header(fig, f"{res.robot.name}: effort the program requires over the limit at its speed", [
+    cut = (f"\n{len(shown)} of {n} joints: those closest to or over their limits; every joint "
+           "is in the report's table" if len(shown) < n else "")
+    header(fig, f"{label(res.robot.name)}: effort the program requires over the limit at its "
+                f"speed{cut}", [
         Line2D([], [], color=_C_OLD, ls="--",
                label=f"program as given ({fmt_number(res.original_duration)} s)"),
         Line2D([], [], color=_C_NEW, label=f"retimed ({fmt_number(res.duration)} s)"),

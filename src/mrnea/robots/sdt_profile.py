@@ -22,6 +22,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.trajectory import cycles, require_path_memory
+from mrnea.validate import time_step
+
 DURATION = 42.0
 
 
@@ -41,7 +44,17 @@ def _quintic(t: NDArray, t0: float, t1: float, q0: float, q1: float) -> NDArray:
 
 
 def training_profile(dt: float = 0.005) -> tuple[NDArray, NDArray]:
-    """Commanded positions of the SDT training profile: ``(t (K,), q_cmd (K, 4))`` at dt [s]."""
+    """Commanded positions of the SDT training profile: ``(t (K,), q_cmd (K, 4))`` at dt [s].
+
+    Raises
+    ------
+    StateError
+        ``dt`` is not a finite time step > 0 s, or so small that the profile would have more
+        cycles than :data:`mrnea.trajectory.MAX_CYCLES` or than memory allows.
+    """
+    dt = time_step(dt)
+    # the profile's dozen temporaries of K values each count as a path of 4 joints
+    require_path_memory(float(cycles(DURATION, dt)) + 1, 4)
     t = np.arange(0.0, DURATION + 0.5 * dt, dt)
     w, up0, up1, down0, down1 = 2.5, 2.0, 12.0, 32.0, 42.0
     # planetary angle: integral of the smooth velocity ramp up, hold, ramp down
