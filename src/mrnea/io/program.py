@@ -342,11 +342,17 @@ def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
     """The text of a program file (the format :func:`loads_program` reads) from the keys of its
     ``[program]``, ``[path]`` and optional ``[wrench]`` tables; ``comment``: lines put first as
     TOML comments. Numbers are written as their shortest repr, so they read back bit for bit.
-    A list of rows (the wrench's values) gets one row per line."""
+    A list of rows (the wrench's values) gets one row per line. A key the table does not know
+    is a StateError (the file would not load)."""
     lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
+    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": _WRENCH_KEYS}
     for table, keys in (("program", program), ("path", path), ("wrench", wrench)):
         if keys is None:
             continue
+        unknown = [k for k in keys if k not in allowed[table]]
+        if unknown:
+            raise StateError(f"{table}: unknown key {quote(unknown[0])} for a program file's "
+                             f"[{table}]; allowed keys: {', '.join(allowed[table])}")
         lines += ["" if lines else None, f"[{table}]"]
         for k, v in keys.items():
             rows = np.asarray(v).tolist() if isinstance(v, np.ndarray) else v

@@ -12,6 +12,7 @@ joint before and after, and the verdict, in one self-contained HTML page.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -21,6 +22,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from mrnea.errors import OutputError, StateError
+from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, create
 from mrnea.report.drawing import (
     MAX_JOINTS,
@@ -168,7 +171,8 @@ def _joints_table(res: RetimeResult) -> str:
 
 
 def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
-                        overwrite: bool = False, files: dict[str, Any] | None = None) -> Path:
+                        overwrite: bool = False, files: Mapping[str, Any] | None = None
+                        ) -> Path:
     """Write one self-contained HTML page of a retiming.
 
     Contents, top to bottom: the verdict (:meth:`RetimeResult.verdict`, green when the
@@ -183,7 +187,15 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
         If ``path`` exists and ``overwrite`` is False (checked before any work), is a directory,
         or cannot be written (:func:`mrnea.io.writer.create`: whole or not at all).
     """
-    path = Path(path)
+    from mrnea.retime import RetimeResult
+
+    if not isinstance(result, RetimeResult):
+        raise StateError(f"result: expected a RetimeResult (mrnea.retime's), got "
+                         f"{type(result).__name__}")
+    path = as_path(path, "path", OutputError)
+    if files is not None and not isinstance(files, Mapping):
+        raise StateError(f"files: expected a mapping of names to paths, got "
+                         f"{type(files).__name__}")
     check_new([path], overwrite)
     cls = "ok" if result.achievable else "bad"
     figs = []

@@ -14,9 +14,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import StateError
+from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import save_csv
 from mrnea.io.program import save_program
+from mrnea.io.source import as_path
 from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.retime.path import PathCoefficients
@@ -207,6 +208,13 @@ class RetimeResult:
         StateError
             A wrench point per cycle: the program format holds one point.
         """
+        path = as_path(path, "path", OutputError)
+        for key, value in (("robot", robot), ("csv", csv), ("name", name)):
+            if not isinstance(value, str):
+                raise StateError(f"{key}: expected a str, got {type(value).__name__}")
+        if program_keys is not None and not isinstance(program_keys, Mapping):
+            raise StateError(f"program_keys: expected a mapping of [program] keys, got "
+                             f"{type(program_keys).__name__}")
         if self.f_ext_point is not None and np.ndim(self.f_ext_point) == 2:
             raise StateError("f_ext_point: a program file holds one point, not one per cycle")
         program = {"name": name, "robot": robot, "dt": self.dt, "mode": self.mode,

@@ -33,8 +33,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea import validate
 from mrnea.actuators import actuator_mass_matrix_and_bias, effort_limits_at
-from mrnea.errors import RetimeError
+from mrnea.errors import RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
 from mrnea.retime.path import coulomb, piece_rows, piece_spline
@@ -130,6 +131,18 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = 
         A pose the robot cannot hold or move through slowly (names the joint, the instant and
         the ratio of need to limit), or no limit binds at any speed.
     """
+    validate.require_robot(robot)
+    dt = validate.time_step(dt)
+    q = validate.array(q, "q", robot.n)
+    if q.ndim != 2 or q.shape[0] < 2:
+        raise StateError(f"q: expected (K, {robot.n}) rows with K >= 2, got {q.shape}")
+    K = q.shape[0]
+    f_ext = None if f_ext is None else validate.per_cycle(f_ext, K, 6, "f_ext")
+    if f_ext_point is not None:
+        f_ext_point = validate.array(f_ext_point, "f_ext_point", 3)
+        if f_ext_point.ndim == 2 and f_ext_point.shape[0] != K:
+            raise StateError(f"f_ext_point: expected (3,) or ({K}, 3), got {f_ext_point.shape}")
+    t0 = validate.real(t0, "t0")
     h = hollerbach(robot, q, dt, f_ext, f_ext_point)
     fs = robot.coulomb_friction
     static_check(robot, holding_need(h.c, h.direction, h.direction != 0, fs),
