@@ -190,8 +190,8 @@ def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | Non
             t1 = time.perf_counter()
             job.timings["toppra"] += log["solver_time"]
             job.timings["rows"] += t1 - t0 - log["solver_time"]
-            retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt), job.q[k0],
-                                    job.q[k1])
+            retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt, job.robot.n),
+                                    job.q[k0], job.q[k1])
             job.timings["sampling"] += time.perf_counter() - t1
             speeds[j] = sd
             logs.append({"margin": m, "piece": j, **log})

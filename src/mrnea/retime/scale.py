@@ -40,6 +40,7 @@ from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
 from mrnea.retime.path import coulomb, piece_rows, piece_spline
 from mrnea.retime.rows import holding_need, static_check
+from mrnea.trajectory import require_path_memory
 
 if TYPE_CHECKING:
     from scipy.interpolate import CubicSpline
@@ -174,9 +175,11 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = 
 def scaled(spline: CubicSpline, q: NDArray, program_dt: float, dt: float, f: float
            ) -> tuple[NDArray, NDArray]:
     """A moving piece's rows q (K, n) on its clock (k program_dt, ``spline`` through them),
-    slowed by f, at dt: (rows, the path position of each on the piece's clock)."""
+    slowed by f, at dt: (rows, the path position of each on the piece's clock). They must fit
+    the memory budget (:func:`mrnea.trajectory.require_path_memory`)."""
     T = (q.shape[0] - 1) * program_dt
     M = math.ceil(f * T / dt - 1e-9) + 1
+    require_path_memory(M, q.shape[1])
     s = np.minimum(np.arange(M) * dt / f, T)
     s[-1] = T
     return piece_rows(spline, s, q[0], q[-1])

@@ -1,7 +1,7 @@
 """Time-optimal path speed with TOPP-RA under mrnea's full actuator model (docs/retime.md).
 
 Usage: ``sd, log = toppra_profile(pc, lim, dt)``: the path speed at every grid point of a moving
-piece, rest to rest; ``s_t = sample_profile(pc.s, sd, dt)``: its path positions at the cycles.
+piece, rest to rest; ``s_t = sample_profile(pc.s, sd, dt, n)``: its path positions at the cycles.
 
 TOPP-RA (Pham and Pham 2018, the ``toppra`` package) solves the time-optimal problem for
 constraints linear in (sdd, sd^2) per grid point. Those come from :mod:`mrnea.retime.rows`
@@ -38,6 +38,7 @@ from mrnea.retime.rows import (
     utilisation,
     velocity_cap,
 )
+from mrnea.trajectory import require_path_memory
 
 ROUNDS = 8  # linearisation rounds at most
 TOL = 0.002  # rounds stop when the duration changes by less than this fraction
@@ -182,17 +183,19 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
     return (sd if best is None else best), log
 
 
-def sample_profile(s: NDArray, sd: NDArray, dt: float) -> NDArray:
+def sample_profile(s: NDArray, sd: NDArray, dt: float, n: int) -> NDArray:
     """Path positions s(t_k) at t_k = k dt of a profile with constant sdd between grid points
     (toppra's ``ParametrizeConstAccel``, vectorised; toppra's spline parametrizer is what its
     issue #150 blames for retimed paths that exceed their limits). The last sample is the path's
-    end, at the first t_k >= the profile's duration."""
+    end, at the first t_k >= the profile's duration. The rows of n joints they become must fit
+    the memory budget (:func:`mrnea.trajectory.require_path_memory`)."""
     dt_i = 2 * np.diff(s) / (sd[1:] + sd[:-1])
     if not np.all(np.isfinite(dt_i)):
         raise RetimeError("the time-optimal profile stops between two grid points")
     tg = np.concatenate([[0.0], np.cumsum(dt_i)])
     u = (sd[1:] ** 2 - sd[:-1] ** 2) / (2 * np.diff(s))
     M = math.ceil(tg[-1] / dt - 1e-9) + 1
+    require_path_memory(M, n)
     t = np.arange(M) * dt
     i = np.clip(np.searchsorted(tg, t, side="right") - 1, 0, s.size - 2)
     tau = t - tg[i]
