@@ -242,16 +242,13 @@ def test_simulate_refuses_numbers_given_as_text(env, arg: str) -> None:
         mrnea.simulate.simulate(env["robot"], np.zeros((3, 4)), **kw)
 
 
-# --- known gaps (strict xfails: they fail once fixed; then drop the mark) -------------------------
-@pytest.mark.xfail(strict=True, reason="model.py reads numbers with float(), which takes text "
-                                       "and bytes: Link(mass='1_0') is a 10 kg link")
+# --- model fields and result tables ---------------------------------------------------------------
 @pytest.mark.parametrize("value", ["1_0", b"1", "1.0"])
 def test_model_fields_refuse_text(value: object) -> None:
     with pytest.raises(MrneaError, match="mass"):
         mrnea.Link("l", mass=value)
 
 
-@pytest.mark.xfail(strict=True, reason="SimulationResult.columns indexes with rows as given")
 @pytest.mark.parametrize("bad", ["None", "str", "dict"])
 def test_columns_refuses_rows_that_are_not_a_slice(env, bad: str) -> None:
     with pytest.raises(MrneaError, match="rows"):

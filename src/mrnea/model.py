@@ -101,10 +101,14 @@ def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float
 
 
 def _number(x: object, what: str, *, allow_inf: bool = False) -> float:
+    """``x`` as a float: a real number (int, float, NumPy scalar), never text or bytes (Python's
+    ``float("1_0")`` is 10) nor a bool."""
+    if isinstance(x, (str, bytes, bool, np.bool_)) or not isinstance(x, (numbers.Real, np.number)):
+        raise ModelError(f"{what}: not a number: {quote(x)}")
     try:
         v = float(x)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise ModelError(f"{what}: not a number: {x!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{what}: not a number: {quote(x)}") from None
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
         raise ModelError(f"{what}: must be a finite number, got {v}")
     return v

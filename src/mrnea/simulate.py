@@ -247,6 +247,8 @@ class SimulationResult:
 
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
+        if not isinstance(rows, slice):
+            raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
         cols: dict[str, NDArray] = {"t": self.t[rows]}
         for name in _PER_JOINT:
             a = getattr(self, name)[rows]
