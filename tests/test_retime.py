@@ -309,6 +309,8 @@ def test_bad_programs():
         mrnea.retime(robot, np.zeros((5, 2)), dt=DT)
     with pytest.raises(RetimeError, match="never moves"):
         mrnea.retime(robot, np.zeros((5, 1)), dt=DT)
+    with pytest.raises(RetimeError, match="arbitrarily fast"):
+        mrnea.retime(turntable(), (t, q))  # no effort or velocity limit
     limited = turntable(effort_limit=20.0, lower=-0.5, upper=0.5)
     with pytest.raises(RetimeError, match="leaves its position limits"):
         mrnea.retime(limited, (t, q))

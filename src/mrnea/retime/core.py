@@ -116,6 +116,10 @@ def retime(
     _check_holds(job, margin if method == "toppra" else 1.0)
     if not job.moving:
         raise RetimeError("the program never moves: there is nothing to retime")
+    if (acc is None and not np.isfinite(robot.effort_limit).any()
+            and not np.isfinite(robot.velocity_limit).any()):
+        raise RetimeError("no effort or velocity limit binds along this path: it can be made "
+                          "arbitrarily fast (give the robot its limits)")
     if method == "scale":
         f, used, (Q, FE, PE, _, sim), log = retime_scale(job)
         paths = _pieces(job, grid, timed=False)
