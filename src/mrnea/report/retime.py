@@ -12,6 +12,7 @@ joint before and after, and the verdict, in one self-contained HTML page.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Mapping
 from datetime import UTC, datetime
 from pathlib import Path
@@ -187,9 +188,10 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
         If ``path`` exists and ``overwrite`` is False (checked before any work), is a directory,
         or cannot be written (:func:`mrnea.io.writer.create`: whole or not at all).
     """
-    from mrnea.retime import RetimeResult
-
-    if not isinstance(result, RetimeResult):
+    # the report imports nothing above it (docs/design.md): a RetimeResult exists only once
+    # its module is loaded, so the class is looked up among the loaded modules
+    module = sys.modules.get("mrnea.retime.result")
+    if module is None or not isinstance(result, module.RetimeResult):
         raise StateError(f"result: expected a RetimeResult (mrnea.retime's), got "
                          f"{type(result).__name__}")
     path = as_path(path, "path", OutputError)
