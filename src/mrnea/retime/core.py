@@ -153,8 +153,7 @@ def _check_holds(job: Job, margin: float) -> None:
     pe = pe if pe is None or pe.ndim == 1 else pe[rows]
     q = job.q[rows]
     _, c = actuator_mass_matrix_and_bias(job.robot, q, np.zeros_like(q), fe, pe)
-    need = holding_need(c, np.zeros_like(c), np.zeros(c.shape, dtype=bool),
-                        job.robot.coulomb_friction)
+    need = holding_need(job.robot, c, np.zeros_like(c), np.zeros(c.shape, dtype=bool))
     static_check(job.robot, need, job.clock[rows], margin)
 
 
@@ -171,7 +170,7 @@ def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
         s = grid_points(knots, qp, N, spline(knots, 2))
         pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
         moving = (pc.qs != 0) | ~np.isfinite(pc.sign)
-        out[j] = (spline, pc, holding_need(pc.c, pc.sign, moving, job.robot.coulomb_friction))
+        out[j] = (spline, pc, holding_need(job.robot, pc.c, pc.sign, moving))
     if timed:
         job.timings["coefficients"] += time.perf_counter() - t0
     return out

@@ -50,10 +50,18 @@ def pieces(q: NDArray) -> list[tuple[str, int, int]]:
     return [("move" if moving[a] else "hold", a, b) for a, b in itertools.pairwise(edges)]
 
 
+def friction_pair(robot: Robot) -> tuple[NDArray, NDArray]:
+    """Each joint's Coulomb friction magnitudes (n,) against positive and against negative
+    motion, F+ and F- [N m | N], joint side (equal for a symmetric joint)."""
+    F = np.asarray(robot.coulomb_friction, dtype=float)
+    return (F, F) if F.ndim == 1 else (F[:, 0], F[:, 1])
+
+
 def coulomb(robot: Robot, direction: NDArray) -> NDArray:
-    """The Coulomb friction effort [N m | N] of each joint moving in ``direction`` (..., n) (+1,
-    -1, or 0: at rest, none), joint side, as the actuator convention adds it (Eq. 43)."""
-    return robot.coulomb_friction * np.sign(direction)
+    """The Coulomb friction effort [N m | N] of each joint moving in ``direction`` (..., n) (> 0:
+    F+, < 0: -F-, 0: at rest, none), joint side, as the actuator convention adds it (Eq. 43)."""
+    fp, fn = friction_pair(robot)
+    return np.where(direction > 0, fp, np.where(direction < 0, -fn, 0.0))
 
 
 def at_clock(t: NDArray, tk: NDArray, rows: NDArray | None) -> NDArray | None:

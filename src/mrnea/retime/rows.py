@@ -1,4 +1,4 @@
-"""The actuator limits along a path as rows TOP-RA takes, ``A sdd + B sd^2 + C <= 0``, linear on
+"""The actuator limits along a path as rows TOPP-RA takes, ``A sdd + B sd^2 + C <= 0``, linear on
 the safe side where the true constraint is not (docs/retime.md, "Tightening").
 
 Usage: ``lim = Limits.of(robot, margin)``; ``A, B, C = constraint_rows(pc, lim, sd_bar, lag)``
@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from mrnea.actuators import effort_limit_branches, effort_limits_at
 from mrnea.errors import RetimeError
 from mrnea.model import Robot
-from mrnea.retime.path import PathCoefficients, coulomb
+from mrnea.retime.path import PathCoefficients, coulomb, friction_pair
 
 SPARE = 1e-3  # holdable: (sdd, sd^2) = (0, 0) satisfies every row with this fraction of the peak
 APART = 1e-6  # the second viscous row only where it differs from the first by this (of the peak)
@@ -95,10 +95,10 @@ def _friction_bounds(pc: PathCoefficients, lim: Limits) -> tuple[NDArray, NDArra
     """c + Coulomb, as an upper and a lower bound: exact where the direction of motion is the
     same at a grid point and its neighbours (none where the joint stays at rest), else widened
     by F_s on both sides (a joint reversing, starting or stopping: breakaway friction)."""
-    fs = lim.robot.coulomb_friction
+    fp, fn = friction_pair(lim.robot)
     known = np.isfinite(pc.sign)
     coul = coulomb(lim.robot, np.nan_to_num(pc.sign))
-    return pc.c + np.where(known, coul, fs), pc.c + np.where(known, coul, -fs)
+    return pc.c + np.where(known, coul, fp), pc.c + np.where(known, coul, -fn)
 
 
 def constraint_rows(pc: PathCoefficients, lim: Limits, sd_bar: NDArray | None,
@@ -211,15 +211,17 @@ def holdable(pc: PathCoefficients, lim: Limits, sd_hi: NDArray,
     return np.where(good, sd_hi, lo)
 
 
-def holding_need(c: NDArray, sign: NDArray, moving: NDArray, fs: NDArray) -> NDArray:
+def holding_need(robot: Robot, c: NDArray, sign: NDArray, moving: NDArray) -> NDArray:
     """The effort each joint needs to move along the path infinitely slowly (or to hold still
     where ``moving`` is False): gravity and wrench ``c`` plus Coulomb friction against the motion
-    (``sign`` NaN where the direction changes: F_s either way), or, held still, what static
-    friction F_s cannot take."""
+    (``sign`` NaN where the direction changes: either way), or, held still, what static friction
+    (from -F- to F+) cannot take."""
+    fp, fn = friction_pair(robot)
     with np.errstate(invalid="ignore"):
-        against = np.where(np.isfinite(sign), np.abs(c + fs * np.nan_to_num(sign)),
-                           np.abs(c) + fs)
-    return np.where(moving, against, np.maximum(np.abs(c) - fs, 0.0))
+        against = np.where(np.isfinite(sign),
+                           np.abs(c + coulomb(robot, np.nan_to_num(sign))),
+                           np.maximum(np.abs(c + fp), np.abs(c - fn)))
+    return np.where(moving, against, np.maximum(np.maximum(c - fn, -c - fp), 0.0))
 
 
 def static_check(robot: Robot, need: NDArray, t: NDArray, margin: float) -> None:

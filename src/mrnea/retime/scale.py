@@ -145,8 +145,7 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = 
             raise StateError(f"f_ext_point: expected (3,) or ({K}, 3), got {f_ext_point.shape}")
     t0 = validate.real(t0, "t0")
     h = hollerbach(robot, q, dt, f_ext, f_ext_point)
-    fs = robot.coulomb_friction
-    static_check(robot, holding_need(h.c, h.direction, h.direction != 0, fs),
+    static_check(robot, holding_need(robot, h.c, h.direction, h.direction != 0),
                  t0 + np.arange(q.shape[0]) * dt, 1.0)
     no_load = np.array([np.inf if c is None else c[2] for c in robot.torque_speed])
     with np.errstate(divide="ignore"):
