@@ -334,3 +334,18 @@ def test_program_file_reads_back_the_retimed_program(tmp_path):
         prog.f_ext_point, (prog.K, 1)))
     with pytest.raises(StateError, match="one point"):
         per_cycle.save_program(tmp_path / "p.toml", "puma560", "r.csv")
+
+
+def test_verification_refines_the_grid_where_it_failed(tmp_path):
+    """A CSV resampled linearly has a path whose curvature swings at every row: between grid
+    points the plan exceeds a limit, the simulation says where, and the grid is refined there
+    (not the margin lowered): the result keeps margin 0.98."""
+    (tmp_path / "p.csv").write_bytes((EXAMPLES / "sdt_profile.csv").read_bytes())
+    (tmp_path / "p.toml").write_text('[program]\nrobot = "sdt"\ndt = 0.01\n[path]\n'
+                                     'csv = "p.csv"\ninterpolation = "linear"\n')
+    prog = mrnea.load_program(tmp_path / "p.toml")
+    res = mrnea.retime(prog.load_robot(), prog)
+    assert res.achievable and res.margin == 0.98
+    grids = [lg["grid"] for lg in res.log]
+    assert len(grids) >= 2 and grids == sorted(grids) and grids[-1] > grids[0]
+    assert {lg["margin"] for lg in res.log} == {0.98}

@@ -26,6 +26,7 @@ from mrnea.retime.scale import retime_scale
 METHODS = {"toppra": "toppra", "scale": "scale"}
 MIN_MARGIN = 0.5  # the verification loop gives up below this planning margin
 GRID = (200, 1000)  # default grid intervals per moving piece: half its rows, clipped to this
+REFINE = 3  # grid refinements where the verification failed, before the margin is lowered
 
 
 def retime(
@@ -157,31 +158,61 @@ def _check_holds(job: Job, margin: float) -> None:
     static_check(job.robot, need, job.clock[rows], margin)
 
 
-def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
-    """Per moving piece j: (spline, path coefficients, holding need) on its grid; its time
-    counts as the retiming's ``coefficients`` if ``timed``."""
-    t0 = time.perf_counter()
-    out = {}
-    for j, k0, k1 in job.moving:
-        qp = job.q[k0:k1 + 1]
-        spline = piece_spline(qp, job.program_dt)
+def _piece(job: Job, j: int, s: NDArray | None, grid: int | None) -> tuple:
+    """Moving piece j: (spline, path coefficients, holding need) on the grid ``s`` (None: its
+    default grid, :func:`mrnea.retime.path.grid_points`)."""
+    k0, k1 = job.runs[j][1:]
+    qp = job.q[k0:k1 + 1]
+    spline = piece_spline(qp, job.program_dt)
+    if s is None:
         N = int(grid) if grid else int(np.clip(qp.shape[0] // 2, *GRID))
         knots = np.arange(qp.shape[0]) * job.program_dt
         s = grid_points(knots, qp, N, spline(knots, 2))
-        pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
-        moving = (pc.qs != 0) | ~np.isfinite(pc.sign)
-        out[j] = (spline, pc, holding_need(job.robot, pc.c, pc.sign, moving))
+    pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
+    moving = (pc.qs != 0) | ~np.isfinite(pc.sign)
+    return spline, pc, holding_need(job.robot, pc.c, pc.sign, moving)
+
+
+def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
+    """Every moving piece j: :func:`_piece`; its time counts as the retiming's
+    ``coefficients`` if ``timed``."""
+    t0 = time.perf_counter()
+    out = {j: _piece(job, j, None, grid) for j, _, _ in job.moving}
     if timed:
         job.timings["coefficients"] += time.perf_counter() - t0
     return out
 
 
+def _refine(job: Job, paths: dict[int, tuple], sim: Any, clock: NDArray) -> bool:
+    """Halve the grid intervals where the verification found a limit exceeded (the interval
+    of each failing cycle's path position, the next cycle's, and their neighbours), in place;
+    False if there is none to refine."""
+    bad = np.flatnonzero(np.any(sim.saturated | sim.position_clamped | sim.velocity_clamped,
+                                axis=1))
+    where = clock[np.unique(np.minimum(np.concatenate([bad, bad + 1]), clock.size - 1))]
+    t0, changed = time.perf_counter(), False
+    for j, (_, pc, _) in list(paths.items()):
+        local = where - job.clock[job.runs[j][1]]
+        local = local[(local >= pc.s[0]) & (local <= pc.s[-1])]
+        if local.size == 0:
+            continue
+        i = np.clip(np.searchsorted(pc.s, local) - 1, 0, pc.s.size - 2)
+        i = np.unique(np.clip(np.concatenate([i - 1, i, i + 1]), 0, pc.s.size - 2))
+        paths[j] = _piece(job, j, np.union1d(pc.s, (pc.s[i] + pc.s[i + 1]) / 2), None)
+        changed = True
+    job.timings["coefficients"] += time.perf_counter() - t0
+    return changed
+
+
 def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | None) -> tuple:
-    """The toppra method's margin loop (module docstring of :mod:`mrnea.retime.toppra`)."""
+    """The toppra method's verification loop: solve each piece (:mod:`mrnea.retime.toppra`),
+    assemble, simulate; where the simulation finds a limit exceeded, first refine the grid
+    there (up to :data:`REFINE` times: the constraints hold at the grid points only), then
+    lower the margin."""
     from mrnea.retime.toppra import sample_profile, toppra_profile
 
     paths = _pieces(job, grid)
-    m, logs = margin, []
+    m, logs, refined = margin, [], 0
     while True:
         lim = Limits.of(job.robot, m, acc)
         retimed, speeds = {}, {}
@@ -197,12 +228,15 @@ def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | Non
                                     job.q[k0], job.q[k1])
             job.timings["sampling"] += time.perf_counter() - t1
             speeds[j] = sd
-            logs.append({"margin": m, "piece": j, **log})
-        Q, FE, PE, _ = job.assemble(retimed)
+            logs.append({"margin": m, "piece": j, "grid": pc.s.size, **log})
+        Q, FE, PE, clock = job.assemble(retimed)
         sim = job.verify(Q, FE, PE)
         over_acc = 0.0 if acc is None else float(np.max(np.abs(accelerations(Q, job.dt)) / acc))
         if sim.achievable and over_acc <= 1:
             break
+        if not sim.achievable and refined < REFINE and _refine(job, paths, sim, clock):
+            refined += 1
+            continue
         if m <= MIN_MARGIN:
             raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
                               f"simulation accepts; the last one: {sim.verdict()}")
