@@ -61,11 +61,11 @@ def test_retime_writes_its_files(pick):
 
 
 def test_retimed_files_reproduce_the_verification(pick):
-    """retimed.toml alone (with its robot) and retimed.csv with --dt are the program that was
+    """retimed.toml alone and retimed.csv with its robot and --dt are the program that was
     verified: check exits 0 on both, and the CSV reads back bit for bit."""
     out, _ = pick
     s = json.loads((out / "summary.json").read_text())
-    done = mrnea_cmd("check", "puma560", str(out / "retimed.toml"), "--json")
+    done = mrnea_cmd("check", str(out / "retimed.toml"), "--json")
     assert done.returncode == 0, done.stdout + done.stderr
     assert json.loads(done.stdout)["achievable"] is True
     done = mrnea_cmd("check", "puma560", str(out / "retimed.csv"), "--dt", str(s["dt"]))
@@ -144,9 +144,10 @@ def test_check_and_simulate_suggest_retime(tmp_path):
 
 
 @pytest.mark.parametrize("args,match", [
-    (["--margin", "0"], "margin: must be in (0, 1]"),
+    (["--margin", "0"], "'--margin': must be > 0"),
     (["--margin", "1.5"], "margin: must be in (0, 1]"),
-    (["--dt", "0"], "dt: must be a finite time step"),
+    (["--margin", "nan"], "'--margin'"),
+    (["--dt", "0"], "'--dt': must be > 0"),
 ])
 def test_bad_options_one_line_exit_2(tmp_path, args, match):
     res = CliRunner().invoke(main, ["retime", "puma560", str(EXAMPLES / "puma_pick.toml"),
@@ -157,19 +158,46 @@ def test_bad_options_one_line_exit_2(tmp_path, args, match):
 
 
 def test_unfollowable_path_one_line_exit_2(tmp_path):
-    """A robot too weak to hold the pose: one error line naming the joint, the instant and the
-    ratio; nothing written (a real process: no traceback)."""
-    weak = tmp_path / "weak.toml"
-    text = (Path(mrnea.__file__).parent / "robots" / "data" / "puma560.toml").read_text()
-    weak.write_text(text.replace("effort_limit = 186.4", "effort_limit = 10.0"))
-    done = mrnea_cmd("retime", str(weak), str(EXAMPLES / "puma_pick.toml"), "--out",
-                     str(tmp_path / "out"))
+    """A drive too weak to hold the pose (a sidecar file, --actuators): one error line naming
+    the joint, the instant and the ratio; nothing written (a real process: no traceback)."""
+    (tmp_path / "weak.toml").write_text("[joint2]\neffort_limit = 10.0\n")
+    done = mrnea_cmd("retime", str(EXAMPLES / "puma_pick.toml"), "--actuators",
+                     str(tmp_path / "weak.toml"), "--out", str(tmp_path / "out"))
     assert done.returncode == 2
     errors = [x for x in done.stderr.splitlines() if x.startswith("mrnea: error:")]
     assert len(errors) == 1 and "cannot be followed at any speed" in errors[0]
     assert "joint 'joint2'" in done.stderr and "times its limit 10" in done.stderr
     assert "Traceback" not in done.stderr + done.stdout
     assert not any((tmp_path / "out" / f).exists() for f in FILES)
+
+
+def test_robot_options_go_into_the_program_file(tmp_path):
+    """The robot options the run used (the command line's over the program's) are in
+    retimed.toml, so that `mrnea check DIR/retimed.toml` alone reproduces the verification:
+    actuators by absolute path, a point-mass payload inline, one with an inertia in
+    payload.toml beside it, gravity."""
+    (tmp_path / "drives.toml").write_text("[joint2]\nviscous_friction = 9.0\n")
+    (tmp_path / "part.toml").write_text("mass = 1.5\ncom = [0.0, 0.0, 0.05]\n"
+                                        "inertia = { ixx = 0.01, iyy = 0.01, izz = 0.004 }\n")
+    for payload, key in (("1.5@0,0,0.05", "1.5@0.0,0.0,0.05"), (str(tmp_path / "part.toml"),
+                                                                 "payload.toml")):
+        out = tmp_path / ("inline" if "@" in payload else "file")
+        res = CliRunner().invoke(main, [
+            "retime", str(EXAMPLES / "puma_pick.toml"), "--actuators",
+            str(tmp_path / "drives.toml"), "--payload", payload, "--gravity", "0,0,-9.7",
+            "--out", str(out), "--quiet"])
+        assert res.exit_code == 0, res.output
+        text = (out / "retimed.toml").read_text()
+        assert f'actuators = "{tmp_path / "drives.toml"}"' in text
+        assert f'payload = "{key}"' in text and "gravity = [0.0, 0.0, -9.7]" in text
+        assert (out / "payload.toml").is_file() == (key == "payload.toml")
+        prog = mrnea.load_program(out / "retimed.toml")
+        robot = prog.load_robot()
+        assert robot.viscous_friction[1] == 9.0 and robot.gravity.tolist() == [0, 0, -9.7]
+        assert robot.links[-1].mass == pytest.approx(
+            mrnea.robots.puma560().links[-1].mass + 1.5)
+        done = mrnea_cmd("check", str(out / "retimed.toml"))
+        assert done.returncode == 0, done.stdout + done.stderr
 
 
 def test_csv_without_dt_and_unknown_method(tmp_path):

@@ -2,9 +2,16 @@
 
 One pass returns the joint-space mass matrix H and the bias vector u'; on top of it mrnea computes
 the joint accelerations the real actuators can achieve and simulates the motion cycle by cycle.
+
+The main functions are at the top level, as ``pinocchio.aba`` is: ``mrnea.forward_dynamics``,
+``mrnea.achievable_accelerations``, ``mrnea.simulate``, ``mrnea.load_program``... Note that
+``mrnea.simulate`` is the function; its module is imported by name
+(``from mrnea.simulate import SimulationResult``), never as ``import mrnea.simulate as m``,
+which Python resolves to the attribute, the function.
 """
 
 from mrnea import robots
+from mrnea.achievable import achievable_accelerations
 from mrnea.dynamics import (
     forward_dynamics,
     forward_kinematics,
@@ -28,6 +35,7 @@ from mrnea.errors import (
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot, transform
 from mrnea.retime import RetimeResult, retime
+from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
 
 __version__ = "0.1.0"
 
@@ -47,6 +55,7 @@ __all__ = [
     "SingularMassMatrixError",
     "StateError",
     "__version__",
+    "achievable_accelerations",
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",
@@ -58,5 +67,6 @@ __all__ = [
     "mass_matrix_and_bias",
     "retime",
     "robots",
+    "simulate",
     "transform",
 ]

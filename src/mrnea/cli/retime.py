@@ -3,11 +3,12 @@
 Writes into DIR (its own for the run: :func:`mrnea.io.writer.own_folder`; existing files are
 refused without ``--force`` before any work): ``retimed.csv`` (time, q1..qn at dt: ``mrnea check
 ROBOT DIR/retimed.csv --dt DT`` reads it), ``retimed.toml`` (a program file naming the robot, the
-csv, dt, the mode and the retimed wrench: ``mrnea check ROBOT DIR/retimed.toml`` reproduces the
-verification), ``summary.json`` (strict JSON: :meth:`mrnea.retime.RetimeResult.summary`) and
-``report.html`` (the phase plane, the effort ratios before and after, the verdict). A stop
-request (Ctrl-C, SIGTERM) during the retiming writes nothing; once it is done, the four files
-are written together.
+csv, dt, the mode, the retimed wrench and the robot options the run used: ``mrnea check
+DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia goes to
+``payload.toml`` beside it), ``summary.json`` (strict JSON:
+:meth:`mrnea.retime.RetimeResult.summary`) and ``report.html`` (the phase plane, the effort
+ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) during the retiming
+writes nothing; once it is done, the files are written together.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
@@ -19,25 +20,31 @@ from __future__ import annotations
 import json
 import shlex
 from pathlib import Path
+from typing import Any
 
 import click
+import numpy as np
 
 from mrnea.cli.base import (
+    POSITIVE,
     checkpoint,
     compile_notice,
     force_opt,
     json_opt,
-    load_any,
+    load_run,
     main,
     mode_opt,
     quiet_opt,
+    robot_options,
 )
 from mrnea.errors import MrneaError
-from mrnea.io import BUILTIN_ROBOTS, from_csv, load_program, resolve_robot
-from mrnea.io.writer import check_new, own_folder
+from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_program, resolve_robot
+from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
 
-CSV, PROGRAM, SUMMARY, REPORT = "retimed.csv", "retimed.toml", "summary.json", "report.html"
+CSV, PROGRAM, SUMMARY, REPORT, PAYLOAD = ("retimed.csv", "retimed.toml", "summary.json",
+                                          "report.html", "payload.toml")
 
 
 def _robot_spec(spec: str) -> str:
@@ -47,61 +54,90 @@ def _robot_spec(spec: str) -> str:
     return source if source in BUILTIN_ROBOTS else str(Path(source).resolve())
 
 
+def _point_mass(options: RobotOptions) -> str | None:
+    """The payload as ``KG@X,Y,Z`` (shortest reprs), or None when it has an inertia."""
+    mass, com, inertia = options.payload
+    if np.any(inertia):
+        return None
+    return f"{float(mass)!r}@" + ",".join(repr(float(c)) for c in com)
+
+
+def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str, Any]:
+    """The [program] keys that give the retimed program the robot options the run used; a
+    payload with an inertia is written to ``folder``/payload.toml."""
+    keys: dict[str, Any] = {}
+    if options.actuators is not None:
+        keys["actuators"] = str(Path(options.actuators).resolve())
+    if options.tip is not None:
+        keys["tip"] = options.tip
+    if options.payload is not None:
+        keys["payload"] = _point_mass(options) or PAYLOAD
+        if keys["payload"] == PAYLOAD:
+            mass, com, inertia = options.payload
+            with create(folder / PAYLOAD, force) as fh:
+                fh.write(f"# The payload of the retimed program ({PROGRAM}).\n"
+                         f"mass = {float(mass)!r}\ncom = {[float(c) for c in com]!r}\n"
+                         f"inertia = {np.asarray(inertia, dtype=float).tolist()!r}\n")
+    if options.gravity is not None:
+        keys["gravity"] = [float(g) for g in options.gravity]
+    return keys
+
+
 @main.command()
-@click.argument("robot_or_program", metavar="[ROBOT] PROGRAM")
-@click.argument("program", required=False, metavar="")
+@click.argument("robot", required=False, metavar="[ROBOT]")
+@click.argument("program", required=False, metavar="PROGRAM", type=click.Path(dir_okay=False))
 @click.option("--out", type=click.Path(file_okay=False), required=True,
               help="Output folder (created if missing).")
 @click.option("--method", type=click.Choice(["toppra", "scale"]), default="toppra",
               show_default=True,
               help="toppra: time-optimal along the path; scale: uniform time scaling.")
-@click.option("--margin", type=float, default=0.98, show_default=True,
-              help="toppra: plan against MARGIN x every effort and velocity limit, in (0, 1] "
-                   "(shrunk until the simulation accepts the result).")
-@click.option("--dt", type=float, default=None,
+@click.option("--margin", type=POSITIVE, default=0.98, show_default=True, metavar="M",
+              help="toppra: plan against M x every effort and velocity limit, 0 < M <= 1 "
+                   "(lowered until the simulation accepts the result).")
+@click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",
               help="Cycle time [s] of the retimed program (default the program's; a CSV "
-                   "program needs it).")
+                   "PROGRAM needs it).")
+@click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
+              help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic].")
 @mode_opt
+@robot_options
 @force_opt
 @quiet_opt
 @json_opt
-def retime(robot_or_program: str, program: str | None, out: str, method: str, margin: float,
-           dt: float | None, mode: str, force: bool, quiet: bool, as_json: bool) -> None:
+def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
+           dt: float | None, interpolation: str | None, mode: str, robot_options: RobotOptions,
+           force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
-    ROBOT may be left out when PROGRAM is a program file that names its robot. Writes
-    retimed.csv, retimed.toml, summary.json and report.html into --out.
+    ROBOT may be left out when PROGRAM is a program file that names its robot; the robot
+    options override the program's. Writes retimed.csv, retimed.toml, summary.json and
+    report.html into --out.
     """
     from mrnea.report.retime import write_retime_report
     from mrnea.retime import retime as retime_program
 
-    if program is None:
-        robot_arg, program = None, robot_or_program
+    robot_arg, program_arg = (None, robot) if program is None else (robot, program)
+    csv = (program_arg or "").lower().endswith(".csv")
+    run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options)
+    if csv:
+        spec, options = _robot_spec(robot_arg), robot_options
     else:
-        robot_arg = robot_or_program
-    name = Path(program).stem
-    if program.lower().endswith(".csv"):
-        if robot_arg is None or dt is None:
-            raise click.UsageError("a CSV program needs ROBOT and --dt (its cycle time)")
-        rob = load_any(robot_arg)
-        spec = _robot_spec(robot_arg)
-        _, q = from_csv(program, dt, n=rob.n)
-        prog, prog_mode = q, None
-    else:
-        prog = load_program(program)
-        spec = _robot_spec(prog.robot if robot_arg is None else robot_arg)
-        rob = prog.load_robot() if robot_arg is None else load_any(robot_arg)
-        prog.check_path(rob)
-        prog_mode = prog.mode
+        prog = load_program(program_arg)
+        spec = _robot_spec(robot_arg or prog.robot)
+        options = robot_options.over(prog.options)
+    t = np.arange(run.q_cmd.shape[0]) * run.dt
     with own_folder(Path(out)) as folder:
         paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
-        check_new(paths.values(), force)
-        with compile_notice():
-            res = retime_program(rob, prog, dt=dt, method=method, margin=margin,
-                                 mode=prog_mode or mode)
+        check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
+        with compile_notice(quiet):
+            res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method, margin=margin,
+                                 f_ext=run.f_ext, f_ext_point=run.f_ext_point,
+                                 mode=run.mode or mode)
         checkpoint()
-        res.save_csv(paths[CSV], force)  # the four files are written together or not at all
-        res.save_program(paths[PROGRAM], spec, CSV, name=f"{name}-retimed", overwrite=force)
+        name = f"{Path(program_arg).stem}-retimed"
+        res.save_csv(paths[CSV], force)
+        res.save_program(paths[PROGRAM], spec, CSV, name=name,
+                         program_keys=_program_keys(options, folder, force), overwrite=force)
         res.save_summary(paths[SUMMARY], force)
         write_retime_report(res, paths[REPORT], force, files={
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
@@ -113,24 +149,41 @@ def retime(robot_or_program: str, program: str | None, out: str, method: str, ma
         click.echo(res.verdict())
         click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
                    f"{paths[REPORT]}")
-        click.echo(f"Check it: mrnea check {shlex.quote(spec)} "
-                   f"{shlex.quote(str(paths[PROGRAM]))}")
+        click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
 
 
-def suggestion(robot: Robot, robot_arg: str, program: str, q_cmd, dt: float, f_ext,
-               f_ext_point) -> str:
+def _option_args(options: RobotOptions) -> list[str]:
+    """The robot options as command-line arguments (a payload with an inertia as its point
+    mass: its file's name is not kept)."""
+    args = []
+    if options.actuators is not None:
+        args += ["--actuators", options.actuators]
+    if options.tip is not None:
+        args += ["--tip", options.tip]
+    if options.payload is not None:
+        args += ["--payload", _point_mass(options) or "FILE"]
+    if options.gravity is not None:
+        args += ["--gravity", ",".join(repr(float(g)) for g in options.gravity)]
+    return args
+
+
+def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
+               options: RobotOptions, q_cmd: np.ndarray, dt: float, f_ext: np.ndarray | None,
+               f_ext_point: np.ndarray | None) -> str:
     """What ``check`` and ``simulate`` print under a program that is not achievable: the
-    ``retime`` command, and the duration uniform time scaling would give by Hollerbach's
-    closed-form estimate on the program's own requirement (or why no timing can help)."""
+    ``retime`` command with the same robot, program and robot options, and the duration uniform
+    time scaling would give by Hollerbach's closed-form estimate on the program's own
+    requirement (or why no timing can help)."""
     from mrnea.retime import scale_estimate
 
+    program = program_arg or robot_arg or "PROGRAM"
+    args = [*([robot_arg] if robot_arg and program_arg else []), program, "--out",
+            f"{Path(program).stem}-retimed", *_option_args(options)]
     T = (q_cmd.shape[0] - 1) * dt
-    cmd = (f"mrnea retime {shlex.quote(robot_arg)} {shlex.quote(program)} --out "
-           f"{shlex.quote(Path(program).stem + '-retimed')}")
     try:
         f = scale_estimate(robot, q_cmd, dt, f_ext, f_ext_point)
     except MrneaError as exc:
         return f"No timing can make it achievable: {exc}"
-    return (f"Retime it: {cmd}\n(uniform time scaling would take about {f * T:.4g} s instead of "
-            f"{T:.4g} s, {f:.3g} x, by Hollerbach's estimate; the default method, toppra, is "
-            "time-optimal along the path and usually faster)")
+    return (f"Retime it: mrnea retime {shlex.join(args)}\n(uniform time scaling would take "
+            f"about {f * T:.4g} s instead of {T:.4g} s, {f:.3g} x, by Hollerbach's estimate; the "
+            "default method, toppra, is time-optimal along the path and usually faster)")

@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from mrnea.describe import describe
 from mrnea.errors import OutputError, StateError
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, create
@@ -230,7 +231,7 @@ the program; rows in red: over the limit before retiming.</p>
 <h2>Figures</h2>
 {"".join(figs)}
 {"<h2>Files</h2>" + listing if listing else ""}
-<details><summary>Robot model</summary><pre>{_e(result.robot.describe())}</pre></details>
+<details><summary>Robot model</summary><pre>{_e(describe(result.robot, width=120))}</pre></details>
 </body>
 </html>
 """

@@ -230,7 +230,7 @@ class RetimeResult:
         comment = (f"Retimed by mrnea ({how}): {self.duration:.6g} s instead of "
                    f"{self.original_duration:.6g} s. Verified: "
                    f"{'achievable' if self.achievable else 'NOT achievable'}.\n"
-                   f"Run: mrnea check {robot} {Path(path).name}")
+                   f"Run: mrnea check {Path(path).name}")
         # the rows are the program, one per cycle: read back as they are
         return save_program(path, program, {"csv": csv, "interpolation": "linear"}, wrench,
                             comment, overwrite)
