@@ -158,8 +158,9 @@ def _cases(e: dict) -> list[tuple[str, object, dict, dict]]:
         ("RetimeResult.save_summary", e["retimed"].save_summary,
          {"path": d / "rs.json", "overwrite": True}, {"path": OUT, "overwrite": FLAG}),
         ("write_retime_report", write_retime_report,
-         {"result": e["retimed"], "path": d / "rr.html", "overwrite": True, "files": None},
-         {"result": "", "path": OUT, "overwrite": FLAG, "files": MAPPING + "?"}),
+         {"result": e["retimed"], "path": d / "rr.html", "overwrite": True, "files": None,
+          "view3d": False},
+         {"result": "", "path": OUT, "overwrite": FLAG, "files": MAPPING + "?", "view3d": FLAG}),
     ]
 
 

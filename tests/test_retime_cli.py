@@ -57,7 +57,8 @@ def test_retime_writes_its_files(pick):
     html = (out / "report.html").read_text()
     assert html.count('src="data:image/png;base64,') == 2
     assert "phase plane" in html and "RETIMED (toppra)" in html
-    assert re.search(r'(src|href)="(?!data:)', html) is None  # self-contained
+    assert re.search(r'(src|href)="(?!data:|#)', html) is None  # self-contained
+    assert "3D view (retimed)" in html and "<script" in html and "three.js" in html
 
 
 def test_retimed_files_reproduce_the_verification(pick):
@@ -92,8 +93,10 @@ def test_second_run_refuses_then_force(pick, tmp_path):
     one_error_line(res.stderr, "exists")
     assert (out / "summary.json").read_bytes() == before
     res = CliRunner().invoke(main, ["retime", "puma560", str(EXAMPLES / "puma_pick.toml"),
-                                    "--out", str(out), "--method", "scale", "--force", "--json"])
+                                    "--out", str(out), "--method", "scale", "--force", "--json",
+                                    "--no-3d"])
     assert res.exit_code == 0, res.output
+    assert "<script" not in (out / "report.html").read_text()
     s = json.loads(res.stdout)
     assert s["method"] == "scale" and s["factor"] > 0 and s["scale_estimate"] > 0
     assert s["duration"] >= json.loads(before)["duration"]  # toppra is never longer

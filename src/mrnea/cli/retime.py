@@ -34,6 +34,7 @@ from mrnea.cli.base import (
     load_run,
     main,
     mode_opt,
+    no_3d_opt,
     quiet_opt,
     robot_options,
 )
@@ -101,12 +102,13 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
               help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic].")
 @mode_opt
 @robot_options
+@no_3d_opt
 @force_opt
 @quiet_opt
 @json_opt
 def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
            dt: float | None, interpolation: str | None, mode: str, robot_options: RobotOptions,
-           force: bool, quiet: bool, as_json: bool) -> None:
+           no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
     ROBOT may be left out when PROGRAM is a program file that names its robot; the robot
@@ -141,7 +143,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         res.save_summary(paths[SUMMARY], force)
         write_retime_report(res, paths[REPORT], force, files={
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
-            "summary": paths[SUMMARY]})
+            "summary": paths[SUMMARY]}, view3d=not no_3d)
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))

@@ -4,9 +4,10 @@ joint before and after, and the verdict, in one self-contained HTML page.
 * :func:`retime_figures` -- ``"phase_plane"`` (path speed against path position, with the limit
   curve: the classic picture of time-optimal path parameterisation) and ``"effort_ratio"``
   (per joint, the program's own requirement over its limit, before and after).
-* :func:`write_retime_report` -- the page: verdict first, the durations, the per-joint table,
-  the figures, the verification and the run's parameters; figures as PNG data URIs, no
-  external resource, no JavaScript.
+* :func:`write_retime_report` -- the page: verdict first, the 3D view of the retimed motion
+  (optional), the durations, the per-joint table, the figures, the verification and the run's
+  parameters; figures as PNG data URIs, no external resource (the 3D view's script is in the
+  page; without it, no JavaScript).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from mrnea import validate
 from mrnea.describe import describe
 from mrnea.errors import OutputError, StateError
 from mrnea.io.source import as_path
@@ -39,6 +41,8 @@ from mrnea.report.drawing import (
     png_data_uri,
 )
 from mrnea.report.html import _CSS, _e, _kv_table, _row
+from mrnea.report.view3d import result_scene
+from mrnea.report.view3d_html import figure_axes, license_html, scene_html
 
 if TYPE_CHECKING:
     from mrnea.retime import RetimeResult
@@ -173,14 +177,16 @@ def _joints_table(res: RetimeResult) -> str:
 
 
 def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
-                        overwrite: bool = False, files: Mapping[str, Any] | None = None
-                        ) -> Path:
+                        overwrite: bool = False, files: Mapping[str, Any] | None = None,
+                        view3d: bool = True) -> Path:
     """Write one self-contained HTML page of a retiming.
 
     Contents, top to bottom: the verdict (:meth:`RetimeResult.verdict`, green when the
-    verification accepts the retimed program); the durations, method, margin or factor and the
-    verification; per joint, the peak of the program's requirement over its limit before and
-    after; the figures of :func:`retime_figures`; ``files`` (name -> path, e.g. the retimed
+    verification accepts the retimed program); with ``view3d``, the interactive 3D view of the
+    retimed motion as the verification simulated it (:mod:`mrnea.report.view3d_html`; its slider
+    marks the retimed clock on the effort-ratio figure); the durations, method, margin or factor
+    and the verification; per joint, the peak of the program's requirement over its limit before
+    and after; the figures of :func:`retime_figures`; ``files`` (name -> path, e.g. the retimed
     program's) and the robot model.
 
     Raises
@@ -199,13 +205,19 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
     if files is not None and not isinstance(files, Mapping):
         raise StateError(f"files: expected a mapping of names to paths, got "
                          f"{type(files).__name__}")
+    view3d = validate.flag(view3d, "view3d")
     check_new([path], overwrite)
     cls = "ok" if result.achievable else "bad"
     figs = []
     for k, (name, fig) in enumerate(retime_figures(result).items()):
-        figs.append(f'<figure id="fig{k + 1}-{name}"><img alt="{name}" src="{png_data_uri(fig)}">'
+        uri = png_data_uri(fig)  # drawn as saved: figure_axes reads that layout
+        axes = (f" data-xaxes='{figure_axes(fig)}'" if view3d and name == "effort_ratio"
+                else "")
+        figs.append(f'<figure id="fig{k + 1}-{name}"{axes}><img alt="{name}" src="{uri}">'
                     f"<figcaption><b>{name.replace('_', ' ')}</b>: {_e(_CAPTIONS[name])}"
                     "</figcaption></figure>")
+    view_html = (f"<h2>3D view (retimed)</h2>\n{scene_html(result_scene(result.simulation))}"
+                 if view3d else "")
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
     listing = _kv_table([(k, str(v)) for k, v in (files or {}).items()]) if files else ""
     doc = f"""<!DOCTYPE html>
@@ -221,6 +233,7 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
 <p class="note">The same path, the fastest timing the robot can make. Generated {_e(stamp)} by
 mrnea.</p>
 <div class="verdict {cls}" id="verdict">{_e(result.verdict())}</div>
+{view_html}
 <h2>Durations</h2>
 {_kv_table(_numbers(result))}
 <h2>Per joint</h2>
@@ -232,6 +245,7 @@ the program; rows in red: over the limit before retiming.</p>
 {"".join(figs)}
 {"<h2>Files</h2>" + listing if listing else ""}
 <details><summary>Robot model</summary><pre>{_e(describe(result.robot, width=120))}</pre></details>
+{license_html() if view3d else ""}
 </body>
 </html>
 """

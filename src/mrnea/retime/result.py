@@ -235,6 +235,15 @@ class RetimeResult:
         return save_program(path, program, {"csv": csv, "interpolation": "linear"}, wrench,
                             comment, overwrite)
 
+    def report(self, path: str | os.PathLike[str], overwrite: bool = False,
+               view3d: bool = True) -> Path:
+        """Write the HTML report of this retiming (the phase plane, the effort ratios before and
+        after, the verdict, the 3D view of the retimed motion unless ``view3d`` is False):
+        :func:`mrnea.report.retime.write_retime_report` (see there)."""
+        from mrnea.report.retime import write_retime_report  # matplotlib: loaded when asked
+
+        return write_retime_report(self, path, overwrite, view3d=view3d)
+
     def save_summary(self, path: str | os.PathLike[str], overwrite: bool = False) -> Path:
         """Write :meth:`summary` as strict JSON through :func:`mrnea.io.writer.create`."""
         with create(path, overwrite) as fh:
