@@ -2,14 +2,19 @@
 
 Per joint, joint side unless said otherwise (the fields: :data:`mrnea.model.ACTUATOR_FIELDS`):
 gear ratio G (motor turns per joint turn), rotor inertia J_m [kg m^2, motor side], viscous
-friction F_v, Coulomb friction F_s, effort limit (constant, or a torque-speed curve: see
-:class:`mrnea.model.Joint`), velocity and position limits. The convention, exactly::
+friction F_v, Coulomb friction F+ and F- (the magnitudes opposing positive and negative
+motion; one value for both, or two), effort limit (constant, or a torque-speed curve: see
+:class:`mrnea.model.Joint`), velocity and position limits. The convention for a joint that moves
+on with its velocity qd, exactly::
 
-    tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + F_s sign(qd) = H_a qdd + u'_a
+    tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + phi(qd) = H_a qdd + u'_a
+    phi(qd) = F+ (qd > 0), -F- (qd < 0), 0 (qd = 0)
 
-``tau`` is the joint-side effort; the motor torque is ``tau / G`` (:func:`motor_torque`). The
-law itself, in compiled code, including Coulomb friction at rest: :mod:`mrnea.kernels.drive`;
-the functions here are its Python side. :mod:`mrnea.dynamics` is the rigid-body model alone.
+``tau`` is the joint-side effort; the motor torque is ``tau / G`` (:func:`motor_torque`). At rest
+Coulomb friction is set-valued (anything in [-F-, F+] while the joint is stuck): a cycle
+resolves it with the drives' limits (:mod:`mrnea.kernels.drive_solve`, docs/achievable.md). The
+law itself, in compiled code: :mod:`mrnea.kernels.drive`; the functions here are its Python side.
+:mod:`mrnea.dynamics` is the rigid-body model alone.
 """
 
 from __future__ import annotations
@@ -18,8 +23,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
+from mrnea.errors import StateError
 from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents
 from mrnea.kernels.engines import ENGINE_MRNEA
+from mrnea.kernels.simulate import program_requirement as requirement_kernel
+from mrnea.kernels.status import OK
 from mrnea.model import Robot
 
 
@@ -30,9 +38,10 @@ def actuator_mass_matrix_and_bias(
     f_ext: ArrayLike | None = None,
     f_ext_point: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """H_a = H + diag(G^2 J_m) and u'_a = u' + F_v qd + F_s sign(qd) (Eqs. 42-43).
+    """H_a = H + diag(G^2 J_m) and u'_a = u' + F_v qd + phi(qd) (Eqs. 42-43; phi: the module
+    docstring, 0 at rest).
 
-    One state or a batch, as :func:`mrnea.mass_matrix_and_bias`; sign(0) = 0.
+    One state or a batch, as :func:`mrnea.mass_matrix_and_bias`.
     """
     args = {"q": q, "qd": qd}
     batched, (q, qd), fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)
@@ -84,6 +93,42 @@ def effort_limit_branches(robot: Robot, speed: ArrayLike) -> NDArray[np.float64]
     out = np.empty((*flat.shape, 4))
     limit_tangents(compiled.of(robot)[3], flat, out)
     return out.reshape((*np.shape(w), 4))
+
+
+def program_requirement(
+    robot: Robot,
+    q_cmd: ArrayLike,
+    dt: float,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    friction: bool = True,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A program's own requirement, as :func:`mrnea.simulate` computes it
+    (``SimulationResult.program_effort`` and ``program_limit``; kernels/simulate.py): the
+    effort (K, n) [N m | N], joint side, each cycle k needs at the program's state q_cmd[k],
+    qd_cmd[k] (backward differences at dt [s], starting from rest) to make the program's next
+    velocity (0 after the last row), with the full actuator model; and each joint's effort
+    limit at the program's speed (K, n). f_ext (6,) or (K, 6), f_ext_point (3,) or (K, 3) as
+    :func:`mrnea.simulate`. ``friction=False`` leaves Coulomb friction out (its share at rest
+    is set-valued: the drive and static friction share the holding effort)."""
+    validate.require_robot(robot)
+    dt = validate.time_step(dt)
+    friction = validate.flag(friction, "friction")
+    Q = validate.array(q_cmd, "q_cmd", robot.n)
+    if Q.ndim != 2 or Q.shape[0] < 2:
+        raise StateError(f"q_cmd: expected (K, {robot.n}) with K >= 2 cycles, got {Q.shape}")
+    Q = np.ascontiguousarray(Q)
+    K = Q.shape[0]
+    V = np.zeros_like(Q)
+    V[1:] = np.diff(Q, axis=0) / dt
+    program = (Q, V, validate.per_cycle(f_ext, K, 6, "f_ext"),
+               validate.per_cycle(f_ext_point, K, 3, "f_ext_point"))
+    m, _, _, act = compiled.of(robot)
+    req, limit, status = np.empty_like(Q), np.empty_like(Q), np.empty(K, dtype=np.int64)
+    requirement_kernel((m, act), program, dt, friction, 0, K, (req, limit), status)
+    for k in np.flatnonzero(status != OK):
+        validate.check_cycle(robot, int(k), int(status[k]), Q[k], V[k], dt)
+    return req, limit
 
 
 def motor_torque(robot: Robot, tau: ArrayLike) -> NDArray[np.float64]:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.actuators import program_requirement
 from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import save_csv
 from mrnea.io.program import save_program
@@ -22,7 +23,6 @@ from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.retime.path import PathCoefficients
 from mrnea.retime.rows import Limits, limit_curve
-from mrnea.retime.scale import requirement
 from mrnea.simulate import SimulationResult
 
 
@@ -113,19 +113,19 @@ class RetimeResult:
 
     def effort_ratios(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """``(t_before, before, t_after, after)``: each program's own requirement over its
-        limit per cycle and joint, |tau_required| / limit at the commanded speed
-        (:func:`mrnea.retime.scale.requirement`), the program retimed and the retimed one, each
-        on its own clock [s]. A joint without a drive (limit 0) has an infinite ratio where it
-        needs an effort."""
+        limit per cycle and joint, |program effort| / limit at the commanded speed
+        (:func:`mrnea.actuators.program_requirement`, the simulation's ``program_effort``), the
+        program retimed and the retimed one, each on its own clock [s]. A joint without a drive
+        (limit 0) has an infinite ratio where it needs an effort."""
         if "ratios" not in self._cache:
+            before = program_requirement(self.robot, self.original_q_cmd, self.original_dt,
+                                         self.original_f_ext, self.original_f_ext_point)
+            after = (self.simulation.program_effort, self.simulation.program_limit)
             out = []
-            for q, dt, fe, pe in ((self.original_q_cmd, self.original_dt, self.original_f_ext,
-                                   self.original_f_ext_point),
-                                  (self.q_cmd, self.dt, self.f_ext, self.f_ext_point)):
-                tau, lim = requirement(self.robot, q, dt, fe, pe)
+            for (tau, lim), dt in ((before, self.original_dt), (after, self.dt)):
                 with np.errstate(divide="ignore", invalid="ignore"):
                     r = np.where(lim > 0, np.abs(tau) / lim, np.where(tau != 0, np.inf, 0.0))
-                out += [np.arange(q.shape[0]) * dt, r]
+                out += [np.arange(tau.shape[0]) * dt, r]
             self._cache["ratios"] = tuple(out)
         return self._cache["ratios"]
 

@@ -3,8 +3,7 @@ bisection on the verifying simulation (docs/retime.md, "scale").
 
 Usage: ``f = scale_estimate(robot, q, dt, f_ext, f_ext_point)``: the closed-form estimate of the
 smallest factor that makes a program achievable (``mrnea check`` and ``mrnea simulate`` print it
-for a program that is not); ``tau, limit = requirement(robot, q, dt, ...)``: the program's own
-requirement; ``result = retime_scale(job)``.
+for a program that is not); ``result = retime_scale(job)``.
 
 Slowing a program by f (time t -> f t, y = 1/f) scales its velocities by y and accelerations
 by y^2, so each joint effort of each cycle is a quadratic in y (Hollerbach 1984)::
@@ -12,15 +11,18 @@ by y^2, so each joint effort of each cycle is a quadratic in y (Hollerbach 1984)
     tau(y) = A y^2 + B y + C
     A = H_a qdd + u'(q, qd) - u'(q, 0)     (inertia and velocity products)
     B = F_v qd                             (viscous friction)
-    C = u'(q, 0) + F_C(direction)          (gravity, wrench, Coulomb friction)
+    C = u'(q, 0) + phi(direction)          (gravity, wrench, Coulomb friction)
 
-with qd, qdd the program's own differences as the simulation forms them (kernels/simulate.py:
-qd_k backward, qdd_k the next interval's velocity minus this one's over dt, the last cycle
-stopping; a joint starting from rest takes the direction of its acceleration, as breakaway
-friction does). With constant limits the largest safe y is the first positive root of
-``tau(y) = +-L`` over all cycles and joints, or the velocity limits'; with a torque-speed curve,
-y is safe when the first root with L taken at the speed |qd| y is >= y (slower, L only grows),
-and a bisection finds the largest such y.
+at the program's own state, as the program's requirement forms it
+(:func:`mrnea.actuators.program_requirement`, kernels/simulate.py: qd_k backward differences,
+qdd_k the next interval's velocity minus this one's over dt, the program ending at rest): A + B +
+C at y = 1 is that requirement, so A follows from it, B and C. Coulomb friction takes the side
+of the velocity the cycle makes (the program's next one, unchanged by the scaling); where that
+is 0 the joint comes to rest and static friction takes up to F+ or F- of the effort, which
+widens the band the rest must stay in. With constant limits the largest safe y is the first
+positive root of ``tau(y) = +-L`` over all cycles and joints, or the velocity limits'; with a
+torque-speed curve, y is safe when the first root with L taken at the speed |qd| y is >= y
+(slower, L only grows), and a bisection finds the largest such y.
 """
 
 from __future__ import annotations
@@ -34,11 +36,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea import validate
-from mrnea.actuators import actuator_mass_matrix_and_bias, effort_limits_at
+from mrnea.actuators import (
+    actuator_mass_matrix_and_bias,
+    effort_limits_at,
+    program_requirement,
+)
 from mrnea.errors import RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
-from mrnea.retime.path import coulomb, piece_rows, piece_spline
+from mrnea.retime.path import coulomb, friction_pair, piece_rows, piece_spline
 from mrnea.retime.rows import holding_need, static_check
 from mrnea.trajectory import require_path_memory
 
@@ -52,9 +58,13 @@ STEP = 1.02  # bracketing steps from the estimate
 
 @dataclass(frozen=True)
 class Hollerbach:
-    """The quadratic ``tau(y) = A y^2 + B y + C`` of every cycle and joint (module docstring):
-    (K, n) arrays; ``c`` = u'(q, 0) (gravity and wrench), ``direction`` the motion's sign used
-    for Coulomb friction, ``qd`` the program's velocities."""
+    """The quadratic ``h(y) = A y^2 + B y + C`` of every cycle and joint (module docstring):
+    (K, n) arrays; ``c`` = u'(q, 0) (gravity and wrench), ``direction`` the sign of the
+    velocity each cycle makes (the program's next one: Coulomb friction's side, 0 where the
+    joint comes to rest), ``qd`` the program's velocities. Where a joint comes to rest static
+    friction takes up to F+ and F- of h, so its effort stays within L while
+    ``-(L + lower) <= h <= L + upper`` (``lower``, ``upper``: F+ and F- there, 0 where the
+    joint moves)."""
 
     A: NDArray
     B: NDArray
@@ -62,49 +72,34 @@ class Hollerbach:
     c: NDArray
     direction: NDArray
     qd: NDArray
-
-
-def differences(q: NDArray, dt: float) -> tuple[NDArray, NDArray]:
-    """The velocities and accelerations (K, n) the simulation asks of a program at dt."""
-    qd = np.zeros_like(q)
-    qd[1:] = np.diff(q, axis=0) / dt
-    qdd = np.empty_like(q)
-    qdd[:-1] = np.diff(qd, axis=0) / dt
-    qdd[-1] = -qd[-1] / dt  # the program ends at rest
-    return qd, qdd
+    lower: NDArray
+    upper: NDArray
 
 
 def hollerbach(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = None,
                f_ext_point: NDArray | None = None) -> Hollerbach:
     """The coefficients of a program (K, n) at dt [s] with its wrench (K, 6) and point ((3,) or
-    (K, 3)), from batched calls on (q, qd) and (q, 0), :data:`CHUNK` rows at a time."""
-    qd, qdd = differences(q, dt)
+    (K, 3)): A + B + C at y = 1 is the program's own requirement
+    (:func:`mrnea.actuators.program_requirement`, the simulation's ``program_effort``) with
+    Coulomb friction apart; c from batched calls on (q, 0), :data:`CHUNK` rows at a time."""
+    h, _ = program_requirement(robot, q, dt, f_ext, f_ext_point, friction=False)
     K, n = q.shape
-    H, u, c = np.empty((K, n, n)), np.empty((K, n)), np.empty((K, n))
+    c = np.empty((K, n))
     for k0 in range(0, K, CHUNK):
         r = slice(k0, min(K, k0 + CHUNK))
-        m = r.stop - r.start
-
-        def two(x: NDArray | None, r: slice = r) -> NDArray | None:
-            return x if x is None or x.ndim == 1 else np.concatenate([x[r], x[r]])
-
-        H2, u2 = actuator_mass_matrix_and_bias(
-            robot, np.concatenate([q[r], q[r]]), np.concatenate([qd[r], np.zeros_like(qd[r])]),
-            two(f_ext), two(f_ext_point))
-        H[r], u[r], c[r] = H2[:m], u2[:m], u2[m:]
+        fe = f_ext if f_ext is None or f_ext.ndim == 1 else f_ext[r]
+        pe = f_ext_point if f_ext_point is None or f_ext_point.ndim == 1 else f_ext_point[r]
+        c[r] = actuator_mass_matrix_and_bias(robot, q[r], np.zeros((r.stop - r.start, n)),
+                                             fe, pe)[1]
+    qd = np.zeros_like(q)
+    qd[1:] = np.diff(q, axis=0) / dt
+    direction = np.zeros_like(q)
+    direction[:-1] = np.sign(qd[1:])  # the program ends at rest
     B = robot.viscous_friction * qd
-    u -= B + coulomb(robot, qd)  # the rigid u'(q, qd)
-    direction = np.where(qd != 0, np.sign(qd), np.sign(qdd))
-    A = np.einsum("kij,kj->ki", H, qdd) + u - c
-    return Hollerbach(A, B, c + coulomb(robot, direction), c, direction, qd)
-
-
-def requirement(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = None,
-                f_ext_point: NDArray | None = None) -> tuple[NDArray, NDArray]:
-    """The program's own requirement: the efforts (K, n) its commanded motion needs (y = 1) and
-    each joint's effort limit at the commanded speed (K, n) [N m | N]."""
-    h = hollerbach(robot, q, dt, f_ext, f_ext_point)
-    return h.A + h.B + h.C, effort_limits_at(robot, h.qd)
+    fp, fn = friction_pair(robot)
+    still = direction == 0
+    return Hollerbach(h - B - c, B, c + coulomb(robot, direction), c, direction, qd,
+                      np.where(still, fp, 0.0), np.where(still, fn, 0.0))
 
 
 def _first_root(A: NDArray, B: NDArray, C: NDArray) -> NDArray:
@@ -152,8 +147,9 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = 
         y_vel = float(np.min(np.minimum(robot.velocity_limit, no_load) / np.abs(h.qd)))
 
     def first_exit(L: NDArray) -> float:
-        y = np.minimum(_first_root(h.A, h.B, h.C - L), _first_root(h.A, h.B, h.C + L))
-        return min(y_vel, float(np.min(np.where(np.abs(h.C) > L, 0.0, y))))
+        up, down = L + h.upper, L + h.lower
+        y = np.minimum(_first_root(h.A, h.B, h.C - up), _first_root(h.A, h.B, h.C + down))
+        return min(y_vel, float(np.min(np.where((h.C > up) | (h.C < -down), 0.0, y))))
 
     y_hi = first_exit(np.broadcast_to(robot.effort_limit, h.C.shape))
     if not math.isfinite(y_hi):
