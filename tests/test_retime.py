@@ -234,6 +234,45 @@ def test_scale_estimate_is_hollerbachs_closed_form():
     assert res.duration == pytest.approx(res.factor * (q.shape[0] - 1) * DT, abs=DT)
 
 
+def test_scale_estimate_with_friction_and_wrench_against_pinocchio():
+    """The Puma 560 with its asymmetric viscous and Coulomb friction, a wrench and rests at the
+    waypoints: the program slowed by f (dt -> f dt) has, by pinocchio.rnea with armature
+    G^2 J_m, viscous friction and the Coulomb friction of the velocity each cycle makes (at rest:
+    static friction takes up to its capacity first), every effort within its limit and every
+    speed within its limit for f just above the estimate (here below 1: the program can be made
+    faster) and any larger f tried, and not just below it."""
+    import pinocchio as pin
+    from conftest import pin_fext, to_pinocchio
+
+    from mrnea.retime import scale_estimate
+
+    robot = mrnea.robots.puma560()
+    _, q = quintic(np.deg2rad(PUMA_WAYPOINTS_DEG), DT, 3 * PUMA_V, 3 * PUMA_A)
+    fe, pe = np.array([5.0, -3.0, 20.0, 0.5, 0.2, -0.4]), np.array([0.0, 0.02, 0.1])
+    model = to_pinocchio(robot)
+    model.armature = robot.gear_ratio ** 2 * robot.rotor_inertia
+    data = model.createData()
+    fext = [pin_fext(robot, model, qk, fe, pe) for qk in q]
+    Fp, Fn = robot.coulomb_friction[:, 0], robot.coulomb_friction[:, 1]
+
+    def within(f: float) -> bool:
+        dt = f * DT
+        qd = np.vstack([np.zeros(6), np.diff(q, axis=0) / dt])
+        v = np.vstack([qd[1:], np.zeros(6)])
+        for k in range(q.shape[0]):
+            h = np.array(pin.rnea(model, data, q[k], qd[k], (v[k] - qd[k]) / dt, fext[k]))
+            h += robot.viscous_friction * qd[k]
+            tau = h + np.where(v[k] > 0, Fp, np.where(v[k] < 0, -Fn, np.clip(-h, -Fn, Fp)))
+            if np.any(np.abs(tau) > robot.effort_limit) or np.any(
+                    np.abs(qd[k]) > robot.velocity_limit):
+                return False
+        return True
+
+    f = scale_estimate(robot, q, DT, np.broadcast_to(fe, (q.shape[0], 6)), pe)
+    assert not within(f * (1 - 1e-6))
+    assert all(within(f * x) for x in (1 + 1e-9, 1.01, 1.3, 2.0, 5.0))
+
+
 # --- behaviour ---------------------------------------------------------------------------------
 
 def test_dwells_kept_and_resampling_to_another_dt():
