@@ -15,8 +15,10 @@ rest the path speed binds nothing) have some joint at >= 95 % of its planning li
 effort limit at speed, or margin x velocity limit). The efforts are evaluated here, apart from
 the retiming's own arrays: :func:`mrnea.actuators.actuator_efforts` at the grid states of the
 profile (q, q_s sd, q_s sdd + q_ss sd^2 on this test's clamped cubic spline through the program
-rows, sdd of either adjacent interval), the limit by :func:`mrnea.actuators.effort_limits_at`
-at the speed the simulation sees (the previous cycle's: |qd| + |qdd| dt / 2 while slowing down).
+rows, sdd of either adjacent interval) with the Coulomb friction of the motion over the next
+cycle (a cycle takes the friction of the velocity it makes: before a reversal the new
+direction's), the limit by :func:`mrnea.actuators.effort_limits_at` at the speed the simulation
+sees (the previous cycle's: |qd| + |qdd| dt / 2 while slowing down).
 """
 
 from __future__ import annotations
@@ -184,10 +186,19 @@ def grid_ratios(robot, prog, res) -> np.ndarray:
         x = sd ** 2
         u = np.diff(x) / (2 * np.diff(s))
         qd = qs * sd[:, None]
+        # the Coulomb friction a cycle from each grid point takes: that of the motion it makes,
+        # over the next DT of the profile (not of qd at the point: they differ before a
+        # reversal), F+ up, -F- down
+        fp, fn = robot.coulomb_friction[:, 0], robot.coulomb_friction[:, 1]
+        s_next = np.minimum(s + sd * DT + 0.5 * np.append(u, 0.0) * DT ** 2, s[-1])
+        step = np.sign(cs(s_next) - qq)
+        step = np.where(step == 0, np.sign(qd), step)
+        swap = (np.where(step > 0, fp, np.where(step < 0, -fn, 0.0))
+                - np.where(qd > 0, fp, np.where(qd < 0, -fn, 0.0)))
         best = np.zeros(s.size)
         for uu in (np.append(u, u[-1]), np.insert(u, 0, u[0])):
             qdd = qs * uu[:, None] + qss * x[:, None]
-            tau = actuator_efforts(robot, qq, qd, qdd, F, pe)
+            tau = actuator_efforts(robot, qq, qd, qdd, F, pe) + swap
             lag = np.where(qd * qdd < 0, np.abs(qdd) * DT / 2, 0.0)
             limit = effort_limits_at(robot, np.abs(qd) + lag)
             best = np.maximum(best, np.max(np.maximum(np.abs(tau) / limit,

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -43,6 +44,7 @@ from mrnea.trajectory import require_path_memory
 ROUNDS = 8  # linearisation rounds at most
 TOL = 0.002  # rounds stop when the duration changes by less than this fraction
 LAG_TOL = 1.001  # a round is accepted when, with its own speed lag, it is within margin x this
+REVERSAL_CYCLES = 1  # Coulomb friction both ways this many cycles before a change of direction
 
 
 class _Grid(AbstractGeometricPath):
@@ -111,6 +113,35 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
     return sd
 
 
+def near_reversals(pc: PathCoefficients, sd: NDArray, dt: float) -> PathCoefficients:
+    """``pc`` with the direction of Coulomb friction unknown (``sign`` NaN: friction taken on
+    both sides) wherever a joint is within :data:`REVERSAL_CYCLES` cycles of dt [s] before it
+    reverses or starts from rest, on the clock of the profile sd.
+
+    A cycle takes the Coulomb friction of the velocity it makes, the next one
+    (kernels/drive_solve.py), so the cycle that contains a reversal already brakes against
+    the new direction's friction while its effort is still the old direction's. ``sd`` must
+    be at least as fast as the profile planned with the result (the relaxation is): a slower
+    profile takes longer from a point to a reversal, so it stays within the marked points.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tg = np.concatenate([[0.0], np.cumsum(2 * np.diff(pc.s) / (sd[1:] + sd[:-1]))])
+    sgn = np.sign(pc.qs)
+    # joint i reverses or starts over interval g (a stop needs nothing: at rest static friction
+    # takes its share of the effort, never more than sliding friction against the motion)
+    g, i = np.nonzero((sgn[1:] != sgn[:-1]) & (sgn[1:] != 0))
+    if g.size == 0 or not np.all(np.isfinite(tg)):
+        return pc
+    w = REVERSAL_CYCLES * dt
+    lo = np.searchsorted(tg, tg[g] - w, side="left")
+    hi = np.searchsorted(tg, tg[g + 1], side="right")
+    mark = np.zeros((pc.s.size + 1, pc.qs.shape[1]), dtype=np.int64)
+    np.add.at(mark, (lo, i), 1)
+    np.add.at(mark, (hi, i), -1)
+    near = np.cumsum(mark, axis=0)[:-1] > 0
+    return replace(pc, sign=np.where(near, np.nan, pc.sign))
+
+
 def duration_of(s: NDArray, sd: NDArray) -> float:
     """Duration [s] of a profile with constant sdd between grid points: sum 2 ds / (sd_i +
     sd_i+1)."""
@@ -150,14 +181,19 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
         finally:
             log["solver_time"] += time.perf_counter() - t0
 
+    coulomb = dt > 0 and np.any(lim.robot.coulomb_friction)
     if not np.any(lim.fv) and np.all(np.isinf(lim.corner)):
         sd = solve(constraint_rows(pc, lim, None), vcap)  # nothing depends on speed: exact
+        if coulomb:  # exact again with friction both ways near the reversals
+            sd = solve(constraint_rows(near_reversals(pc, sd, dt), lim, None), vcap)
         log["safe"].append(duration_of(pc.s, sd))
         return sd, log
     with np.errstate(divide="ignore"):
         cap = np.min(steady_speed(lim) / np.abs(pc.qs), axis=1) ** 2
     sd = solve(constraint_rows(pc, lim, None), np.minimum(vcap, cap))
     t_lin = log["relaxed"] = duration_of(pc.s, sd)
+    if coulomb:
+        pc = near_reversals(pc, sd, dt)
     best, t_best = None, math.inf
     lag = np.zeros_like(pc.qs)
     if np.all(np.isinf(lim.corner)):
