@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -144,6 +145,30 @@ def test_check_and_simulate_suggest_retime(tmp_path):
     assert res.exit_code == 1 and res.output == ""
     res = CliRunner().invoke(main, ["check", "puma560", str(EXAMPLES / "puma_pick.toml")])
     assert res.exit_code == 0 and "Retime" not in res.output
+
+
+def test_the_suggested_command_runs(tmp_path):
+    """For a CSV program checked with --dt, --interpolation and --mode paper, the suggested
+    command carries them, and it runs: exit 0, and its program passes check."""
+    from mrnea.io.pathcsv import save_csv
+    from mrnea.robots.sdt_profile import training_profile
+
+    t, q = training_profile(0.005)
+    csv = tmp_path / "training.csv"
+    save_csv(csv, t, q, mrnea.robots.sdt().joint_names)
+    res = CliRunner().invoke(main, ["check", "sdt", str(csv), "--dt", "0.005",
+                                    "--interpolation", "linear", "--mode", "paper"])
+    assert res.exit_code == 1
+    line = next(x for x in res.stdout.splitlines() if x.startswith("Retime it: mrnea retime "))
+    args = shlex.split(line.removeprefix("Retime it: mrnea "))
+    assert args[:2] == ["retime", "sdt"]
+    for opt, value in (("--dt", "0.005"), ("--interpolation", "linear"), ("--mode", "paper")):
+        assert args[args.index(opt) + 1] == value
+    args[args.index("--out") + 1] = str(tmp_path / "out")
+    res = CliRunner().invoke(main, args)
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(main, ["check", str(tmp_path / "out" / "retimed.toml")])
+    assert res.exit_code == 0, res.output
 
 
 @pytest.mark.parametrize("args,match", [

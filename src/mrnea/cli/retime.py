@@ -171,16 +171,21 @@ def _option_args(options: RobotOptions) -> list[str]:
 
 def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
                options: RobotOptions, q_cmd: np.ndarray, dt: float, f_ext: np.ndarray | None,
-               f_ext_point: np.ndarray | None) -> str:
+               f_ext_point: np.ndarray | None, interpolation: str | None = None,
+               mode: str | None = None) -> str:
     """What ``check`` and ``simulate`` print under a program that is not achievable: the
-    ``retime`` command with the same robot, program and robot options, and the duration uniform
-    time scaling would give by Hollerbach's closed-form estimate on the program's own
+    ``retime`` command with the same robot, program, robot options and run (a CSV program's
+    --dt [s] and --interpolation, a --mode the program file does not set), and the duration
+    uniform time scaling would give by Hollerbach's closed-form estimate on the program's own
     requirement (or why no timing can help)."""
     from mrnea.retime import scale_estimate
 
     program = program_arg or robot_arg or "PROGRAM"
+    run = ["--dt", repr(float(dt))] if program.lower().endswith(".csv") else []
+    run += [*(["--interpolation", interpolation] if interpolation else []),
+            *(["--mode", mode] if mode else [])]
     args = [*([robot_arg] if robot_arg and program_arg else []), program, "--out",
-            f"{Path(program).stem}-retimed", *_option_args(options)]
+            f"{Path(program).stem}-retimed", *run, *_option_args(options)]
     T = (q_cmd.shape[0] - 1) * dt
     try:
         f = scale_estimate(robot, q_cmd, dt, f_ext, f_ext_point)

@@ -147,16 +147,19 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
 
 
 def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
-             run: tuple, quiet: bool, as_json: bool) -> None:
+             run: tuple, interpolation: str | None, mode: str, quiet: bool,
+             as_json: bool) -> None:
     """Under a completed run that is not achievable: the retime command and the duration
     uniform scaling would give (:func:`mrnea.cli.retime.suggestion`); command line only (stderr
-    with --json), never in the summary. ``run``: what :func:`load_run` returned."""
+    with --json), never in the summary. ``run``: what :func:`load_run` returned;
+    ``interpolation``, ``mode``: the command's options."""
     if quiet or not res.completed or res.achievable is not False:
         return
     from mrnea.cli.retime import suggestion
 
-    rob, q_cmd, dt, f_ext, f_pt = run[:5]
-    click.echo(suggestion(rob, robot, program, options, np.asarray(q_cmd), dt, f_ext, f_pt),
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode = run[:6]
+    click.echo(suggestion(rob, robot, program, options, np.asarray(q_cmd), dt, f_ext, f_pt,
+                          interpolation, None if prog_mode or mode == "hybrid" else mode),
                err=as_json)
 
 
@@ -186,7 +189,7 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
                    force)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
-    _suggest(res, robot, program, robot_options, run, quiet, as_json)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
     if not res.completed:
         exit_interrupted()
 
@@ -206,7 +209,7 @@ def check(robot: str | None, program: str | None, dt: float | None,
     rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
-    _suggest(res, robot, program, robot_options, run, quiet, as_json)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
     if not res.completed:
         exit_interrupted()
     checkpoint()
