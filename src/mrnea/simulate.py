@@ -357,9 +357,9 @@ def simulate(
         allows replacing an existing file or link (the link itself, never its target).
     reactions : compute each joint's reaction wrench every cycle (default). False: a check
         that needs the verdict alone (e.g. :func:`mrnea.retime`'s search) skips that pass,
-        which is about a third of a cycle's time (measured: 0.61-0.65 of the loop's time on the
-        Puma 560 and the SDT); the result's ``reaction`` is then None and the summary's reaction
-        peaks null.
+        which is about a quarter of a run's time (measured: a run without them takes 0.74-0.75 of
+        the time on the Puma 560 and the SDT); the result's ``reaction`` is then None and the
+        summary's reaction peaks null.
 
     On KeyboardInterrupt the cycles done so far are returned with ``completed=False``, and a
     streamed table holds exactly those cycles.
