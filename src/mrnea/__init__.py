@@ -27,12 +27,14 @@ from mrnea.errors import (
     OutputError,
     PathWarning,
     ProgramFileError,
+    RetimeError,
     RobotFileError,
     SingularMassMatrixError,
     StateError,
 )
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
+from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
 
@@ -47,6 +49,8 @@ __all__ = [
     "OutputError",
     "PathWarning",
     "ProgramFileError",
+    "RetimeError",
+    "RetimeResult",
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
@@ -62,6 +66,7 @@ __all__ = [
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "retime",
     "robots",
     "simulate",
     "transform",
