@@ -15,7 +15,6 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Mapping
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,7 +27,7 @@ from mrnea import validate
 from mrnea.describe import describe
 from mrnea.errors import OutputError, StateError
 from mrnea.io.source import as_path
-from mrnea.io.writer import check_new, create
+from mrnea.io.writer import check_new, write_file
 from mrnea.report.drawing import (
     MAX_JOINTS,
     axes_grid,
@@ -40,7 +39,7 @@ from mrnea.report.drawing import (
     plot_line,
     png_data_uri,
 )
-from mrnea.report.html import _CSS, _e, _kv_table, _row
+from mrnea.report.html import _e, _kv_table, _row, page, stamp
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import figure_axes, license_html, scene_html
 
@@ -193,7 +192,7 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
     ------
     OutputError
         If ``path`` exists and ``overwrite`` is False (checked before any work), is a directory,
-        or cannot be written (:func:`mrnea.io.writer.create`: whole or not at all).
+        or cannot be written (:func:`mrnea.io.writer.write_file`: whole or not at all).
     """
     # the report imports nothing above it (docs/design.md): a RetimeResult exists only once
     # its module is loaded, so the class is looked up among the loaded modules
@@ -218,19 +217,9 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
                     "</figcaption></figure>")
     view_html = (f"<h2>3D view (retimed)</h2>\n{scene_html(result_scene(result.simulation))}"
                  if view3d else "")
-    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
     listing = _kv_table([(k, str(v)) for k, v in (files or {}).items()]) if files else ""
-    doc = f"""<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<meta name="viewport" content="width=device-width, initial-scale=1">
-<title>{_e(f"mrnea retiming report: {result.robot.name}")}</title>
-<style>{_CSS}</style>
-</head>
-<body>
-<h1>Retiming report: {_e(result.robot.name)}</h1>
-<p class="note">The same path, the fastest timing the robot can make. Generated {_e(stamp)} by
+    body = f"""\
+<p class="note">The same path, the fastest timing the robot can make. Generated {_e(stamp())} by
 mrnea.</p>
 <div class="verdict {cls}" id="verdict">{_e(result.verdict())}</div>
 {view_html}
@@ -245,10 +234,7 @@ the program; rows in red: over the limit before retiming.</p>
 {"".join(figs)}
 {"<h2>Files</h2>" + listing if listing else ""}
 <details><summary>Robot model</summary><pre>{_e(describe(result.robot, width=120))}</pre></details>
-{license_html() if view3d else ""}
-</body>
-</html>
-"""
-    with create(path, overwrite) as fh:
-        fh.write(doc)
-    return path
+{license_html() if view3d else ""}"""
+    name = result.robot.name
+    return write_file(path, page(f"mrnea retiming report: {name}", f"Retiming report: {name}",
+                                 body), overwrite)
