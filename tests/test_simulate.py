@@ -130,6 +130,7 @@ def test_summary_matches_the_per_cycle_table(tmp_path):
         sat = np.array([float(r[f"saturated_{name}"]) for r in rows])
         tau_m = np.array([float(r[f"tau_motor_{name}"]) for r in rows])
         err = np.array([float(r[f"tracking_error_{name}"]) for r in rows])
+        qd = np.array([float(r[f"qd_{name}"]) for r in rows])
         fx, fy, fz = (np.array([float(r[f"reaction_{c}_{name}"]) for r in rows])
                       for c in ("fx", "fy", "fz"))
         j = s["joints"][i]
@@ -137,6 +138,7 @@ def test_summary_matches_the_per_cycle_table(tmp_path):
         assert j["peak_motor_torque"] == pytest.approx(np.abs(tau_m).max())
         assert j["rms_motor_torque"] == pytest.approx(np.sqrt(np.mean(tau_m**2)))
         assert j["max_tracking_error"] == pytest.approx(np.abs(err).max())
+        assert j["peak_speed"] == pytest.approx(np.abs(qd).max())
         assert j["peak_reaction_force"] == pytest.approx(np.sqrt(fx**2 + fy**2 + fz**2).max())
     first = next(k for k, r in enumerate(rows)
                  if any(float(r[f"saturated_{nm}"]) for nm in robot.joint_names))

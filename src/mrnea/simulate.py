@@ -151,7 +151,7 @@ class SimulationResult:
         (the number of cycles done if the run was interrupted, else null);
         ``first_infeasible`` (time, cycle, joint, reason, required vs available effort) or None;
         per joint: time saturated [s], peak and RMS motor torque [N m], peak joint-side effort,
-        peak reaction force [N] and moment [N m] (magnitudes; axial and radial split of the
+        peak speed [rad/s | m/s], peak reaction force [N] and moment [N m] (magnitudes; axial and radial split of the
         force along the joint axis, bending moment), worst tracking error and when.
         """
         if self._summary:
@@ -193,6 +193,7 @@ class SimulationResult:
                 "rms_motor_torque": float(np.sqrt(np.mean(self.tau_motor[:, i] ** 2))),
                 "peak_effort": float(np.abs(self.tau[:, i]).max()),
                 "effort_limit": float(self.robot.effort_limit[i]),
+                "peak_speed": float(np.abs(self.qd[:, i]).max()),
                 "peak_reaction_force": float(loads.force[:, i].max()),
                 "peak_axial_force": float(loads.axial_force[:, i].max()),
                 "peak_radial_force": float(loads.radial_force[:, i].max()),
