@@ -23,9 +23,11 @@ from mrnea.errors import (
     RobotFileError,
     SingularMassMatrixError,
     StateError,
+    SweepError,
 )
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot, transform
+from mrnea.sweep import sweep
 
 __version__ = "0.1.0"
 
@@ -42,6 +44,7 @@ __all__ = [
     "RobotFileError",
     "SingularMassMatrixError",
     "StateError",
+    "SweepError",
     "__version__",
     "forward_dynamics",
     "forward_kinematics",
@@ -53,5 +56,6 @@ __all__ = [
     "load_urdf",
     "mass_matrix_and_bias",
     "robots",
+    "sweep",
     "transform",
 ]

@@ -151,8 +151,9 @@ class SimulationResult:
         (the number of cycles done if the run was interrupted, else null);
         ``first_infeasible`` (time, cycle, joint, reason, required vs available effort) or None;
         per joint: time saturated [s], peak and RMS motor torque [N m], peak joint-side effort,
-        peak speed [rad/s | m/s], peak reaction force [N] and moment [N m] (magnitudes; axial and radial split of the
-        force along the joint axis, bending moment), worst tracking error and when.
+        peak speed [rad/s | m/s], peak reaction force [N] and moment [N m] (magnitudes; axial
+        and radial split of the force along the joint axis, bending moment), worst tracking
+        error and when.
         """
         if self._summary:
             return self._summary

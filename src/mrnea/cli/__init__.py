@@ -3,7 +3,9 @@
 ``mrnea demo`` runs the built-in SDT's training profile and writes the report;
 ``mrnea simulate ROBOT PROGRAM`` does the same for any robot and program; ``mrnea check`` prints
 the verdict alone (exit 0 achievable, 1 not, 2 bad input, 130 interrupted); ``mrnea info ROBOT``
-lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper's Fig. 3.
+lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper's Fig. 3;
+``mrnea sweep [ROBOT] PROGRAM... --grid GRID.toml`` runs every program on every robot variant of
+a grid, on Dask (docs/sweeps.md).
 
 ROBOT is a built-in name (sdt, puma560), a URDF or a native ``.toml`` robot file. PROGRAM is a
 program ``.toml`` file or a CSV of (time, q1..qn) (docs/programs.md). Bad input ends with one
@@ -13,10 +15,10 @@ overwritten unless ``--force`` is given; without ``--out`` a fresh folder is cho
 Layout: :mod:`mrnea.cli.base` holds the group (:data:`main`), error and interrupt handling,
 exit codes and the shared options; each other module adds the commands of one theme
 (:mod:`~mrnea.cli.run`: demo, simulate, check; :mod:`~mrnea.cli.info`; :mod:`~mrnea.cli.paper`:
-fig3). A new command goes in a module of its own, imported below.
+fig3; :mod:`~mrnea.cli.sweep`). A new command goes in a module of its own, imported below.
 """
 
-from mrnea.cli import info, paper, run
+from mrnea.cli import info, paper, run, sweep
 from mrnea.cli.base import main
 
-__all__ = ["info", "main", "paper", "run"]
+__all__ = ["info", "main", "paper", "run", "sweep"]

@@ -1,11 +1,12 @@
 """Files mrnea reads: robots (URDF, native TOML, DH tables, sidecar actuator files), built-in
-robots by name, program files and path CSVs.
+robots by name, program files, path CSVs and sweep grid files.
 
 One public entry per task, all importable from here: :func:`load_robot` (a robot file, chosen by
 suffix), :func:`load_builtin` (a built-in robot by name), :func:`load_robot_spec` (either),
 :func:`load_urdf`, :func:`load_native`, :func:`apply_actuator_file` (a sidecar file),
-:func:`load_program` (a program file into a :class:`Program`) and :func:`from_csv` (a path CSV
-resampled to dt). Every TOML reader checks its document with :mod:`mrnea.io.tomlcheck`.
+:func:`load_program` (a program file into a :class:`Program`), :func:`from_csv` (a path CSV
+resampled to dt) and :func:`load_grid_file` (a design sweep's grid file). Every TOML reader
+checks its document with :mod:`mrnea.io.tomlcheck`.
 
 The robot writers, :func:`write_urdf` and :func:`write_native`, are also
 :meth:`mrnea.Robot.to_urdf` and :meth:`mrnea.Robot.to_toml`: importing this package registers
@@ -20,6 +21,7 @@ from mrnea.io.dispatch import (
     load_robot_spec,
     resolve_robot,
 )
+from mrnea.io.gridfile import GridFile, load_grid_file
 from mrnea.io.native import dumps_native, load_native, loads_native, write_native
 from mrnea.io.pathcsv import from_csv
 from mrnea.io.program import Program, load_program, loads_program
@@ -30,11 +32,13 @@ model.WRITERS.update(urdf=write_urdf, toml=write_native)
 
 __all__ = [
     "BUILTIN_ROBOTS",
+    "GridFile",
     "Program",
     "apply_actuator_file",
     "dumps_native",
     "from_csv",
     "load_builtin",
+    "load_grid_file",
     "load_native",
     "load_program",
     "load_robot",
