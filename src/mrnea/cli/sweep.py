@@ -65,8 +65,7 @@ def _robot_source(cli: str | None, grid_robot: str | None, programs: list[Progra
     ones named anywhere is an error."""
     named = [(what, src) for what, src in (("the ROBOT argument", cli and resolve_robot(cli)),
                                            ("the grid file's [sweep] robot", grid_robot)) if src]
-    if not named:
-        named = [(f"program {quote(p.name)}", p.robot) for p in programs if p.robot]
+    named += [(f"program {quote(p.name)}", p.robot) for p in programs if p.robot]
     if not named:
         raise SweepError("no robot: give ROBOT, or 'robot' in the grid file's [sweep]")
 

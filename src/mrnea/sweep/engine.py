@@ -362,7 +362,12 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
     info["threads"] = threads = sum(nthreads.values())
     if bar is not None:
         bar.say(f"mrnea sweep: loading the compiled kernels on {len(nthreads)} worker(s)...")
-    _check_workers(c.run(warm, robot, os.getpid()))
+    try:
+        answers = c.run(warm, robot, os.getpid())
+    except Exception as exc:  # a worker without mrnea, or one that cannot unpickle the robot
+        raise SweepError(f"the workers cannot run mrnea's sweep ({type(exc).__name__}: "
+                         f"{quote(str(exc), 200)}); give every worker the same mrnea") from None
+    _check_workers(answers)
     clock["warm"] = time.perf_counter() - t
     t = time.perf_counter()
     cycles = sum(scaled[key].K for _, key, _ in jobs) / len(jobs)
