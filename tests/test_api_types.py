@@ -22,9 +22,9 @@ import pytest
 import mrnea
 import mrnea.io
 import mrnea.report
-import mrnea.simulate
 import mrnea.trajectory
 from mrnea.errors import MrneaError
+from mrnea.simulate import simulate
 
 MALFORMED = Path(__file__).resolve().parent / "malformed"
 BAD = ("None", "int", "str", "dict", "complex", "bytes", "dir")
@@ -57,7 +57,7 @@ def env(tmp_path_factory) -> dict:
     robot = mrnea.robots.sdt()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = mrnea.simulate.simulate(robot, np.zeros((3, 4)), 0.01)
+        result = simulate(robot, np.zeros((3, 4)), 0.01)
     return {"dir": d, "robot": robot, "result": result,
             "bad": {"None": None, "int": 123, "str": "abc", "dict": {"a": 1}, "complex": 1 + 2j,
                     "bytes": b"x", "dir": d / "a_folder"}}
@@ -68,7 +68,7 @@ def _cases(e: dict) -> list[tuple[str, object, dict, dict]]:
     d, robot, res = e["dir"], e["robot"], e["result"]
     q = np.zeros(4)
     K = np.zeros((3, 4))
-    tr, io, rp, sm = mrnea.trajectory, mrnea.io, mrnea.report, mrnea.simulate
+    tr, io, rp = mrnea.trajectory, mrnea.io, mrnea.report
     way = {"waypoints": [[0.0], [1.0]], "dt": 0.1, "velocity_limit": 1.0,
            "acceleration_limit": 1.0, "t0": 0.0, "dwell": 0.0}
     way_kinds = {"waypoints": ARRAY, "dt": NUMBER, "velocity_limit": ARRAY,
@@ -107,7 +107,7 @@ def _cases(e: dict) -> list[tuple[str, object, dict, dict]]:
         ("cycles", tr.cycles, {"duration": 1.0, "dt": 0.1}, {"duration": ARRAY, "dt": NUMBER}),
         ("trapezoidal", tr.trapezoidal, way, way_kinds),
         ("quintic", tr.quintic, way, way_kinds),
-        ("simulate", sm.simulate,
+        ("simulate", simulate,
          {"robot": robot, "q_cmd": K, "dt": 0.01, "mode": "hybrid", "fd": "mrnea",
           "catch_up": 0.0, "progress": None, "stream": d / "stream.csv", "overwrite": True},
          {"robot": "", "q_cmd": "", "dt": NUMBER, "mode": NAME, "fd": NAME, "catch_up": NUMBER,
@@ -211,7 +211,7 @@ def test_simulate_refuses_numbers_given_as_text(env, arg: str) -> None:
     """``"0.001"`` is text, not a time step or a gain (Python's float() would take it)."""
     kw = {"dt": 0.01, "catch_up": 0.0, arg: "0.001"}
     with pytest.raises(MrneaError, match=arg):
-        mrnea.simulate.simulate(env["robot"], np.zeros((3, 4)), **kw)
+        simulate(env["robot"], np.zeros((3, 4)), **kw)
 
 
 # --- model fields and result tables ---------------------------------------------------------------

@@ -41,9 +41,9 @@ def one_error_line(res, *words: str) -> str:
 
 
 @pytest.mark.parametrize(("args", "words"), [
-    (["simulate"], ["simulate", "Missing argument 'ROBOT'", "'mrnea simulate --help'"]),
+    (["simulate"], ["simulate", "Missing argument 'PROGRAM'", "'mrnea simulate --help'"]),
     (["check", "sdt"], ["check", "Missing argument 'PROGRAM'", "--help"]),
-    (["info"], ["info", "Missing argument 'ROBOT'"]),
+    (["info", "--gravity"], ["'--gravity' requires an argument"]),
     (["info", "sdt", "--foo"], ["No such option '--foo'", "'mrnea info --help'"]),
     (["info", "sdt", "extra"], ["unexpected extra argument", "--help"]),
     (["--bogus"], ["No such option '--bogus'", "'mrnea --help'"]),
@@ -109,10 +109,10 @@ def test_warnings_print_once_each(capsys) -> None:
 
 
 def test_an_internal_error_is_one_line_and_debug_shows_it(monkeypatch) -> None:
-    def broken(spec: str):
+    def broken(spec: str, options: object):
         raise RuntimeError("a bug\nwith two lines")
 
-    monkeypatch.setattr(info_module, "load_any", broken)
+    monkeypatch.setattr(info_module, "load_robot_arg", broken)
     line = one_error_line(run("info", "sdt"), "internal error", "RuntimeError", "--debug")
     assert "a bug\\nwith two lines" in line
     res = CliRunner().invoke(main, ["--debug", "info", "sdt"])
@@ -120,10 +120,10 @@ def test_an_internal_error_is_one_line_and_debug_shows_it(monkeypatch) -> None:
 
 
 def test_memory_error_is_one_line(monkeypatch) -> None:
-    def exhausted(spec: str):
+    def exhausted(spec: str, options: object):
         raise MemoryError
 
-    monkeypatch.setattr(info_module, "load_any", exhausted)
+    monkeypatch.setattr(info_module, "load_robot_arg", exhausted)
     one_error_line(run("info", "sdt"), "out of memory")
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import importlib
 import json
 import re
 import signal
@@ -22,10 +23,12 @@ import numpy as np
 import pytest
 from test_output_files import LONG, leftovers, wait_for_table
 
-import mrnea.simulate as simulate_module
 from mrnea.model import Joint, Link, Robot
 from mrnea.report import write_report
 from mrnea.simulate import CHUNK, simulate
+
+# the module (mrnea.simulate, the attribute, is the function)
+simulate_module = importlib.import_module("mrnea.simulate")
 
 
 def pendulum(effort_limit: float = 1e6) -> Robot:
@@ -121,7 +124,8 @@ def test_an_interrupt_inside_a_chunks_write_keeps_whole_cycles(tmp_path: Path,
     with open(tmp_path / "cycles.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 2 * CHUNK
-    assert float(rows[-1]["q_j1"]) == res.q[-1, 0] and float(rows[-1]["t"]) == res.t[-1]
+    assert float(rows[-1]["q_j1 [rad]"]) == res.q[-1, 0]
+    assert float(rows[-1]["t [s]"]) == res.t[-1]
     assert [p.name for p in tmp_path.iterdir()] == ["cycles.csv"]
 
 
@@ -162,7 +166,7 @@ def test_simulate_interrupted_by_a_signal(tmp_path: Path, sig: signal.Signals) -
     with open(out / "cycles.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == N
-    assert float(rows[-1]["t"]) == pytest.approx((N - 1) * summary["dt"])
+    assert float(rows[-1]["t [s]"]) == pytest.approx((N - 1) * summary["dt"])
     assert f"interrupted after {N} cycles" in stdout
     assert not re.search(r"(?<!NOT )ACHIEVABLE", stdout)
     report = (out / "report.html").read_text()

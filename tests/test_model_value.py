@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import multiprocessing
 import pickle
+import re
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -18,6 +19,7 @@ import pytest
 from conftest import random_chain
 
 import mrnea
+from mrnea.describe import describe
 from mrnea.errors import ModelError, ModelWarning
 from mrnea.model import ACTUATOR_FIELDS, Joint, Link, Robot
 
@@ -98,17 +100,22 @@ def test_a_robot_crosses_to_another_process() -> None:
 
 
 def test_actuator_fields_are_one_list() -> None:
-    """with_actuators takes exactly the listed fields; describe() has a column per field;
+    """with_actuators takes exactly the listed fields; describe() has a column per field (its
+    unit for revolute joints in the header);
     docs/robot-format.md's actuator table lists the same fields, symbols, units and meanings."""
     names = [f.name for f in ACTUATOR_FIELDS]
     robot = mrnea.robots.puma560()
     with pytest.raises(ModelError, match="unknown field"):
         robot.with_actuators(velocity_limit=1.0)
-    lines = robot.describe().splitlines()
-    assert lines[1].split()[-len(names):] == [f.symbol for f in ACTUATOR_FIELDS]
+    lines = describe(robot, width=1000).splitlines()  # one table: all revolute, N m
+    header = re.split(" {2,}", lines[1])
+    revolute = {"effort_limit": "N m", "gear_ratio": "-", "rotor_inertia": "kg m^2",
+                "viscous_friction": "N m s/rad", "coulomb_friction": "N m",
+                "torque_speed": "N m, rad/s"}
+    assert header[-len(names):] == [f"{f.symbol} [{revolute[f.name]}]" for f in ACTUATOR_FIELDS]
     j = robot.joints[1]
-    assert lines[3].split()[-len(names):] == [f"{getattr(j, f.name):.4g}" for f in
-                                              ACTUATOR_FIELDS[:-1]] + ["-"]
+    assert re.split(" {2,}", lines[3])[-len(names):] == [
+        f"{getattr(j, f.name):.5g}" for f in ACTUATOR_FIELDS[:-1]] + ["-"]
     doc = (DOCS / "robot-format.md").read_text()
     section = doc.split("### Actuator fields", 1)[1].split("\n\n")[2]
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines()[2:]]

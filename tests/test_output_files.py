@@ -240,7 +240,7 @@ def test_cli_force_replaces_links_never_their_targets(tmp_path: Path, victim: Pa
     assert victim.read_text() == VICTIM
     for name in OUTPUTS:
         assert not (out / name).is_symlink() and (out / name).stat().st_size > 0, name
-    assert (out / "cycles.csv").read_text().startswith("t,")
+    assert (out / "cycles.csv").read_text().startswith("t [s],")
     assert (out / "cycles.csv.partial").is_symlink()  # not ours: left alone
     (out / "cycles.csv.partial").unlink()
     assert leftovers(out) == []

@@ -117,22 +117,23 @@ def test_hybrid_and_paper_modes_differ_on_a_two_link_arm():
 
 
 def test_summary_matches_the_per_cycle_table(tmp_path):
+    """The CSV (read by pandas in one call: units in the column names, the flags as booleans)
+    holds what the summary sums up."""
+    pandas = pytest.importorskip("pandas")
     robot = two_link(limit1=2.0, limit2=1.0)
     dt = 0.005
     res = simulate(robot, smooth_move([0.0, 0.0], [1.0, -1.0], 0.5, dt), dt)
-    path = res.to_csv(tmp_path / "cycles.csv")
-    with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    assert len(rows) == res.K
+    table = pandas.read_csv(res.to_csv(tmp_path / "cycles.csv"))
+    assert len(table) == res.K
     s = json.loads(res.save_summary(tmp_path / "summary.json").read_text())
     assert s["achievable"] is False
     for i, name in enumerate(robot.joint_names):
-        sat = np.array([float(r[f"saturated_{name}"]) for r in rows])
-        tau_m = np.array([float(r[f"tau_motor_{name}"]) for r in rows])
-        err = np.array([float(r[f"tracking_error_{name}"]) for r in rows])
-        qd = np.array([float(r[f"qd_{name}"]) for r in rows])
-        fx, fy, fz = (np.array([float(r[f"reaction_{c}_{name}"]) for r in rows])
-                      for c in ("fx", "fy", "fz"))
+        sat = table[f"saturated_{name}"]
+        assert sat.dtype == bool and (sat.to_numpy() == res.saturated[:, i]).all()
+        tau_m = table[f"tau_motor_{name} [N m]"].to_numpy()
+        err = table[f"tracking_error_{name} [rad]"].to_numpy()
+        qd = table[f"qd_{name} [rad/s]"].to_numpy()
+        fx, fy, fz = (table[f"reaction_{c}_{name} [N]"].to_numpy() for c in ("fx", "fy", "fz"))
         j = s["joints"][i]
         assert j["time_saturated"] == pytest.approx(sat.sum() * dt)
         assert j["peak_motor_torque"] == pytest.approx(np.abs(tau_m).max())
@@ -140,10 +141,10 @@ def test_summary_matches_the_per_cycle_table(tmp_path):
         assert j["max_tracking_error"] == pytest.approx(np.abs(err).max())
         assert j["peak_speed"] == pytest.approx(np.abs(qd).max())
         assert j["peak_reaction_force"] == pytest.approx(np.sqrt(fx**2 + fy**2 + fz**2).max())
-    first = next(k for k, r in enumerate(rows)
-                 if any(float(r[f"saturated_{nm}"]) for nm in robot.joint_names))
+    flags = table[[f"saturated_{nm}" for nm in robot.joint_names]].any(axis=1).to_numpy()
+    first = int(np.argmax(flags))
     assert s["first_infeasible"]["cycle"] == first
-    assert s["first_infeasible"]["time"] == pytest.approx(float(rows[first]["t"]))
+    assert s["first_infeasible"]["time"] == pytest.approx(table["t [s]"][first])
 
 
 def test_reactions_in_the_table_are_joint_reactions():
@@ -203,7 +204,7 @@ def test_outputs_never_overwrite_without_permission(tmp_path):
         res.to_csv(p)
     assert p.read_text() == "user data"
     res.to_csv(p, overwrite=True)
-    assert p.read_text().startswith("t,")
+    assert p.read_text().startswith("t [s],")
     assert [f.name for f in tmp_path.iterdir()] == ["cycles.csv"]  # no temporary files left
 
 
@@ -265,7 +266,7 @@ def test_interrupted_stream_keeps_the_cycles_done(tmp_path):
     with open(tmp_path / "run.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 2 * CHUNK
-    assert float(rows[-1]["q_j1"]) == res.q[-1, 0]
+    assert float(rows[-1]["q_j1 [rad]"]) == res.q[-1, 0]
 
 
 def test_interrupted_before_any_cycle():

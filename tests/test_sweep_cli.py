@@ -38,14 +38,16 @@ def puma_grid(tmp_path: Path) -> Path:
 
 def test_sweep_writes_its_files_and_nothing_else_reaches_the_terminal(tmp_path, puma_grid):
     """The local cluster's start, its workers and their end print nothing (even with the
-    dashboard's usual port taken); the files hold the rows in grid order."""
+    dashboard's usual port taken); the files hold the rows in grid order, of the robot with
+    the command line's options."""
     with socket.socket() as s:
         try:
             s.bind(("", 8787))
             s.listen()
         except OSError:
             pass  # held by another process: the same situation
-        r = run("sweep", "puma560", "--grid", str(puma_grid), "--out", "o", cwd=tmp_path)
+        r = run("sweep", "puma560", "--grid", str(puma_grid), "--out", "o", "--payload",
+                "1.5@0,0,0.05", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert r.stderr.splitlines() == [
         "mrnea sweep: starting the workers and loading the compiled kernels...",
@@ -56,7 +58,9 @@ def test_sweep_writes_its_files_and_nothing_else_reaches_the_terminal(tmp_path, 
     csv = pd.read_csv(out / "sweep.csv", index_col="case")
     assert csv[["payload", "time_scale"]].values.tolist() == [[0, 0.5], [0, 1], [15, 0.5],
                                                               [15, 1]]
-    expected = serial(puma560(), load_program(EXAMPLES / "puma_pick.toml"),
+    # --payload is on the base robot; a swept payload adds to it
+    expected = serial(puma560().with_payload(1.5, (0.0, 0.0, 0.05)),
+                      load_program(EXAMPLES / "puma_pick.toml"),
                       {"payload": [0.0, 15.0], "time_scale": [0.5, 1.0]})
     assert csv["achievable"].tolist() == [s["achievable"] for _, s in expected]
     assert csv["worst_effort_ratio"].tolist() == [s["worst_effort_ratio"] for _, s in expected]

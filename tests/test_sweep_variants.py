@@ -20,7 +20,7 @@ from mrnea.io import load_grid_file, load_program
 from mrnea.io.program import Program
 from mrnea.model import Joint, Link, Robot, transform
 from mrnea.robots import sdt
-from mrnea.sweep import check_grid, time_scaled, variant, with_payload
+from mrnea.sweep import check_grid, time_scaled, variant
 from mrnea.trajectory import quintic
 
 CURVE = (4000.0, 1.0, 3.5)  # peak [N m], corner and no-load speed [rad/s], joint side
@@ -129,17 +129,8 @@ def test_payload_matches_pinocchio(robot, mass, point):
     assert variant(robot, payload=mass, payload_point=point).links[:-1] == robot.links[:-1]
 
 
-def test_payload_with_inertia_matches_pinocchio(robot):
-    I_p = np.array([[2.0, 0.1, 0.0], [0.1, 3.0, 0.2], [0.0, 0.2, 4.0]])
-    last = robot.links[-1]
-    expected = (pin.Inertia(last.mass, last.com, last.inertia)
-                + pin.Inertia(50.0, np.array([0.1, 0.2, 0.3]), I_p))
-    got = with_payload(robot, 50.0, (0.1, 0.2, 0.3), I_p).links[-1]
-    np.testing.assert_allclose(got.inertia, expected.inertia, rtol=1e-12, atol=1e-10)
-
-
 def test_payload_on_a_massless_link_is_the_payload():
-    got = with_payload(two_link_arm(0.0), 2.0, (0.3, 0.0, 0.0)).links[-1]
+    got = variant(two_link_arm(0.0), payload=2.0, payload_point=[0.3, 0.0, 0.0]).links[-1]
     assert got.mass == 2.0 and got.com.tolist() == [0.3, 0.0, 0.0] and not got.inertia.any()
 
 

@@ -132,8 +132,9 @@ def test_panda_needs_a_tip_and_matches_reduced_pinocchio() -> None:
     with pytest.raises(RobotFileError, match="tip") as info:
         load_urdf(path)
     msg = str(info.value)
-    assert "panda_hand_tcp, panda_leftfinger, panda_rightfinger" in msg
-    assert str(path) in msg
+    # the fingers' chains move the hand and a finger, the tool point's the hand alone
+    assert "panda_leftfinger, panda_rightfinger, panda_hand_tcp" in msg
+    assert str(path) in msg and "--tip LINK" in msg
 
     full = pin.buildModelFromUrdf(str(path))
     locked = [full.getJointId(n) for n in ("panda_finger_joint1", "panda_finger_joint2")]
@@ -303,7 +304,8 @@ def test_tip_lumps_moving_side_branch_at_zero(tmp_path: Path) -> None:
         joint("tool", "l2", "tool_link", "fixed", xyz="0 0 0.5"),
         link("tool_link", 2.0),
     ]))
-    with pytest.raises(RobotFileError, match="candidate tip links: l3, tool_link"):
+    # tool_link's chain moves l1 + l2 + tool_link = 5 kg, l3's l1 + l3 = 2 kg
+    with pytest.raises(RobotFileError, match=r"heaviest chain first: tool_link, l3$"):
         load_urdf(p)
     r = load_urdf(p, tip="tool_link")
     assert r.joint_names == ("j1", "j2")

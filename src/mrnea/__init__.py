@@ -2,9 +2,16 @@
 
 One pass returns the joint-space mass matrix H and the bias vector u'; on top of it mrnea computes
 the joint accelerations the real actuators can achieve and simulates the motion cycle by cycle.
+
+The main functions are at the top level, as ``pinocchio.aba`` is: ``mrnea.forward_dynamics``,
+``mrnea.achievable_accelerations``, ``mrnea.simulate``, ``mrnea.load_program``... Note that
+``mrnea.simulate`` is the function; its module is imported by name
+(``from mrnea.simulate import SimulationResult``), never as ``import mrnea.simulate as m``,
+which Python resolves to the attribute, the function.
 """
 
 from mrnea import robots
+from mrnea.achievable import achievable_accelerations
 from mrnea.dynamics import (
     forward_dynamics,
     forward_kinematics,
@@ -27,7 +34,8 @@ from mrnea.errors import (
 )
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot, transform
-from mrnea.sweep import sweep
+from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
+from mrnea.sweep import sweep  # the function, as simulate (above)
 
 __version__ = "0.1.0"
 
@@ -46,6 +54,7 @@ __all__ = [
     "StateError",
     "SweepError",
     "__version__",
+    "achievable_accelerations",
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",
@@ -56,6 +65,7 @@ __all__ = [
     "load_urdf",
     "mass_matrix_and_bias",
     "robots",
+    "simulate",
     "sweep",
     "transform",
 ]

@@ -56,8 +56,9 @@ class ActuatorField(NamedTuple):
 
 
 # The actuator fields, in one list: the keywords of Robot.with_actuators, the columns of
-# Robot.describe, the actuator array of the kernels (kernels/layout.py compile_actuators) and the
-# table of docs/robot-format.md (a test checks that the two agree). Adding a field starts here.
+# mrnea.describe's tables, the actuator array of the kernels (kernels/layout.py
+# compile_actuators) and the table of docs/robot-format.md (a test checks that the two agree).
+# Adding a field starts here.
 ACTUATOR_FIELDS = (
     ActuatorField("effort_limit", "effort", "N m or N",
                   "joint-side effort limit (inf: unlimited); with a torque-speed curve, its peak"),
@@ -69,6 +70,9 @@ ACTUATOR_FIELDS = (
                   "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
 )
+#: SI unit of each joint quantity, (revolute, prismatic): position, velocity, acceleration, effort.
+JOINT_UNITS = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "qdd": ("rad/s^2", "m/s^2"),
+               "tau": ("N m", "N")}
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 # a joint axis whose 2-norm is within this of 1 is kept as given (a normalised vector's computed
 # norm is within 1.5 eps of 1, measured over 2e5 random axes)
@@ -169,6 +173,29 @@ def _check_inertia(inertia: NDArray, what: str) -> None:
             f"{what}: inertia violates the triangle inequality (principal moments "
             f"{eig.tolist()}: {eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g}); physically doubtful, "
             f"used as given", stacklevel=4)
+
+
+def combine_inertials(parts: Sequence[tuple[float, NDArray, NDArray]]
+                      ) -> tuple[float, NDArray, NDArray]:
+    """Total mass [kg], centre of mass [m] and inertia [kg m^2] about that centre of rigidly
+    joined bodies, each ``(mass, com, inertia about its com)`` in one frame (parallel-axis
+    theorem: ``I = sum I_k + m_k (|d_k|^2 E - d_k d_k^T)``, ``d_k = com_k - com``)."""
+    mass = float(sum(m for m, _, _ in parts))
+    massive = [c for m, c, _ in parts if m > 0]
+    if len(massive) == 1:  # exact: no m * c / m rounding
+        com = massive[0]
+    elif massive:
+        com = sum(m * c for m, c, _ in parts) / mass
+    else:
+        com = np.zeros(3)
+    inertia = np.zeros((3, 3))
+    for m, c, I in parts:
+        inertia += I
+        if m > 0:  # parallel-axis term (a massless part far away would give 0 * inf)
+            d = c - com
+            inertia += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    # (I + I^T) / 2 could overflow
+    return mass, np.array(com, dtype=float), 0.5 * inertia + 0.5 * inertia.T
 
 
 @dataclass(frozen=True, eq=False)
@@ -282,6 +309,10 @@ class Joint(Frozen):
     @property
     def is_prismatic(self) -> bool:
         return self.type == "prismatic"
+
+    def unit(self, quantity: str) -> str:
+        """SI unit of its ``"q"``, ``"qd"``, ``"qdd"`` or ``"tau"`` (:data:`JOINT_UNITS`)."""
+        return JOINT_UNITS[quantity][self.is_prismatic]
 
 
 #: The robot file writers behind :meth:`Robot.to_urdf` and :meth:`Robot.to_toml`, by format:
@@ -476,8 +507,30 @@ class Robot(Frozen):
         return self._replace(joints=joints)
 
     def with_gravity(self, gravity: ArrayLike) -> Robot:
-        """A copy with another gravity vector [m/s^2, base frame]."""
+        """A copy with another gravity vector [m/s^2, base frame], e.g. ``(0, 0, 9.81)`` for a
+        robot hanging from the ceiling whose base z axis points up."""
         return self._replace(gravity=gravity)
+
+    def with_payload(self, mass: float, com: ArrayLike = (0.0, 0.0, 0.0),
+                     inertia: ArrayLike | None = None) -> Robot:
+        """A copy carrying a payload rigidly fixed to the last link, merged into its inertials.
+
+        Parameters
+        ----------
+        mass : the payload's mass [kg], >= 0.
+        com : (3,) its centre of mass [m] in the last link's frame (as ``f_ext_point``).
+        inertia : (3, 3) [kg m^2] about its centre of mass, axes of the last link's frame;
+            None: a point mass. The last link keeps its name; its inertials become those of
+            the two bodies joined (:func:`combine_inertials`).
+        """
+        try:
+            p = Link("payload", mass, com, np.zeros((3, 3)) if inertia is None else inertia)
+        except ModelError as exc:
+            raise ModelError(f"with_payload: {exc}") from None
+        last = self._links[-1]
+        m, c, inertia_sum = combine_inertials([(last.mass, last.com, last.inertia),
+                                               (p.mass, p.com, p.inertia)])
+        return self._replace(links=(*self._links[:-1], Link(last.name, m, c, inertia_sum)))
 
     def _replace(self, **kw: object) -> Robot:
         return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]
@@ -495,22 +548,3 @@ class Robot(Frozen):
 
     def __repr__(self) -> str:
         return f"Robot(name={self._name!r}, n={self.n}, joints={list(self.joint_names)})"
-
-    def describe(self) -> str:
-        """A human-readable table of joints, links, limits and actuators (one column per field of
-        ACTUATOR_FIELDS, headed by its symbol), a header line and one row per joint."""
-        head = (f"{'joint':<16}{'type':<11}{'link':<16}{'mass kg':>10}{'lower':>9}{'upper':>9}"
-                f"{'vel lim':>9}")
-        rows = [f"{self._name}: {self.n} moving joints, base '{self._base}', "
-                f"gravity {self._gravity.tolist()} m/s^2",
-                head + "".join(f"{f.symbol:>11}" for f in ACTUATOR_FIELDS)]
-        for j, lk in zip(self._joints, self._links, strict=True):
-            row = (f"{j.name:<16.16}{j.type:<11}{lk.name:<16.16}{lk.mass:>10.4g}{j.lower:>9.3g}"
-                   f"{j.upper:>9.3g}{j.velocity_limit:>9.3g}")
-            for f in ACTUATOR_FIELDS:
-                v = getattr(j, f.name)
-                text = ("-" if v is None else "/".join(f"{x:.3g}" for x in v)
-                        if isinstance(v, tuple) else f"{v:.4g}")
-                row += f"{text:>11}"
-            rows.append(row)
-        return "\n".join(rows)

@@ -41,9 +41,16 @@ from mrnea.kernels.status import OK
 from mrnea.model import Robot
 from mrnea.resources import require_memory
 
-_PER_JOINT = ("q_cmd", "qd_cmd", "qdd_des", "q", "qd", "qdd", "tau", "tau_motor", "tau_required",
-              "limit", "margin", "saturated", "position_clamped", "velocity_clamped",
-              "tracking_error")
+# The per-joint columns of the per-cycle table and the quantity of model.JOINT_UNITS giving each
+# one's unit (None: a boolean). tau_motor = tau / G with G dimensionless: the effort's unit.
+_PER_JOINT = {"q_cmd": "q", "qd_cmd": "qd", "qdd_des": "qdd", "q": "q", "qd": "qd", "qdd": "qdd",
+              "tau": "tau", "tau_motor": "tau", "tau_required": "tau", "limit": "tau",
+              "margin": "tau", "saturated": None, "position_clamped": None,
+              "velocity_clamped": None, "tracking_error": "q"}
+#: A tracking error at most this many times max(1, max |q_cmd|) of its joint [rad | m] is 0:
+#: rounding, not lag (q's float resolution is 2.2e-16 |q|; this leaves room for the rounding of
+#: many cycles and is far below any drive's resolution).
+TRACKING_RESOLUTION = 1e-12
 FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
 CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
 
@@ -91,7 +98,8 @@ class SimulationResult:
     position_clamped, velocity_clamped : (K, n) bool, the command exceeded a joint limit.
     reaction : (K, n, 6) each joint's reaction wrench [f; n] in its joint frame
         (:func:`mrnea.joint_reactions`).
-    tracking_error : q_cmd - q.
+    tracking_error : q_cmd - q, 0 where it is rounding: at most :data:`TRACKING_RESOLUTION`
+        times ``max(1, max |q_cmd|)`` of its joint.
     completed : False if the run was interrupted; the arrays then hold the cycles done (K of
         them) and the run is never reported achievable (see :attr:`achievable`).
     """
@@ -153,7 +161,9 @@ class SimulationResult:
         per joint: time saturated [s], peak and RMS motor torque [N m], peak joint-side effort,
         peak speed [rad/s | m/s], peak reaction force [N] and moment [N m] (magnitudes; axial
         and radial split of the force along the joint axis, bending moment), worst tracking
-        error and when.
+        error and when, and the position error q_cmd - q at the last cycle
+        (``final_position_error``; tracking errors [rad | m] are 0 below the resolution
+        :attr:`tracking_error` states).
         """
         if self._summary:
             return self._summary
@@ -202,6 +212,7 @@ class SimulationResult:
                 "peak_bending_moment": float(loads.bending_moment[:, i].max()),
                 "max_tracking_error": float(err[ke, i]),
                 "max_tracking_error_time": float(self.t[ke]),
+                "final_position_error": float(self.tracking_error[-1, i]),
             })
         out = {**head, "first_infeasible": first,
                "max_tracking_error": float(err.max()) if err.size else 0.0, "joints": joints}
@@ -223,34 +234,58 @@ class SimulationResult:
             return (f"{head}ACHIEVABLE: {self.robot.name} follows the program "
                     f"({self.K} cycles, {s['duration']:.3f} s) within every limit.")
         fi = s["first_infeasible"]
+        joint = self.robot.joints[self.robot.joint_names.index(fi["joint"])]
         if fi["reason"].startswith("effort"):
-            what = (f"effort required {fi['required_effort']:.4g}, available "
-                    f"{fi['available_effort']:.4g}")
+            u = joint.unit("tau")
+            what = (f"effort required {fi['required_effort']:.4g} {u}, available "
+                    f"{fi['available_effort']:.4g} {u}")
         elif fi["reason"].startswith("position"):
             lo, hi = fi["position_limits"]
-            what = f"position commanded {fi['commanded_position']:.4g}, range [{lo:.4g}, {hi:.4g}]"
+            what = (f"position commanded {fi['commanded_position']:.4g} {joint.unit('q')}, "
+                    f"range [{lo:.4g}, {hi:.4g}] {joint.unit('q')}")
         else:
-            what = (f"velocity commanded {fi['commanded_velocity']:.4g}, limit "
-                    f"{fi['velocity_limit']:.4g}")
+            what = (f"velocity commanded {fi['commanded_velocity']:.4g} {joint.unit('qd')}, "
+                    f"limit {fi['velocity_limit']:.4g} {joint.unit('qd')}")
+        worst = max(range(self.robot.n), key=lambda i: s["joints"][i]["max_tracking_error"])
         return (f"{head}NOT ACHIEVABLE: first at t = {fi['time']:.3f} s, joint '{fi['joint']}' "
-                f"({fi['reason']}): {what}; worst tracking error {s['max_tracking_error']:.4g}.")
+                f"({fi['reason']}): {what}; worst tracking error "
+                f"{s['joints'][worst]['max_tracking_error']:.4g} "
+                f"{self.robot.joints[worst].unit('q')} ('{self.robot.joint_names[worst]}').")
+
+    def final_position_line(self) -> str | None:
+        """None when the run completed and the robot ended where the program ends; else one
+        line stating each joint's final position error q_cmd - q [rad | m] (0: within the
+        resolution of :attr:`tracking_error`)."""
+        if not self.completed or not self.tracking_error[-1].any():
+            return None
+        errors = ", ".join(f"{j.name} {e:.4g} {j.unit('q')}"
+                           for j, e in zip(self.robot.joints, self.tracking_error[-1].tolist(),
+                                           strict=True))
+        return f"The robot did not reach the program's end: final position error {errors}."
 
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
-        """The per-cycle table as named 1-D columns (``t``, then ``<quantity>_<joint>``)."""
+        """The per-cycle table as named 1-D columns: ``t [s]``, then ``<quantity>_<joint>
+        [<unit>]`` (SI units of that joint, :data:`mrnea.model.JOINT_UNITS`; the flags
+        ``saturated``, ``position_clamped``, ``velocity_clamped`` are booleans, without a unit),
+        then ``reaction_<fx..nz>_<joint> [N | N m]``."""
         if not isinstance(rows, slice):
             raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
-        cols: dict[str, NDArray] = {"t": self.t[rows]}
-        for name in _PER_JOINT:
+        cols: dict[str, NDArray] = {"t [s]": self.t[rows]}
+        for name, quantity in _PER_JOINT.items():
             a = getattr(self, name)[rows]
-            for i, j in enumerate(self.robot.joint_names):
-                cols[f"{name}_{j}"] = a[:, i].astype(float) if a.dtype == bool else a[:, i]
+            for i, j in enumerate(self.robot.joints):
+                unit = "" if quantity is None else f" [{j.unit(quantity)}]"
+                cols[f"{name}_{j.name}{unit}"] = a[:, i]
         for i, j in enumerate(self.robot.joint_names):
             for c, label in enumerate(("fx", "fy", "fz", "nx", "ny", "nz")):
-                cols[f"reaction_{label}_{j}"] = self.reaction[rows, i, c]
+                unit = "N" if c < 3 else "N m"
+                cols[f"reaction_{label}_{j} [{unit}]"] = self.reaction[rows, i, c]
         return cols
 
     def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
-        """Write the per-cycle table (one row per cycle, header row; pandas reads it).
+        """Write the per-cycle table (:meth:`columns`: one header row of names with units, one
+        row per cycle, flags as ``True``/``False``): ``pandas.read_csv(path)`` reads it, the
+        flags as booleans.
 
         Written through :func:`mrnea.io.writer.create`: whole or not at all, never through a
         symbolic link; an existing file (or link) is replaced only with ``overwrite``, else
@@ -271,11 +306,13 @@ class SimulationResult:
         writer.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
         return buf.getvalue().encode()
 
-    def _derive(self, rows: slice, clamp: NDArray) -> None:
-        """Fill the derived per-cycle arrays of the rows the kernel has just computed."""
+    def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
+        """Fill the derived per-cycle arrays of the rows the kernel has just computed
+        (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
         self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
-        self.tracking_error[rows] = self.q_cmd[rows] - self.q[rows]
+        err = self.q_cmd[rows] - self.q[rows]
+        self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)
         self.position_clamped[rows] = (clamp[rows] & CLAMP_POSITION) != 0
         self.velocity_clamped[rows] = (clamp[rows] & CLAMP_VELOCITY) != 0
 
@@ -369,6 +406,7 @@ def simulate(
         reaction=np.zeros((K, n, 6)), tracking_error=zeros())
     clamp = zeros(np.int64)
     res.q[0], res.qd[0] = x0, v0
+    resolution = TRACKING_RESOLUTION * np.maximum(1.0, np.abs(Qc).max(axis=0))
     m, _, _, act = compiled.of(robot)
     program = (Qc, Vc, FE, PE)
     run = (res.q, res.qd, res.qdd_des, res.qdd, res.tau, res.tau_required, res.limit,
@@ -384,7 +422,7 @@ def simulate(
                 if status != OK:
                     validate.check_cycle(robot, k, status, res.q[k], res.qd[k], dt)
                 rows = slice(done, k1)
-                res._derive(rows, clamp)
+                res._derive(rows, clamp, resolution)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
                     fh.write(res._csv(rows, header=done == 0))  # keeps the cycles done
                     fh.flush()

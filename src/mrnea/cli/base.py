@@ -25,6 +25,7 @@ Files are written through :mod:`mrnea.io.writer`, so no temporary file is left b
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
 import signal
@@ -33,15 +34,16 @@ import threading
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any, NamedTuple, NoReturn
 
 import click
 import numpy as np
 from numba.core import event as numba_event
 
 from mrnea.errors import MrneaError, clip, quote
-from mrnea.io import load_robot_spec
+from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
 from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.payload import parse_payload, parse_vector
 from mrnea.io.source import parse_number
 from mrnea.model import Robot
 
@@ -102,11 +104,6 @@ def fail(message: str) -> NoReturn:
     """End the command with one ``mrnea: error:`` line and exit code 2."""
     click.echo(f"mrnea: error: {one_line(clip(message))}", err=True)
     sys.exit(EXIT_BAD_INPUT)
-
-
-def load_any(spec: str) -> Robot:
-    """A built-in robot by name, else a robot file (URDF or native TOML) by path."""
-    return load_robot_spec(spec)
 
 
 def fresh_dir(base: str) -> Path:
@@ -296,12 +293,72 @@ force_opt = click.option("--force", is_flag=True,
                               "target).")
 
 
-def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """ROBOT PROGRAM [--dt] [--interpolation] [--mode] [--catch-up]: what a command simulating
-    a program takes."""
+class _Payload(click.ParamType):
+    """``KG[@X,Y,Z]`` or a payload file (:func:`mrnea.io.payload.parse_payload`)."""
+
+    name = "payload"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        try:
+            return parse_payload(value, error=MrneaError)
+        except MrneaError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+class _Gravity(click.ParamType):
+    """``GX,GY,GZ`` [m/s^2]: three finite numbers."""
+
+    name = "gravity"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        try:
+            return tuple(parse_vector(value, 3, "gravity", MrneaError).tolist())
+        except MrneaError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """--actuators, --tip, --payload, --gravity: what changes the robot of a command that takes
+    one. The command receives them as one keyword, ``robot_options`` (a
+    :class:`~mrnea.io.RobotOptions`); they override a program file's keys of the same names."""
+    @functools.wraps(command)
+    def wrapper(*args: Any, actuators: str | None, tip: str | None, payload: Any,
+                gravity: Any, **kw: Any) -> Any:
+        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity), **kw)
+
     for option in reversed([
-        click.argument("robot"),
-        click.argument("program", type=click.Path(dir_okay=False)),
+        click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
+                     help="Sidecar actuator file (TOML: rotor inertia, gear, friction, "
+                          "torque-speed curves per joint; docs/robot-format.md)."),
+        click.option("--tip", metavar="LINK",
+                     help="The URDF chain's last link (when the moving joints branch)."),
+        click.option("--payload", type=_Payload(), metavar="KG[@X,Y,Z]|FILE",
+                     help="A payload fixed to the last link: a mass [kg] at a point [m] of the "
+                          "last link's frame, or a TOML file with mass, com and inertia."),
+        click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
+                     help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
+    ]):
+        wrapper = option(wrapper)
+    return wrapper
+
+
+def load_robot_arg(robot: str, options: RobotOptions) -> Robot:
+    """The robot a command's ROBOT argument names (a built-in, a robot file, or a program
+    file naming its robot), with ``options`` applied (over the program's)."""
+    if is_program_file(robot):
+        return load_program(robot).load_robot(options=options)
+    return load_robot_spec(robot, options=options)
+
+
+def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
+    """[ROBOT] PROGRAM [--dt] [--interpolation] [--mode] [--catch-up] and the robot options:
+    what a command simulating a program takes (:func:`load_run` reads them)."""
+    for option in reversed([
+        click.argument("robot", required=False, metavar="[ROBOT]"),
+        click.argument("program", required=False, metavar="PROGRAM",
+                       type=click.Path(dir_okay=False)),
         click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",
                      help="Cycle time [s] (needed for a CSV)."),
         click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
@@ -309,6 +366,59 @@ def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
                           "a program file sets it in [path]."),
         mode_opt,
         catch_opt,
+        robot_options,
     ]):
         command = option(command)
     return command
+
+
+class Run(NamedTuple):
+    """What :func:`load_run` reads: the robot and what to simulate on it."""
+
+    robot: Robot
+    q_cmd: np.ndarray  # (K, n) [rad | m]
+    dt: float  # [s]
+    f_ext: np.ndarray | None  # (K, 6) [N, N m] or None
+    f_ext_point: np.ndarray | None  # (3,) [m] or None
+    mode: str | None  # the program's mode, or None
+    interpolation: str | None  # of a CSV path's rows; None for waypoints
+
+
+def load_run(robot: str | None, program: str | None, dt: float | None,
+             interpolation: str | None, options: RobotOptions) -> Run:
+    """The :class:`Run` the arguments :func:`program_args` declares describe: ``[ROBOT]
+    PROGRAM``, a program file (which may name its robot) or a CSV path.
+
+    One argument is the program: it must name its robot. With both, ROBOT must be the robot
+    the program names, if it names one (:meth:`mrnea.io.Program.load_robot`, which also warns
+    where a resampled CSV path leaves a limit its rows respect).
+    """
+    if program is None:
+        robot, program = None, robot
+    suffix = "" if program is None else Path(program).suffix.lower()
+    if program is None or (robot is None and suffix not in (".csv", ".toml")) or (
+            robot is None and suffix == ".toml" and os.path.isfile(program)
+            and not is_program_file(program)):  # a robot alone
+        raise click.UsageError("Missing argument 'PROGRAM'.")
+    if suffix == ".csv":
+        if dt is None:
+            raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
+        if robot is None:
+            raise click.UsageError("a CSV program needs ROBOT (ROBOT PATH.csv --dt SECONDS)")
+        rob = load_robot_spec(robot, options=options)
+        interpolation = interpolation or "cubic"
+        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob)
+        return Run(rob, q, dt, None, None, None, interpolation)
+    if suffix != ".toml":
+        raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml) nor a "
+                               f"path CSV (.csv)")
+    prog = load_program(program)
+    if dt is not None and not np.isclose(dt, prog.dt):
+        raise click.UsageError(
+            f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
+    if interpolation is not None and interpolation != prog.interpolation:
+        raise click.UsageError(
+            f"--interpolation {interpolation} differs from the program's "
+            f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
+    return Run(prog.load_robot(robot, options), prog.q_cmd, prog.dt, prog.f_ext,
+               prog.f_ext_point, prog.mode, prog.interpolation)

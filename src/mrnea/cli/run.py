@@ -29,13 +29,13 @@ from mrnea.cli.base import (
     force_opt,
     fresh_dir,
     json_opt,
-    load_any,
+    load_run,
     main,
     mode_opt,
     program_args,
     quiet_opt,
 )
-from mrnea.io import from_csv, load_program
+from mrnea.io import RobotOptions
 from mrnea.io.writer import check_new, own_folder
 from mrnea.model import Robot
 
@@ -105,6 +105,8 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
         return
     if not quiet:
         click.echo(res.verdict())
+        if (end := res.final_position_line()) is not None:
+            click.echo(end)
         if report is not None:
             click.echo(f"Report: {report}")
 
@@ -141,28 +143,6 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
         exit_interrupted()
 
 
-def _load_program(robot: Robot, program: str, dt: float | None, interpolation: str | None):
-    """(q_cmd, dt, f_ext, f_ext_point, mode, interpolation) from a program .toml or a CSV file
-    (interpolation: of a CSV path's rows, None for waypoints)."""
-    if program.lower().endswith(".csv"):
-        if dt is None:
-            raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
-        interpolation = interpolation or "cubic"
-        _, q = from_csv(program, dt, interpolation=interpolation, robot=robot)
-        return q, dt, None, None, None, interpolation
-    prog = load_program(program)
-    if dt is not None and not np.isclose(dt, prog.dt):
-        raise click.UsageError(
-            f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
-    if interpolation is not None and interpolation != prog.interpolation:
-        raise click.UsageError(
-            f"--interpolation {interpolation} differs from the program's "
-            f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
-    prog.check_path(robot)
-    return (prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode,
-            prog.interpolation)
-
-
 @main.command()
 @program_args
 @fd_opt
@@ -171,12 +151,16 @@ def _load_program(robot: Robot, program: str, dt: float | None, interpolation: s
 @force_opt
 @quiet_opt
 @json_opt
-def simulate(robot: str, program: str, dt: float | None, interpolation: str | None, mode: str,
-             catch_up: float, fd: str, out: str | None, force: bool, quiet: bool,
-             as_json: bool) -> None:
-    """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json."""
-    rob = load_any(robot)
-    q_cmd, dt, f_ext, f_pt, prog_mode, interp = _load_program(rob, program, dt, interpolation)
+def simulate(robot: str | None, program: str | None, dt: float | None,
+             interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+             fd: str, out: str | None, force: bool, quiet: bool, as_json: bool) -> None:
+    """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json.
+
+    ROBOT may be left out when the program file names its robot; given, it must be that robot.
+    The robot options override the program's keys of the same names.
+    """
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = load_run(robot, program, dt, interpolation,
+                                                              robot_options)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
@@ -191,11 +175,15 @@ def simulate(robot: str, program: str, dt: float | None, interpolation: str | No
 @program_args
 @quiet_opt
 @json_opt
-def check(robot: str, program: str, dt: float | None, interpolation: str | None, mode: str,
-          catch_up: float, quiet: bool, as_json: bool) -> None:
-    """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input, 130: interrupted."""
-    rob = load_any(robot)
-    q_cmd, dt, f_ext, f_pt, prog_mode, _ = _load_program(rob, program, dt, interpolation)
+def check(robot: str | None, program: str | None, dt: float | None,
+          interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+          quiet: bool, as_json: bool) -> None:
+    """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input, 130: interrupted.
+
+    ROBOT may be left out when the program file names its robot (as for simulate).
+    """
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = load_run(robot, program, dt, interpolation,
+                                                         robot_options)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
     if not res.completed:

@@ -2,7 +2,9 @@
 
 ROBOT is optional: a built-in name, a URDF, or a ``.toml`` robot file (one without a
 ``[program]`` table); without it, the grid file's ``[sweep] robot``, else the robot the
-programs name (all the same one). PROGRAMs are program files (``demo``: the SDT demo's
+programs name (all the same one). The robot options (``--actuators``, ``--tip``, ``--payload``,
+``--gravity``) change it over the programs' own keys; a swept ``payload`` is added to a
+``--payload``. PROGRAMs are program files (``demo``: the SDT demo's
 training profile), else the grid file's ``[sweep] programs``. Everything is read and checked
 before any work: the grid's entries against the robot (one error naming the grid file and the
 entry), the output files (never replaced without ``--force``).
@@ -20,6 +22,7 @@ import sys
 from pathlib import Path
 
 import click
+import numpy as np
 
 from mrnea.cli.base import (
     checkpoint,
@@ -28,57 +31,67 @@ from mrnea.cli.base import (
     fresh_dir,
     main,
     quiet_opt,
+    robot_options,
 )
-from mrnea.errors import MrneaError, SweepError, quote
-from mrnea.io import BUILTIN_ROBOTS, load_grid_file, load_program, load_robot_spec, resolve_robot
+from mrnea.errors import SweepError, quote
+from mrnea.io import (
+    BUILTIN_ROBOTS,
+    RobotOptions,
+    is_program_file,
+    load_grid_file,
+    load_program,
+    load_robot_spec,
+    resolve_robot,
+)
+from mrnea.io.dispatch import same_robot
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program
-from mrnea.io.source import read_text
-from mrnea.io.tomlcheck import TomlCheck
 from mrnea.io.writer import check_new, create, own_folder
+from mrnea.model import Robot
 from mrnea.robots.sdt_profile import training_program
 
 CSV, PARQUET, HTML = "sweep.csv", "sweep.parquet", "sweep.html"
-
-
-def _is_program_file(arg: str) -> bool:
-    """Whether ``arg`` is a program file: a ``.toml`` file with a ``[program]`` table."""
-    p = Path(arg)
-    if p.suffix.lower() != ".toml" or not p.is_file():
-        return False
-    try:
-        doc = TomlCheck(arg, SweepError).parse(read_text(p, "file", SweepError))
-    except MrneaError:
-        return False
-    return "program" in doc
 
 
 def _is_robot(arg: str) -> bool:
     """A built-in robot's name, a URDF, or a ``.toml`` file that is not a program."""
     suffix = Path(arg).suffix.lower()
     return (arg in BUILTIN_ROBOTS or suffix in (".urdf", ".xml")
-            or (suffix == ".toml" and Path(arg).is_file() and not _is_program_file(arg)))
+            or (suffix == ".toml" and Path(arg).is_file() and not is_program_file(arg)))
 
 
-def _robot_source(cli: str | None, grid_robot: str | None, programs: list[Program]) -> str:
-    """The one robot of the sweep: ROBOT, the grid file's, or the programs'; two different
-    ones named anywhere is an error."""
+def _same_options(a: RobotOptions, b: RobotOptions) -> bool:
+    """Whether two programs change their robot alike (a payload's arrays by value)."""
+    pa, pb = a.payload, b.payload
+    same_payload = (pa is None) == (pb is None) and (pa is None or all(
+        np.array_equal(x, y) for x, y in zip(pa, pb, strict=True)))
+    return same_payload and (a.actuators, a.tip, a.gravity) == (b.actuators, b.tip, b.gravity)
+
+
+def _robot(cli: str | None, grid_robot: str | None, programs: list[Program],
+           options: RobotOptions) -> Robot:
+    """The one base robot of the sweep: ROBOT, else the grid file's, else the one the programs
+    name (two different ones named anywhere is an error), with the programs' robot options
+    (all the same) and the command line's over them."""
     named = [(what, src) for what, src in (("the ROBOT argument", cli and resolve_robot(cli)),
                                            ("the grid file's [sweep] robot", grid_robot)) if src]
     named += [(f"program {quote(p.name)}", p.robot) for p in programs if p.robot]
     if not named:
         raise SweepError("no robot: give ROBOT, or 'robot' in the grid file's [sweep]")
-
-    def same(a: str, b: str) -> bool:
-        return a == b or (a not in BUILTIN_ROBOTS and b not in BUILTIN_ROBOTS
-                          and Path(a).resolve() == Path(b).resolve())
-
     first_what, first = named[0]
     for what, src in named[1:]:
-        if not same(src, first):
+        if not same_robot(src, first):
             raise SweepError(f"{first_what} is {quote(first)} but {what} is {quote(src)}; a "
                              "sweep runs one robot")
-    return first
+    for p in programs[1:]:
+        if not _same_options(p.options, programs[0].options):
+            raise SweepError(f"programs {quote(programs[0].name)} and {quote(p.name)} change "
+                             "the robot differently (actuators, tip, payload or gravity); a "
+                             "sweep runs one robot")
+    robot = load_robot_spec(first, options=options.over(programs[0].options))
+    for p in programs:
+        p.check_path(robot)
+    return robot
 
 
 def _axes(value: str | None, option: str, keys: list[str], count: int) -> list[str] | None:
@@ -113,11 +126,12 @@ def _axes(value: str | None, option: str, keys: list[str], count: int) -> list[s
               help="The feasibility map's two parameters [default: the first two swept].")
 @click.option("--curves", default=None, metavar="PARAM",
               help="The load curves' parameter [default: the first swept].")
+@robot_options
 @force_opt
 @quiet_opt
 def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str | None,
           workers: int | None, retime: bool, map_axes: str | None, curves: str | None,
-          force: bool, quiet: bool) -> None:
+          robot_options: RobotOptions, force: bool, quiet: bool) -> None:
     """Run every PROGRAM on every variant of ROBOT the grid file describes.
 
     One row per (variant, program) in sweep.csv (and sweep.parquet with pyarrow): the swept
@@ -136,7 +150,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         raise SweepError("no program: give PROGRAM files, or 'programs' in the grid file's "
                          "[sweep]")
     programs = [training_program() if n == DEMO_PROGRAM else load_program(n) for n in names]
-    robot = load_robot_spec(_robot_source(robot_arg, spec.robot, programs))
+    robot = _robot(robot_arg, spec.robot, programs, robot_options)
     programs = load_programs(programs, robot)  # each against the robot's joint count
     keys = list(spec.grid)
     try:

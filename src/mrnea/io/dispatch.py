@@ -7,19 +7,23 @@ never the other way round.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import warnings
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from mrnea.errors import ModelWarning, RobotFileError, quote
+from mrnea.errors import ModelError, ModelWarning, RobotFileError, quote
 from mrnea.io import native, urdf
+from mrnea.io.payload import Payload
+from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path
 from mrnea.model import Robot
 
-__all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "load_builtin", "load_robot", "load_robot_spec",
-           "resolve_robot"]
+__all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "RobotOptions", "load_builtin", "load_robot",
+           "load_robot_spec", "resolve_robot", "same_robot"]
 
 #: Names of the built-in robots (files ``mrnea/robots/data/<name>.toml``).
 BUILTIN_ROBOTS = ("sdt", "puma560")
@@ -54,6 +58,11 @@ def load_robot(path: str | Path, **kw: Any) -> Robot:
         raise RobotFileError(f"{path}: cannot read robot file: it is a directory, not a regular "
                              "file")
     suffix = path.suffix.lower()
+    if suffix == ".xacro":
+        raise RobotFileError(
+            f"{path}: a xacro file (ROS's XML macros), not a URDF: expand it first, e.g. "
+            f"'xacro {path.name} > {path.name.removesuffix(path.suffix)}"
+            f"{'' if path.stem.lower().endswith('.urdf') else '.urdf'}'")
     allowed = {".urdf": ("tip", "actuators"), ".xml": ("tip", "actuators"),
                ".toml": ("actuators",)}.get(suffix, ())
     for key in kw:
@@ -122,13 +131,79 @@ def resolve_robot(spec: str, base_dir: str | Path | None = None) -> str:
     return str(p)
 
 
-def load_robot_spec(spec: str, base_dir: str | Path | None = None) -> Robot:
+def same_robot(a: str, b: str) -> bool:
+    """Whether two resolved sources (:func:`resolve_robot`) are the same robot: the same
+    built-in name, or paths of the same file (however they are written)."""
+    if a in BUILTIN_ROBOTS or b in BUILTIN_ROBOTS:
+        return a == b
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist: compare the paths
+        return Path(a).resolve() == Path(b).resolve()
+
+
+@dataclass(frozen=True)
+class RobotOptions:
+    """What changes a loaded robot: the command line's ``--actuators``, ``--tip``,
+    ``--payload``, ``--gravity`` and a program's keys of the same names.
+
+    Attributes
+    ----------
+    actuators : the path of a sidecar actuator file (:func:`apply_actuator_file`), or None.
+    tip : the URDF chain's last link (:func:`mrnea.io.urdf.load_urdf`), or None.
+    payload : a :class:`~mrnea.io.payload.Payload` fixed to the last link, or None.
+    gravity : (3,) gravity [m/s^2] in base coordinates replacing the robot's, or None.
+    """
+
+    actuators: str | None = None
+    tip: str | None = None
+    payload: Payload | None = None
+    gravity: tuple[float, float, float] | None = None
+
+    def over(self, other: RobotOptions) -> RobotOptions:
+        """These options where they are set, ``other``'s elsewhere (the command line's over a
+        program's)."""
+        return dataclasses.replace(other, **{f.name: getattr(self, f.name)
+                                             for f in dataclasses.fields(self)
+                                             if getattr(self, f.name) is not None})
+
+
+def load_robot_spec(spec: str, base_dir: str | Path | None = None,
+                    options: RobotOptions | None = None) -> Robot:
     """Load the robot ``spec`` names: a built-in robot or a robot file (:func:`resolve_robot`).
+
+    ``options`` are applied in this order: the chain's ``tip`` (URDF files only), the sidecar
+    ``actuators`` file (over the robot file's own values), the ``payload`` on the last link
+    (:meth:`~mrnea.model.Robot.with_payload`), ``gravity`` (over the robot file's).
 
     Raises
     ------
     RobotFileError
-        The file cannot be read (the message names it) or is malformed.
+        ``spec`` is neither a built-in robot nor a file (a name without a robot file's
+        suffix), the file cannot be read (the message names it) or is malformed, ``tip`` is
+        given for a robot that is not a URDF file.
     """
+    opt = RobotOptions() if options is None else options
+    if not isinstance(opt, RobotOptions):
+        raise RobotFileError(f"options: expected a RobotOptions or None, got "
+                             f"{type(opt).__name__} {quote(opt)}")
     source = resolve_robot(spec, base_dir)
-    return load_builtin(source) if source in BUILTIN_ROBOTS else load_robot(source)
+    suffix = Path(source).suffix.lower()
+    if source not in BUILTIN_ROBOTS and suffix not in SUFFIXES and not os.path.lexists(source):
+        raise RobotFileError(f"{quote(spec)} is neither a built-in robot "
+                             f"({', '.join(BUILTIN_ROBOTS)}) nor a file (looked for {source})")
+    if opt.tip is not None and suffix not in (".urdf", ".xml"):
+        raise RobotFileError(f"{source}: tip {quote(opt.tip)} chooses a URDF tree's chain; "
+                             f"this robot is a chain already")
+    robot = (load_builtin(source) if source in BUILTIN_ROBOTS else
+             load_robot(source, **({} if opt.tip is None else {"tip": opt.tip})))
+    if opt.actuators is not None:
+        robot = apply_actuator_file(robot, opt.actuators)
+    try:
+        if opt.payload is not None:
+            robot = robot.with_payload(*opt.payload)
+        if opt.gravity is not None:
+            robot = robot.with_gravity(opt.gravity)
+    except ModelError as exc:
+        raise RobotFileError(f"{source}: {exc}") from None
+    return robot

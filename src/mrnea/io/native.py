@@ -194,6 +194,8 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
     # The model checks every value and names the field: no finiteness check here.
     check = TomlCheck(source, RobotFileError, finite=False)
     doc = check.parse(text)
+    if "program" in doc:
+        raise check.error("", "a program file (it has a [program] table), not a robot file")
     check.check_keys(doc, _TOP_KEYS, "top level")
     robot = check.table(doc.get("robot", {}), "top level", "robot")
     check.check_keys(robot, _ROBOT_KEYS, "[robot]")

@@ -12,22 +12,29 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import ProgramFileError, StateError, quote
-from mrnea.io.dispatch import BUILTIN_ROBOTS, load_robot_spec, resolve_robot
+from mrnea.errors import MrneaError, ProgramFileError, StateError, quote, shorten
+from mrnea.io.dispatch import (
+    BUILTIN_ROBOTS,
+    RobotOptions,
+    load_robot_spec,
+    resolve_robot,
+    same_robot,
+)
 from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
+from mrnea.io.payload import parse_payload
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
 
-__all__ = ["Program", "load_program", "loads_program"]
+__all__ = ["Program", "is_program_file", "load_program", "loads_program"]
 
 #: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
 #: and ``[path] units``.
@@ -46,7 +53,10 @@ class Program:
     Attributes
     ----------
     robot : a built-in robot name (``sdt``, ``puma560``) or the path of a robot file, resolved
-        relative to the program file's folder.
+        relative to the program file's folder; None if the program names no robot (it then
+        runs on a robot given to :meth:`load_robot`).
+    options : what the program changes in its robot (``actuators``, ``tip``, ``payload``,
+        ``gravity``; paths resolved relative to the program file's folder).
     dt : interpolation cycle [s].
     t : (K,) cycle times [s] (``k dt`` for waypoint paths, the CSV's clock for CSV paths).
     q_cmd : (K, n) commanded joint positions [rad | m].
@@ -56,6 +66,7 @@ class Program:
     mode : ``"hybrid"``, ``"paper"`` or None (the simulator's default).
     name : the program's name.
     source : the program file it was read from (for messages).
+    csv : the CSV file of a CSV path (None for waypoints; for messages).
     interpolation : how a CSV path's rows were resampled to dt (a name of
         :data:`mrnea.io.pathcsv.INTERPOLATIONS`); None for a waypoint path.
     csv_rows : (R, 1 + n) the CSV path's rows, time [s] and positions [rad | m]; None for a
@@ -64,7 +75,7 @@ class Program:
     The arrays are read-only.
     """
 
-    robot: str
+    robot: str | None
     dt: float
     t: NDArray[np.float64]
     q_cmd: NDArray[np.float64]
@@ -73,6 +84,8 @@ class Program:
     mode: Literal["hybrid", "paper"] | None
     name: str
     source: str = ""
+    options: RobotOptions = field(default_factory=RobotOptions)
+    csv: str | None = None
     interpolation: str | None = None
     csv_rows: NDArray[np.float64] | None = None
 
@@ -91,23 +104,46 @@ class Program:
         """``(K - 1) dt`` [s]: from the first to the last cycle."""
         return (self.K - 1) * self.dt
 
-    def load_robot(self) -> Robot:
-        """The robot the program names: a built-in one or a robot file (any supported format).
+    def load_robot(self, robot: str | None = None, options: RobotOptions | None = None
+                   ) -> Robot:
+        """The robot to run the program on, with the program's options and ``options`` over them.
+
+        Parameters
+        ----------
+        robot : a robot given besides the program (the command line's ROBOT: a built-in name
+            or a path relative to the current folder); None: the one the program names. When
+            both are given they must be the same robot (the same built-in, or the same file
+            under any path), compared before any option is applied.
+        options : options that replace the program's where they are set (the command line's).
 
         Raises
         ------
         ProgramFileError
-            If the robot's joint count differs from the program's.
+            No robot at all, a ``robot`` other than the program's, or a robot whose joint count
+            differs from the program's (the message names the file and both counts).
         RobotFileError
             If the robot file cannot be read.
         """
-        robot = load_robot_spec(self.robot)
-        if robot.n != self.n:
-            raise ProgramFileError(
-                f"{self.source or self.name}: the program commands {self.n} joints but robot "
-                f"{quote(robot.name)} ({quote(self.robot)}) has {robot.n}")
-        self.check_path(robot)
-        return robot
+        where = self.source or self.name
+        if robot is not None:
+            source = resolve_robot(robot)
+            if self.robot is not None and not same_robot(source, self.robot):
+                raise ProgramFileError(
+                    f"robot {quote(robot)} is not the robot {where} names ({self.robot}); "
+                    f"give either the program alone or its own robot")
+        elif self.robot is None:
+            raise ProgramFileError(f"{where}: the program names no robot ([program] robot); "
+                                   f"give one (ROBOT PROGRAM on the command line)")
+        else:
+            source = self.robot
+        loaded = load_robot_spec(source, options=(options or RobotOptions()).over(self.options))
+        if loaded.n != self.n:
+            what = (f"its CSV path {self.csv} has {self.n} joint columns" if self.csv else
+                    f"{self.n} joint values per waypoint")
+            raise ProgramFileError(f"{where}: {what}, robot {shorten(loaded.name)} has "
+                                   f"{loaded.n}")
+        self.check_path(loaded)
+        return loaded
 
     def check_path(self, robot: Robot) -> None:
         """A :class:`mrnea.errors.PathWarning` for each joint whose resampled CSV path leaves
@@ -120,7 +156,7 @@ class Program:
 
 
 _TOP_KEYS = ("program", "path", "wrench")
-_PROGRAM_KEYS = ("name", "robot", "dt", "mode")
+_PROGRAM_KEYS = ("name", "robot", "dt", "mode", "actuators", "tip", "payload", "gravity")
 _CSV_KEYS = ("csv", "units", "interpolation")
 _PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
               "dwell", "csv", "units", "interpolation")
@@ -134,6 +170,25 @@ def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
                                        f"({', '.join(BUILTIN_ROBOTS)}) nor an existing robot "
                                        f"file (looked for {quote(source)})")
     return source
+
+
+def _options(check: TomlCheck, prog: Mapping[str, Any], base_dir: Path) -> RobotOptions:
+    """The robot options a [program] table sets (paths relative to ``base_dir``)."""
+    where, kw = "[program]", {}
+    if "actuators" in prog:
+        p = Path(check.string(prog["actuators"], where, "actuators")).expanduser()
+        kw["actuators"] = str(p if p.is_absolute() else base_dir / p)
+    if "tip" in prog:
+        kw["tip"] = check.string(prog["tip"], where, "tip")
+    if "payload" in prog:
+        try:
+            kw["payload"] = parse_payload(check.string(prog["payload"], where, "payload"),
+                                          base_dir, ProgramFileError)
+        except MrneaError as exc:
+            raise check.error(where, str(exc)) from None
+    if "gravity" in prog:
+        kw["gravity"] = tuple(check.vector(prog["gravity"], where, "gravity", 3).tolist())
+    return RobotOptions(**kw)
 
 
 def _limit(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArray[np.float64]:
@@ -261,13 +316,16 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     check = TomlCheck(source, ProgramFileError)
     base = Path.cwd() if base_dir is None else as_path(base_dir, "base_dir", ProgramFileError)
     doc = check.parse(text)
+    if "program" not in doc and ("joint" in doc or "robot" in doc):
+        raise check.error("", "a robot file (it has no [program] table), not a program")
     check.check_keys(doc, _TOP_KEYS, "top level")
     prog = check.table(check.require(doc, "program", "top level"), "top level", "program")
     check.check_keys(prog, _PROGRAM_KEYS, "[program]")
     default_name = Path(source).stem if source != "<string>" else "program"
     name = check.string(prog.get("name", default_name), "[program]", "name")
-    robot = _robot(check, check.string(check.require(prog, "robot", "[program]"), "[program]",
-                                       "robot"), base)
+    robot = (_robot(check, check.string(prog["robot"], "[program]", "robot"), base)
+             if "robot" in prog else None)
+    options = _options(check, prog, base)
     dt = check.number(check.require(prog, "dt", "[program]"), "[program]", "dt")
     if not dt > 0:
         raise check.error("[program]", f"'dt' must be a time step > 0 s, got {dt}")
@@ -287,7 +345,8 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         if a is not None:
             a.setflags(write=False)
     return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
-                   mode=mode, name=name, source=source, interpolation=interpolation,
+                   mode=mode, name=name, source=source, options=options,
+                   csv=path["csv"] if "csv" in path else None, interpolation=interpolation,
                    csv_rows=rows)
 
 
@@ -303,7 +362,8 @@ def load_program(path: str | Path) -> Program:
     -------
     Program
         robot, dt [s], t (K,) [s], q_cmd (K, n) [rad | m], f_ext (K, 6) [N, N m] or None,
-        f_ext_point (3,) [m] or None, mode, name.
+        f_ext_point (3,) [m] or None, mode, name, options (the robot's actuators, tip,
+        payload, gravity).
 
     Raises
     ------
@@ -314,3 +374,16 @@ def load_program(path: str | Path) -> Program:
     p = as_path(path, "path", ProgramFileError)
     return loads_program(read_text(p, "program file", ProgramFileError), source=str(p),
                          base_dir=p.parent)
+
+
+def is_program_file(path: str | Path) -> bool:
+    """Whether ``path`` is a program file: a ``.toml`` file with a ``[program]`` table (a
+    ``.toml`` file without one is a robot file). An unreadable or malformed file is neither:
+    its reader says what is wrong."""
+    if not isinstance(path, (str, os.PathLike)) or Path(path).suffix.lower() != ".toml":
+        return False
+    try:  # read and parsed as every reader does (a regular file of bounded size, bounded depth)
+        check = TomlCheck(str(path), ProgramFileError)
+        return "program" in check.parse(read_text(path, "program file", ProgramFileError))
+    except MrneaError:
+        return False

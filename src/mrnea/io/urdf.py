@@ -58,6 +58,7 @@ from mrnea.model import (
     Joint,
     Link,
     Robot,
+    combine_inertials,
     rpy_from_rotation,
     transform,
 )
@@ -287,24 +288,19 @@ class _Reader:
         return out
 
 
-def _combine(parts: list[tuple[float, NDArray, NDArray]]) -> tuple[float, NDArray, NDArray]:
-    """Total mass, com and inertia about that com of bodies (mass, com, inertia) in one frame."""
-    mass = float(sum(m for m, _, _ in parts))
-    massive = [c for m, c, _ in parts if m > 0]
-    if len(massive) == 1:  # exact: no m * c / m rounding
-        com = massive[0]
-    elif massive:
-        com = sum(m * c for m, c, _ in parts) / mass
-    else:
-        com = np.zeros(3)
-    inertia = np.zeros((3, 3))
-    for m, c, I in parts:
-        inertia += I
-        if m > 0:  # parallel-axis term (a massless part far away would give 0 * inf)
-            d = c - com
-            inertia += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-    # (I + I^T) / 2 could overflow
-    return mass, np.array(com, dtype=float), 0.5 * inertia + 0.5 * inertia.T
+def _tip_candidates(links: dict[str, _UrdfLink], paths: list[tuple[str, list[_UrdfJoint]]]
+                    ) -> list[str]:
+    """The leaves whose path has a moving joint, ordered by the mass the chain to them would
+    move (the links after the path's first moving joint), heaviest first, then by name: real
+    end effectors before the cameras and sensors hanging off a wrist with placeholder masses."""
+    def moved(path: list[_UrdfJoint]) -> float:
+        first = next(k for k, j in enumerate(path) if j.type in MOVING_TYPES)
+        masses = (links[j.child].mass for j in path[first:])
+        return sum(m for m in masses if math.isfinite(m) and m > 0)
+
+    ranked = [(-moved(path), leaf) for leaf, path in paths
+              if any(j.type in MOVING_TYPES for j in path)]
+    return [leaf for _, leaf in sorted(ranked)]
 
 
 def load_urdf(
@@ -318,7 +314,8 @@ def load_urdf(
         The URDF file.
     tip : str, optional
         Name of the link that ends the chain. Needed only when the moving joints branch (a hand
-        with moving fingers, a humanoid); the error then lists the candidate tip links. Subtrees
+        with moving fingers, a humanoid); the error then lists the candidate tip links (at most
+        ten, those whose chain moves the most mass first). Subtrees
         off the root-to-tip path are lumped, at ``q = 0``, into the chain link they hang from.
     actuators : str or Path, optional
         A sidecar actuator file (TOML) for what URDF cannot say: rotor inertias, torque-speed
@@ -437,10 +434,11 @@ def load_urdf(
         moving_on_path = {lf: [j for j in path_to(lf) if j.type in MOVING_TYPES] for lf in leaves}
         full = [lf for lf in leaves if len(moving_on_path[lf]) == n_moving]
         if not full:
-            candidates = sorted(lf for lf in leaves if moving_on_path[lf])
+            candidates = _tip_candidates(links, [(lf, path_to(lf)) for lf in leaves])
             raise rd.error(
-                f"the moving joints branch: pass tip=<link name> to choose the chain; candidate "
-                f"tip links: {listing(candidates)}"
+                f"the moving joints branch: choose the chain's last link with tip=<link name> "
+                f"(command line: --tip LINK); candidate tip links, heaviest chain first: "
+                f"{listing(candidates)}"
             )
         chain_path = moving_on_path[full[0]]
     else:
@@ -491,7 +489,7 @@ def load_urdf(
                 else:
                     kw["gear_ratio"] = red
             robot_joints.append(Joint(j.name, j.type, prev, j.child, chain_origin[j.name], **kw))
-            mass, com, inertia = _combine(parts[i])
+            mass, com, inertia = combine_inertials(parts[i])
             robot_links.append(Link(j.child, mass, com, inertia))
             prev = j.child
         robot = Robot(robot_joints, robot_links, DEFAULT_GRAVITY, name=robot_name, base=base)

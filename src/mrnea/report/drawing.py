@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from mrnea.errors import OutputError, shorten
 from mrnea.io.writer import create
+from mrnea.model import JOINT_UNITS
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -209,14 +210,10 @@ def fit_ylim(ax: Axes, core: Sequence[NDArray],
 
 
 def joint_units(robot: Robot) -> list[dict[str, str]]:
-    """Per joint: SI units of position, velocity, acceleration and effort."""
-    out = []
-    for j in robot.joints:
-        if j.is_prismatic:
-            out.append({"q": "m", "qd": "m/s", "qdd": "m/s²", "tau": "N", "motor": "N m or N"})
-        else:
-            out.append({"q": "rad", "qd": "rad/s", "qdd": "rad/s²", "tau": "N m", "motor": "N m"})
-    return out
+    """Per joint: SI units of position, velocity, acceleration and effort (``Joint.unit``, with
+    a superscript ²), and of the motor-side torque."""
+    return [{**{q: j.unit(q).replace("^2", "²") for q in JOINT_UNITS},
+             "motor": "N m or N" if j.is_prismatic else "N m"} for j in robot.joints]
 
 
 def fmt_number(x: float, sig: int = 4) -> str:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from mrnea.describe import describe
 from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import as_path
@@ -270,7 +271,7 @@ is τ/G. Reaction loads are in each joint's frame: axial along the joint axis, r
 across it. Rows in red: the joint saturated or its command was clamped.</p>
 <h2>Run parameters</h2>
 {_params_html(result, interpolation)}
-<details><summary>Robot model</summary><pre>{_e(result.robot.describe())}</pre></details>
+<details><summary>Robot model</summary><pre>{_e(describe(result.robot, width=120))}</pre></details>
 <h2>Figures</h2>
 <p class="note">Series longer than {MAX_POINTS:,} samples are drawn as min/max envelopes;
 peaks are exact.</p>

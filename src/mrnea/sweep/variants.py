@@ -40,7 +40,8 @@ Rules, per joint, in this order:
 4. ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction`` and ``velocity_limit``
    replace the joint's value.
 5. ``payload``: the last link's mass, centre of mass and inertia become those of the link and
-   the payload together (:func:`with_payload`).
+   the payload together (:meth:`mrnea.Robot.with_payload`, a point mass). A robot that carries
+   a payload already (the command line's ``--payload``) carries both.
 
 ``time_scale`` acts on the program (:func:`time_scaled`); :func:`variant` accepts and ignores
 it, so that ``variant(robot, **params)`` rebuilds the robot of any sweep row from its
@@ -58,17 +59,16 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from mrnea import validate
-from mrnea.errors import ModelError, MrneaError, StateError, SweepError, listing, quote
+from mrnea.errors import MrneaError, StateError, SweepError, listing, quote
 from mrnea.io.program import Program
 from mrnea.io.tomlcheck import did_you_mean
-from mrnea.model import Link, Robot
+from mrnea.model import Robot
 from mrnea.resources import require_memory
 
-__all__ = ["JOINT_PARAMETERS", "PARAMETERS", "check_grid", "time_scaled", "variant",
-           "with_payload"]
+__all__ = ["JOINT_PARAMETERS", "PARAMETERS", "check_grid", "time_scaled", "variant"]
 
 JOINT_PARAMETERS = ("gear_ratio", "effort_limit", "motor_torque_limit", "rotor_inertia",
                     "viscous_friction", "coulomb_friction", "velocity_limit")
@@ -80,57 +80,6 @@ _REPLACED = ("rotor_inertia", "viscous_friction", "coulomb_friction", "velocity_
 #: Memory a case of the grid takes while the sweep holds it and its rows [bytes]: the case's
 #: dict, then its rows in the DataFrame, about ROW_BYTES + ROW_BYTES_PER_JOINT n each.
 ROW_BYTES, ROW_BYTES_PER_JOINT = 600, 400
-
-
-# --- the payload ---------------------------------------------------------------------------
-
-
-def with_payload(robot: Robot, mass: float, com: ArrayLike = (0.0, 0.0, 0.0),
-                 inertia: ArrayLike | None = None) -> Robot:
-    """A copy of ``robot`` whose last link carries a rigid payload, merged into its inertials.
-
-    Parameters
-    ----------
-    robot : Robot
-    mass : float
-        The payload's mass [kg], >= 0.
-    com : (3,) array_like
-        Its centre of mass [m] in the last link's frame.
-    inertia : (3, 3) array_like, optional
-        Its inertia [kg m^2] about its centre of mass, in the last link's axes; None: a point
-        mass.
-
-    Returns
-    -------
-    Robot
-        The last link keeps its name; its mass is the sum, its centre of mass the mass-weighted
-        mean (the one massive body's own when only one has mass) and its inertia the sum about
-        that point (parallel-axis theorem), symmetrised.
-    """
-    validate.require_robot(robot)
-    try:
-        p = Link("payload", mass, com, np.zeros((3, 3)) if inertia is None else inertia)
-    except ModelError as exc:
-        raise ModelError(f"with_payload: {exc}") from None
-    last = robot.links[-1]
-    parts = [(last.mass, last.com, last.inertia), (p.mass, p.com, p.inertia)]
-    total = last.mass + p.mass
-    massive = [c for m, c, _ in parts if m > 0]
-    if len(massive) == 1:  # exact: no m c / m rounding
-        c = massive[0]
-    elif massive:
-        c = (last.mass * last.com + p.mass * p.com) / total
-    else:
-        c = np.zeros(3)
-    inertia_c = np.zeros((3, 3))
-    for m, ci, I in parts:
-        inertia_c += I
-        if m > 0:  # parallel-axis term m (|d|^2 E - d d^T), d = com_i - com
-            d = ci - c
-            inertia_c += m * (float(d @ d) * np.eye(3) - np.outer(d, d))
-    link = Link(last.name, total, c, 0.5 * inertia_c + 0.5 * inertia_c.T)
-    return Robot(robot.joints, (*robot.links[:-1], link), gravity=robot.gravity,
-                 name=robot.name, base=robot.base)
 
 
 # --- parameters ----------------------------------------------------------------------------
@@ -263,7 +212,7 @@ def variant(robot: Robot, **params: Any) -> Robot:
         mass = _number("payload", params["payload"], False)
         point = _payload_point(params.get("payload_point", (0.0, 0.0, 0.0)))
         if mass != 0.0:
-            robot = with_payload(robot, mass, point)
+            robot = robot.with_payload(mass, point)
     elif "payload_point" in params:
         raise SweepError("grid entry 'payload_point': needs 'payload' (the mass) too")
     return robot
