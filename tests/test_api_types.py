@@ -1,8 +1,9 @@
 """Every public function refuses an argument of the wrong type with a MrneaError naming it.
 
 Each public function (the top-level exports, ``mrnea.io``, ``mrnea.trajectory``,
-``mrnea.simulate``, ``mrnea.report``, ``mrnea.robots``, the methods of ``Robot`` and
-``SimulationResult``) is called with valid arguments, then with each argument replaced in turn by
+``mrnea.simulate``, ``mrnea.report``, ``mrnea.robots``, ``mrnea.sweep``'s helpers (the sweep
+itself: tests/test_sweep.py), the methods of ``Robot`` and ``SimulationResult``) is called with
+valid arguments, then with each argument replaced in turn by
 None, an int, a str, a dict, a complex number, bytes and the path of a directory. Where a value
 is of an accepted type for that argument (an int for a time step, a str for a path, None for an
 optional argument, a folder for a base folder) it is skipped. Everything else must raise a
@@ -24,7 +25,12 @@ import mrnea.io
 import mrnea.report
 import mrnea.trajectory
 from mrnea.errors import MrneaError
+from mrnea.report.sweep import write_sweep_html
+from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import simulate
+from mrnea.sweep import check_grid, time_scaled, variant
+from mrnea.sweep.engine import _frame
+from mrnea.sweep.rows import run_case
 
 MALFORMED = Path(__file__).resolve().parent / "malformed"
 BAD = ("None", "int", "str", "dict", "complex", "bytes", "dir")
@@ -58,7 +64,12 @@ def env(tmp_path_factory) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = simulate(robot, np.zeros((3, 4)), 0.01)
-    return {"dir": d, "robot": robot, "result": result,
+    (d / "g.toml").write_text("[grid]\npayload = [0.0]\n")
+    program = training_program(0.5)
+    rows = {0: run_case(robot, program, {"payload": 0.0})}
+    sweep_rows = _frame(("payload",), [program.name], [(0, (0, 1.0), {"payload": 0.0})], rows,
+                        False)
+    return {"dir": d, "robot": robot, "result": result, "program": program, "rows": sweep_rows,
             "bad": {"None": None, "int": 123, "str": "abc", "dict": {"a": 1}, "complex": 1 + 2j,
                     "bytes": b"x", "dir": d / "a_folder"}}
 
@@ -134,6 +145,17 @@ def _cases(e: dict) -> list[tuple[str, object, dict, dict]]:
         ("Robot.with_gravity", robot.with_gravity, {"gravity": (0.0, 0.0, -9.81)},
          {"gravity": ""}),
         ("Robot.to_urdf", robot.to_urdf, {"path": d / "w.urdf"}, {"path": OUT}),
+        ("variant", variant, {"robot": robot, "payload": 1.0}, {"robot": "", "payload": NUMBER}),
+        ("time_scaled", time_scaled, {"program": e["program"], "factor": 2.0},
+         {"program": "", "factor": NUMBER}),
+        ("check_grid", check_grid, {"robot": robot, "grid": {"payload": [1.0]}, "zip": False},
+         {"robot": "", "grid": "", "zip": FLAG}),
+        ("load_grid_file", io.load_grid_file, {"path": d / "g.toml"}, {"path": PATH}),
+        ("write_sweep_html", write_sweep_html,
+         {"df": e["rows"], "path": d / "s.html", "robot": "sdt", "keys": None,
+          "map_axes": None, "curves": None, "overwrite": True},
+         {"df": "", "path": OUT, "robot": NAME, "keys": OPTIONAL, "map_axes": OPTIONAL,
+          "curves": NAME + "?", "overwrite": FLAG}),
     ]
 
 
@@ -171,7 +193,8 @@ NAMES = ("forward_dynamics", "inverse_dynamics", "mass_matrix_and_bias", "joint_
          "SimulationResult.to_csv", "SimulationResult.save_summary", "plot_result",
          "write_report", "fig3", "Robot.with_actuators(gear_ratio)",
          "Robot.with_actuators(rotor_inertia)", "Robot.with_actuators(effort_limit)",
-         "Robot.with_actuators(torque_speed)", "Robot.with_gravity", "Robot.to_urdf")
+         "Robot.with_actuators(torque_speed)", "Robot.with_gravity", "Robot.to_urdf",
+         "variant", "time_scaled", "check_grid", "load_grid_file", "write_sweep_html")
 
 
 def test_every_case_is_named(env) -> None:

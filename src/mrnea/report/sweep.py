@@ -69,7 +69,7 @@ def _keys(df: pd.DataFrame, keys: Sequence[str] | None) -> list[str]:
     cols = list(df.columns)
     if keys is None:
         return cols[:cols.index("program")]
-    if isinstance(keys, (str, bytes)) or not all(isinstance(k, str) for k in keys):
+    if not isinstance(keys, (list, tuple)) or not all(isinstance(k, str) for k in keys):
         raise StateError(f"keys: expected a list of swept parameters, got {quote(keys)}")
     for k in keys:
         if k not in cols:
@@ -329,17 +329,24 @@ def write_sweep_html(df: pd.DataFrame, path: str | os.PathLike[str], robot: str,
     check_new([path], overwrite)  # before any rendering
     keys = _keys(df, keys)
     num = swept_parameters(df, keys)
-    if map_axes is not None and (not isinstance(map_axes, (tuple, list)) or len(map_axes) != 2):
-        raise StateError(f"map_axes: expected two swept parameters, got {quote(map_axes)}")
-    map_axes = tuple(map_axes) if map_axes else (tuple(num[:2]) if len(num) >= 2 else None)
+    if map_axes is not None and (not isinstance(map_axes, (tuple, list)) or len(map_axes) != 2
+                                 or not all(k in keys for k in map_axes)):
+        raise StateError(f"map_axes: expected two of the swept parameters ({', '.join(keys)}), "
+                         f"got {quote(map_axes)}")
+    if curves is not None and curves not in keys:
+        raise StateError(f"curves: expected one of the swept parameters ({', '.join(keys)}), "
+                         f"got {quote(curves)}")
+    map_axes = tuple(map_axes) if map_axes else tuple(num[:2])
     curves = curves if curves is not None else (num[0] if num else None)
-    figs = []
-    if df["error"].notna().all():  # nothing ran (all failed, or interrupted before a row)
-        map_axes = curves = None
-    if map_axes:
-        figs.append(("Feasibility map", feasibility_map(df, *map_axes, keys=keys)))
-    if curves:
-        figs.append(("Loads", load_curves(df, curves, keys=keys)))
+    ran = df["error"].isna().any()  # else all failed, or interrupted before a row
+    figs, skipped = [], []
+    for name, params, draw in (("Feasibility map", map_axes, feasibility_map),
+                               ("Loads", (curves,) if curves else (), load_curves)):
+        if ran and params and all(k in num for k in params):
+            figs.append((name, draw(df, *params, keys=keys)))
+        elif params:  # the rows done do not vary it (an interrupted sweep), or none ran
+            skipped.append(f"{name} over {', '.join(params)}: not drawn, the rows hold fewer "
+                           "than two of its values")
     e = html.escape
     shown = [*keys, "program", "achievable", "worst_joint", "worst_effort_ratio",
              "first_infeasible_time", "first_infeasible_joint", "error"]
@@ -375,7 +382,7 @@ def write_sweep_html(df: pd.DataFrame, path: str | os.PathLike[str], robot: str,
 asks for| / the limit at that speed, over the cycles and the joints; above 1 the program needs
 more than a drive has. Map cells: the limiting joint (the first infeasible one, else the one
 closest to its limit) and the ratio; a variant is judged over all its programs.</p>
-{images}
+{images}{"".join(f'<p class="note">{e(x)}</p>' for x in skipped)}
 <h2>Rows</h2>
 {more}<div class="scroll"><table><tr>{head}</tr>
 {"".join(body)}
