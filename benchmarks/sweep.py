@@ -1,6 +1,6 @@
 """Benchmark (not a test): the throughput of a design sweep, and what Dask costs per task.
 
-Usage: ``python benchmarks/sweep.py [--n 1000] [--out benchmarks/results/sweep.md]``
+Usage: ``python benchmarks/sweep.py [--n 1000] [--rounds 3] [--out benchmarks/results/sweep.md]``
 
 About n SDT variants (cabin-yaw gear ratio x yaw motor torque limit x payload, n^(1/3) values
 each) of the demo's training profile (8401 cycles at 5 ms), run
@@ -11,7 +11,9 @@ each) of the demo's training profile (8401 cycles at 5 ms), run
    (one thread each: the default), 1 process with 2 threads, 2 threads in this process;
 3. with one run per task (``batch=1``) against the default batches, at 1 and 2 workers: what a
    task costs beyond its runs; and Dask's own round trip of a no-op task;
-4. the share of a run that holds the GIL (the nogil simulation kernel timed apart): why
+4. 1 and 2 worker processes again, alternated in rounds on two live clusters (on a shared
+   machine the load changes from one minute to the next; alternating spreads it over both);
+5. the share of a run that holds the GIL (the nogil simulation kernel timed apart): why
    threads cannot scale as processes do, on any machine.
 
 Throughput is variants per second of the run phase (cluster start and warm-up are fixed costs,
@@ -142,6 +144,7 @@ def gil_share(robot, program, grid, runs: int = 100) -> tuple[float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     robot, program = sdt(), training_program()
@@ -156,7 +159,7 @@ def main() -> None:
     t_start = time.perf_counter()
     say(f"# Sweep benchmark: {n} SDT variants x {program.name} ({program.K} cycles)")
     say()
-    say(f"Command: `python benchmarks/sweep.py --n {args.n}`. Machine: "
+    say(f"Command: `python benchmarks/sweep.py --n {args.n} --rounds {args.rounds}`. Machine: "
         f"{platform.processor() or platform.machine()}, {len(os.sched_getaffinity(0))} usable "
         f"cores; Python {platform.python_version()}, Numba {numba.__version__}, pandas "
         f"{pd.__version__}, distributed {__import__('distributed').__version__}. "
@@ -190,7 +193,8 @@ def main() -> None:
                 f"{m['batch']} | {m['same']} | {load()} |")
             if cfg.get("processes", True) and cfg["threads_per_worker"] == 1:
                 one = on_cluster(c, robot, program, grid, reference, batch=1)
-                extra = (one["run"] - m["run"]) * cfg["n_workers"] / (one["tasks"] - m["tasks"])
+                extra = ((one["run"] - m["run"]) * cfg["n_workers"]
+                         / max(one["tasks"] - m["tasks"], 1))
                 overhead[name] = (round_trip(c), extra, one, m)
     say()
     say("Per-task overhead (the same sweep with one run per task, against the default batches; "
@@ -200,6 +204,23 @@ def main() -> None:
         say(f"* {name}: no-op round trip {1e3 * trip:.2f} ms per task; {one['tasks']} tasks "
             f"of 1 run took {one['run']:.1f} s against {m['run']:.1f} s for {m['tasks']} of "
             f"{m['batch']}: {1e3 * extra:.1f} ms more per task and worker ({load()})")
+    say()
+    say(f"1 and 2 worker processes alternated, both clusters up, {args.rounds} rounds (each "
+        "sees the other's moments of load; the best round is the closest to an idle machine):")
+    say()
+    with cluster(n_workers=1, threads_per_worker=1) as (c1, _), \
+            cluster(n_workers=2, threads_per_worker=1) as (c2, _):
+        best: dict[int, list[float]] = {1: [], 2: []}
+        for r in range(args.rounds):
+            for w, c in ((1, c1), (2, c2)):
+                m = on_cluster(c, robot, program, grid, reference)
+                best[w].append(m["rate"])
+                say(f"* round {r + 1}, {w} worker(s): {m['rate']:.1f} variants/s, "
+                    f"{m['cpu'] / m['run']:.2f} cores used, {1e3 * m['cpu'] / n:.1f} ms CPU per "
+                    f"run, rows = serial {m['same']} ({load()})")
+        say(f"* best: 1 worker {max(best[1]):.1f}, 2 workers {max(best[2]):.1f} variants/s "
+            f"({max(best[2]) / max(best[1]):.2f}x); median {statistics.median(best[1]):.1f} and "
+            f"{statistics.median(best[2]):.1f}")
     per_run, g = gil_share(robot, program, grid)
     say()
     say(f"GIL: a run costs {1e3 * per_run:.1f} ms of CPU, of which {100 * g:.0f} % outside the "
