@@ -29,7 +29,7 @@ from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch, Rectangle
 
-from mrnea.errors import OutputError, StateError, quote
+from mrnea.errors import OutputError, StateError, quote, shorten
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, create
 from mrnea.report.drawing import MAX_JOINTS, label, new_figure, png_data_uri
@@ -172,7 +172,7 @@ def feasibility_map(df: pd.DataFrame, x: str, y: str, keys: Sequence[str] | None
                 ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, hatch="///",
                                        edgecolor="0.3", linewidth=0))
             if labelled:
-                ax.text(j, i, f"{label(str(r['limit'] or ''))[:16]}\n{r['ratio']:.2f}",
+                ax.text(j, i, f"{label(shorten(str(r['limit'] or ''), 16))}\n{r['ratio']:.2f}",
                         ha="center", va="center", fontsize=7,
                         fontweight="normal" if r["achievable"] else "bold")
         mesh = ax.imshow(np.ma.masked_invalid(grid), origin="lower", cmap="RdYlGn_r",
@@ -336,7 +336,7 @@ def write_sweep_html(df: pd.DataFrame, path: str | os.PathLike[str], robot: str,
     if curves is not None and curves not in keys:
         raise StateError(f"curves: expected one of the swept parameters ({', '.join(keys)}), "
                          f"got {quote(curves)}")
-    map_axes = tuple(map_axes) if map_axes else tuple(num[:2])
+    map_axes = tuple(map_axes) if map_axes else (tuple(num[:2]) if len(num) >= 2 else ())
     curves = curves if curves is not None else (num[0] if num else None)
     ran = df["error"].isna().any()  # else all failed, or interrupted before a row
     figs, skipped = [], []

@@ -31,6 +31,7 @@ import importlib.util
 import logging
 import math
 import os
+import queue
 import signal
 import sys
 import threading
@@ -414,24 +415,31 @@ def _collect(futures: list, which: dict, rows: dict[int, dict[str, Any]],
     """Rows into ``rows`` as tasks finish, ``report(done, total)`` at least every
     :data:`POLL` seconds.
 
-    ``distributed.wait(FIRST_COMPLETED)`` and one gather per wake-up, not
-    ``as_completed(with_results=True)``: that sometimes never yielded a finished future (on the
-    third sweep through one client; dask/distributed#7331)."""
-    from distributed import wait
-
-    pending = set(futures)
+    Each future puts itself in a queue when it is done (distributed calls the callback from its
+    own thread); the loop takes what is there and gathers it in one round trip. Not
+    ``distributed.wait(pending, FIRST_COMPLETED)`` in a loop: each call waits on every pending
+    future again, O(tasks^2) over a sweep (13 s more for 1000 one-run tasks, measured); not
+    ``as_completed(with_results=True)``: it once never yielded a finished future (the third
+    sweep through one client; dask/distributed#7331)."""
+    finished: queue.SimpleQueue = queue.SimpleQueue()
+    for fut in futures:
+        fut.add_done_callback(finished.put)
+    left = len(futures)
     if report is not None:
         report(0, total)
-    while pending:
+    while left:
         try:
-            done, pending = wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
-        except TimeoutError:
-            done = set()
+            done = [finished.get(timeout=POLL)]
+        except queue.Empty:
+            done = []
+        while done and not finished.empty():
+            done.append(finished.get())
         ok = [f for f in done if f.status == "finished"]
         results = dict(builtins.zip([f.key for f in ok], _gather(ok), strict=True))
         for fut in done:
             rows.update(_batch_rows(which[fut.key], results.get(fut.key), fut))
             fut.release()
+        left -= len(done)
         if report is not None:
             report(len(rows), total)
 
