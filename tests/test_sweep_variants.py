@@ -7,6 +7,7 @@ addition for the payload; a closed-form quintic for time scaling; the wrench's o
 from __future__ import annotations
 
 import math
+import tracemalloc
 
 import numpy as np
 import pinocchio as pin
@@ -19,8 +20,11 @@ from mrnea.errors import ModelError, StateError, SweepError
 from mrnea.io import load_grid_file, load_program
 from mrnea.io.program import Program
 from mrnea.model import Joint, Link, Robot, transform
-from mrnea.robots import sdt
+from mrnea.robots import puma560, sdt
 from mrnea.sweep import check_grid, time_scaled, variant
+from mrnea.sweep.engine import _frame
+from mrnea.sweep.rows import run_case
+from mrnea.sweep.variants import ROW_BYTES, ROW_BYTES_PER_JOINT
 from mrnea.trajectory import quintic
 
 CURVE = (4000.0, 1.0, 3.5)  # peak [N m], corner and no-load speed [rad/s], joint side
@@ -225,6 +229,31 @@ def test_a_grid_too_large_for_memory_is_refused_before_it_is_made(robot):
                                              "coulomb_friction", "payload", "time_scale")}
     with pytest.raises(SweepError, match=r"a sweep of 1e\+10 variants needs about .* memory"):
         check_grid(robot, grid)
+
+
+@pytest.mark.parametrize("make", [sdt, puma560])
+def test_the_memory_estimate_bounds_the_rows_peak(make):
+    """The client's rows and the DataFrame made of them, measured with tracemalloc: below the
+    estimate check_grid holds the grid to, and above a quarter of it."""
+    robot = make()
+    q = np.zeros((50, robot.n))
+    prog = Program(robot="x", dt=0.01, t=np.arange(50) * 0.01, q_cmd=q, f_ext=None,
+                   f_ext_point=None, mode=None, name="rest")
+    row = run_case(robot, prog, {"payload": 0.0})
+    _frame(("payload",), ["rest"], [(0, (0, 1.0), {"payload": 0.0})], {0: row}, False)  # pandas'
+    N = 2000  # lazy imports and caches, once per process, are not the rows'
+    tracemalloc.start()
+    try:
+        keys, cases = check_grid(robot, {"payload": [float(x) for x in range(N)]})
+        rows = {k: {c: (v + k if isinstance(v, float) else v) for c, v in row.items()}
+                for k in range(N)}  # every row its own floats, as rows from the workers are
+        _frame(keys, [prog.name], [(k, (0, 1.0), c) for k, c in enumerate(cases)], rows,
+               False)
+        peak = tracemalloc.get_traced_memory()[1] / N
+    finally:
+        tracemalloc.stop()
+    estimate = ROW_BYTES + ROW_BYTES_PER_JOINT * robot.n
+    assert estimate / 4 < peak < estimate, (peak, estimate)
 
 
 def test_curve_peak_must_stay_finite(curved):
