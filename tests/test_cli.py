@@ -83,6 +83,12 @@ def test_simulate_an_example_program(tmp_path):
     assert summary["achievable"] is True and summary["robot"] == "puma560"
     assert Path(summary["report"]).is_file()
     assert "ACHIEVABLE" in html_text(out / "report.html")
+    assert 'class="mv3d"' in (out / "report.html").read_text()  # the 3D view, by default
+    res = run("simulate", "puma560", str(EXAMPLES / "puma_pick.toml"), "--out", str(out),
+              "--force", "--quiet", "--no-3d")
+    assert res.exit_code == 0, res.output
+    doc = (out / "report.html").read_text()
+    assert "ACHIEVABLE" in doc and "<script" not in doc and 'class="mv3d"' not in doc
 
 
 def test_check_exit_codes(tmp_path):

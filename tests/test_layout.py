@@ -154,3 +154,68 @@ def test_validate_reaches_no_numba() -> None:
                 outside.add(m.split(".")[0])
     assert SRC / "kernels" / "status.py" in seen
     assert "numba" not in outside, sorted(p.name for p in seen)
+
+
+def _runtime_imports(path: Path) -> set[str]:
+    """The mrnea modules ``path`` imports when it runs (lazy imports in functions too; not those
+    under ``if TYPE_CHECKING:``), each resolved to a module file: ``from mrnea.x import y`` is
+    ``mrnea.x.y`` where that is a module, else ``mrnea.x``."""
+    names: set[str] = set()
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING":
+            for child in node.orelse:
+                visit(child)
+            return
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            for a in node.names:
+                sub = f"{node.module}.{a.name}"
+                names.add(sub if _file(sub) is not None else node.module)
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(ast.parse(path.read_text()))
+    return {m for m in names if m == "mrnea" or m.startswith("mrnea.")}
+
+
+def _module(path: Path) -> str:
+    rel = path.relative_to(SRC).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(("mrnea", *parts))
+
+
+def test_imports_form_no_cycle() -> None:
+    """Imports point down (docs/design.md, "Import order"): the graph of every module's runtime
+    imports, lazy ones included, has no cycle. Importing ``mrnea.a.b`` also runs the package
+    ``mrnea.a``'s __init__ (an edge too, except to the importer's own packages)."""
+    graph: dict[str, set[str]] = {}
+    for path in SRC.rglob("*.py"):
+        mod = _module(path)
+        own = {".".join(mod.split(".")[:k]) for k in range(1, mod.count(".") + 1)}
+        edges = set()
+        for target in _runtime_imports(path):
+            parts = target.split(".")
+            edges |= {".".join(parts[:k]) for k in range(1, len(parts) + 1)} - own
+        graph[mod] = edges - {mod}
+    assert "mrnea.report.html" in graph["mrnea.simulate"]  # SimulationResult.report (lazy)
+    assert not any(m.startswith("mrnea.simulate") for m in graph["mrnea.report.html"])
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+
+    def cycle_from(mod: str, path: list[str]) -> list[str] | None:
+        state[mod] = 1
+        for nxt in sorted(graph.get(mod, ())):
+            if state.get(nxt) == 1:
+                return [*path, mod, nxt]
+            if nxt not in state:
+                found = cycle_from(nxt, [*path, mod])
+                if found:
+                    return found
+        state[mod] = 2
+        return None
+
+    for mod in sorted(graph):
+        if mod not in state:
+            found = cycle_from(mod, [])
+            assert found is None, " -> ".join(found[found.index(found[-1]):])

@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import dataclasses
 import html
+import json
 import os
 import re
 from html.parser import HTMLParser
@@ -105,10 +106,16 @@ def parse(path: Path) -> tuple[str, StrictHTML]:
     return doc, p
 
 
-def assert_self_contained(doc: str, p: StrictHTML) -> None:
+def assert_self_contained(doc: str, p: StrictHTML, view3d: bool = True) -> None:
+    """No reference to anything outside the page (the browser test also checks that the page
+    makes no request); scripts only with the 3D view, and inline."""
     lowered = doc.lower()
-    assert "http://" not in lowered and "https://" not in lowered
-    assert "<link" not in lowered and "<script" not in lowered and "@import" not in lowered
+    # the one URL: the XHTML namespace's name in three.js, an identifier that is never fetched
+    assert set(re.findall(r"https?://[^\s\"'<>)]+", lowered)) <= {"http://www.w3.org/1999/xhtml"}
+    assert "<link" not in lowered and "@import" not in lowered
+    scripts = p.tags.get("script", [])
+    assert all("src" not in attrs for attrs in scripts)
+    assert bool(scripts) == view3d
     imgs = p.tags.get("img", [])
     assert imgs
     for img in imgs:
@@ -247,9 +254,9 @@ def test_report_achievable_overwrites_when_asked(achievable: SimulationResult,
                                                  tmp_path: Path) -> None:
     path = tmp_path / "report.html"
     path.write_text("old")
-    write_report(achievable, path, overwrite=True)
+    write_report(achievable, path, overwrite=True, view3d=False)
     doc, p = parse(path)
-    assert_self_contained(doc, p)
+    assert_self_contained(doc, p, view3d=False)
     text = " ".join(p.text)
     assert achievable.verdict() in text
     assert "ACHIEVABLE" in text and "NOT ACHIEVABLE" not in text
@@ -294,7 +301,11 @@ def test_report_escapes_names(saturating: SimulationResult, tmp_path: Path,
     doc, p = parse(path)
     assert bad not in doc
     assert html.escape(f"sdt{bad}") in doc
-    assert "https://" not in doc.replace(html.escape(bad), "")
+    # the 3D view's data holds the name as JSON, with every "<" escaped (test_view3d.py)
+    data = re.search(r'<script type="application/json" class="mv3d-data">(.*?)</script>', doc,
+                     re.S)
+    assert data and json.loads(data.group(1))["joints"][0] == evil.joint_names[0]
+    assert "https://" not in doc.replace(data.group(0), "").replace(html.escape(bad), "")
     assert "img" not in p.tags
     assert f"sdt{bad}" in " ".join(p.text)
 
@@ -315,3 +326,17 @@ def test_report_interrupted_and_clamped(sdt: Robot, achievable: SimulationResult
     doc, p = parse(write_report(res, tmp_path / "clamped.html"))
     text = " ".join(p.text)
     assert "NOT ACHIEVABLE" in text and "position limit" in text and "joint range" in text
+
+
+def test_result_report_and_plot_methods(achievable: SimulationResult, tmp_path: Path,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """SimulationResult.report and .plot are write_report and plot_result (figures stubbed)."""
+    monkeypatch.setattr(report_html, "plot_result", lambda r: {})
+    doc, p = parse(achievable.report(tmp_path / "a.html"))
+    assert 'class="mv3d"' in doc and len(p.tags["script"]) == 3  # data, three.js, viewer
+    assert "three.js r187" in doc and "MIT License" in doc  # the licence notice it asks for
+    doc, p = parse(achievable.report(tmp_path / "a.html", overwrite=True, view3d=False))
+    assert "script" not in p.tags and 'class="mv3d"' not in doc
+    with pytest.raises(OutputError, match="exists"):
+        achievable.report(tmp_path / "a.html")
+    assert set(achievable.plot()) == FIGURES

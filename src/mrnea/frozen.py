@@ -1,10 +1,12 @@
-"""Immutable, validated value objects (the Robot, Joint and Link of :mod:`mrnea.model`).
+"""Immutable, validated value objects (the Robot, Joint and Link of :mod:`mrnea.model`, the
+Visual of :mod:`mrnea.visual`).
 
 :class:`Frozen` gives them equality by value (arrays compared by value, ``-0.0 == 0.0``), a hash
 by value (computed once), and copies through their constructor: ``pickle``, ``copy.copy`` and
 ``copy.deepcopy`` call :func:`_rebuild` (``__reduce__``), so that every copy is validated again
 and its arrays are the constructor's read-only ones. The ``ModelWarning``s the original's
-construction gave are not repeated for its copies (:func:`warn`).
+construction gave are not repeated for its copies (:func:`warn`). The array checks they share
+are here too: :func:`frozen_array`, :func:`rigid_transform`.
 """
 
 from __future__ import annotations
@@ -16,8 +18,9 @@ from contextvars import ContextVar
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import ModelWarning
+from mrnea.errors import ModelError, ModelWarning
 
 # True while an object is rebuilt from a validated original (unpickling, copying)
 _REBUILDING: ContextVar[bool] = ContextVar("mrnea_rebuilding", default=False)
@@ -27,6 +30,31 @@ def warn(message: str, stacklevel: int) -> None:
     """A ModelWarning, unless an object is being rebuilt (``stacklevel`` as warnings.warn's)."""
     if not _REBUILDING.get():
         warnings.warn(message, ModelWarning, stacklevel=stacklevel + 1)
+
+
+def frozen_array(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    """A read-only float64 copy of ``a`` with the given shape, all entries finite."""
+    try:
+        arr = np.array(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{what}: not a numeric array ({exc})") from None
+    if arr.shape != shape:
+        raise ModelError(f"{what}: expected shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{what}: contains NaN or infinite values: {arr.tolist()}")
+    arr.setflags(write=False)
+    return arr
+
+
+def rigid_transform(a: ArrayLike, what: str) -> NDArray[np.float64]:
+    """:func:`frozen_array` of a (4, 4) homogeneous transform whose rotation is proper
+    (orthonormal to 1e-6, determinant > 0) and whose last row is exactly (0, 0, 0, 1)."""
+    T = frozen_array(a, (4, 4), what)
+    R = T[:3, :3]
+    if (np.max(np.abs(R @ R.T - np.eye(3))) > 1e-6 or np.linalg.det(R) < 0
+            or np.max(np.abs(T[3] - (0, 0, 0, 1))) > 0):
+        raise ModelError(f"{what} is not a rigid transform: {T.tolist()}")
+    return T
 
 
 def _rebuild(cls: Callable[..., Any], state: dict[str, Any]) -> Any:

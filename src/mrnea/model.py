@@ -41,7 +41,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, quote
-from mrnea.frozen import Frozen, warn
+from mrnea.frozen import Frozen, frozen_array, rigid_transform, warn
+from mrnea.visual import Visual, visual_tuple
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
 
@@ -90,20 +91,6 @@ def _check_name(name: object, kind: str) -> None:
                          f"characters a URDF file cannot hold)")
 
 
-def _frozen(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
-    """A read-only float64 copy of ``a`` with the given shape, all entries finite."""
-    try:
-        arr = np.array(a, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(f"{what}: not a numeric array ({exc})") from None
-    if arr.shape != shape:
-        raise ModelError(f"{what}: expected shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f"{what}: contains NaN or infinite values: {arr.tolist()}")
-    arr.setflags(write=False)
-    return arr
-
-
 def _number(x: object, what: str, *, allow_inf: bool = False) -> float:
     """``x`` as a float: a real number (int, float, NumPy scalar), never text or bytes (Python's
     ``float("1_0")`` is 10) nor a bool."""
@@ -149,8 +136,8 @@ def rpy_from_rotation(R: ArrayLike) -> NDArray[np.float64]:
 
 def transform(xyz: ArrayLike = (0.0, 0.0, 0.0), rpy: ArrayLike = (0.0, 0.0, 0.0)) -> NDArray:
     """4x4 homogeneous transform from a translation [m] and URDF roll-pitch-yaw angles [rad]."""
-    _frozen(xyz, (3,), "origin")
-    _frozen(rpy, (3,), "origin")
+    frozen_array(xyz, (3,), "origin")
+    frozen_array(rpy, (3,), "origin")
     T = np.eye(4)
     T[:3, :3] = rotation_from_rpy(rpy)
     T[:3, 3] = np.asarray(xyz, dtype=float)
@@ -200,12 +187,14 @@ def combine_inertials(parts: Sequence[tuple[float, NDArray, NDArray]]
 
 @dataclass(frozen=True, eq=False)
 class Link(Frozen):
-    """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com]."""
+    """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com];
+    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics)."""
 
     name: str
     mass: float = 0.0
     com: ArrayLike = (0.0, 0.0, 0.0)
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
+    visuals: tuple[Visual, ...] = ()
 
     def __post_init__(self) -> None:
         _check_name(self.name, "link")
@@ -213,9 +202,10 @@ class Link(Frozen):
         mass = _number(self.mass, f"{what}: mass")
         if mass < 0:
             raise ModelError(f"{what}: mass must be >= 0, got {mass}")
-        com = _frozen(self.com, (3,), f"{what}: centre of mass")
-        inertia = _frozen(self.inertia, (3, 3), f"{what}: inertia")
+        com = frozen_array(self.com, (3,), f"{what}: centre of mass")
+        inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
         _check_inertia(inertia, what)
+        object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
@@ -249,12 +239,8 @@ class Joint(Frozen):
                 f"{what}: unsupported joint type {self.type!r} "
                 f"(supported: {', '.join(JOINT_TYPES)})"
             )
-        origin = _frozen(self.origin, (4, 4), f"{what}: origin")
-        R = origin[:3, :3]
-        if (np.max(np.abs(R @ R.T - np.eye(3))) > 1e-6 or np.linalg.det(R) < 0
-                or np.max(np.abs(origin[3] - (0, 0, 0, 1))) > 0):
-            raise ModelError(f"{what}: origin is not a rigid transform: {origin.tolist()}")
-        axis = _frozen(self.axis, (3,), f"{what}: axis")
+        origin = rigid_transform(self.origin, f"{what}: origin")
+        axis = frozen_array(self.axis, (3,), f"{what}: axis")
         big = float(np.max(np.abs(axis)))
         if big < 1e-12:
             raise ModelError(f"{what}: axis is zero")
@@ -331,6 +317,7 @@ class Robot(Frozen):
     gravity : (3,) gravity acceleration [m/s^2] in base coordinates.
     name : the robot's name.
     base : name of the fixed base link (defaults to ``joints[0].parent``).
+    base_visuals : what the fixed base looks like (:class:`mrnea.visual.Visual`, base frame).
     """
 
     def __init__(
@@ -340,6 +327,7 @@ class Robot(Frozen):
         gravity: ArrayLike = DEFAULT_GRAVITY,
         name: str = "robot",
         base: str | None = None,
+        base_visuals: Sequence[Visual] = (),
     ) -> None:
         _check_name(name, "robot")
         joints, links = tuple(joints), tuple(links)
@@ -377,14 +365,15 @@ class Robot(Frozen):
                 warn(f"link '{lk.name}' is massless ({tail})", stacklevel=2)
         self._joints = joints
         self._links = links
-        self._gravity = _frozen(gravity, (3,), f"robot '{name}': gravity")
+        self._gravity = frozen_array(gravity, (3,), f"robot '{name}': gravity")
         self._name = str(name)
         self._base = base
+        self._base_visuals = visual_tuple(base_visuals, f"robot '{name}': base")
 
     def _state(self) -> dict[str, Any]:
         """The constructor's arguments (Frozen: equality, hash, copies and pickling by value)."""
         return {"joints": self._joints, "links": self._links, "gravity": self._gravity,
-                "name": self._name, "base": self._base}
+                "name": self._name, "base": self._base, "base_visuals": self._base_visuals}
 
     # --- read-only description ------------------------------------------------------------
     name = property(lambda self: self._name, doc="The robot's name.")
@@ -392,6 +381,8 @@ class Robot(Frozen):
     joints = property(lambda self: self._joints, doc="The n joints, root to tip.")
     links = property(lambda self: self._links, doc="The n moving links, root to tip.")
     gravity = property(lambda self: self._gravity, doc="(3,) gravity [m/s^2], base frame.")
+    base_visuals = property(lambda self: self._base_visuals,
+                            doc="What the fixed base looks like (Visual, base frame).")
 
     @property
     def n(self) -> int:
@@ -530,7 +521,8 @@ class Robot(Frozen):
         last = self._links[-1]
         m, c, inertia_sum = combine_inertials([(last.mass, last.com, last.inertia),
                                                (p.mass, p.com, p.inertia)])
-        return self._replace(links=(*self._links[:-1], Link(last.name, m, c, inertia_sum)))
+        merged = Link(last.name, m, c, inertia_sum, last.visuals)
+        return self._replace(links=(*self._links[:-1], merged))
 
     def _replace(self, **kw: object) -> Robot:
         return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]

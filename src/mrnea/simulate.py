@@ -24,7 +24,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -40,6 +40,9 @@ from mrnea.kernels.simulate import simulate_cycles
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
 from mrnea.resources import require_memory
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 # The per-joint columns of the per-cycle table and the quantity of model.JOINT_UNITS giving each
 # one's unit (None: a boolean). tau_motor = tau / G with G dimensionless: the effort's unit.
@@ -328,6 +331,22 @@ class SimulationResult:
             json.dump(self.summary(), fh, indent=2)
             fh.write("\n")
         return Path(path)
+
+    def plot(self, path: str | os.PathLike | None = None,
+             overwrite: bool = False) -> dict[str, Figure]:
+        """The report's figures of this run, optionally saved as PNG files in the folder
+        ``path``: :func:`mrnea.report.plot_result` (see there)."""
+        from mrnea.report.figures import plot_result  # matplotlib: loaded when first asked for
+
+        return plot_result(self, path, overwrite)
+
+    def report(self, path: str | os.PathLike, overwrite: bool = False,
+               view3d: bool = True) -> Path:
+        """Write the HTML report of this run, with the interactive 3D view of the motion unless
+        ``view3d`` is False: :func:`mrnea.report.write_report` (see there)."""
+        from mrnea.report.html import write_report  # matplotlib: loaded when first asked for
+
+        return write_report(self, path, overwrite, view3d=view3d)
 
 
 def simulate(

@@ -291,6 +291,9 @@ json_opt = click.option("--json", "as_json", is_flag=True, help="Print the summa
 force_opt = click.option("--force", is_flag=True,
                          help="Replace existing output files (a link is replaced, never its "
                               "target).")
+no_3d_opt = click.option("--no-3d", "no_3d", is_flag=True,
+                         help="Leave the interactive 3D view out of report.html (then the page "
+                              "has no script).")
 
 
 class _Payload(click.ParamType):

@@ -32,6 +32,7 @@ from mrnea.cli.base import (
     load_run,
     main,
     mode_opt,
+    no_3d_opt,
     program_args,
     quiet_opt,
 )
@@ -80,8 +81,8 @@ def _outputs(out: Path, extra: tuple[str, ...] = ()) -> list[Path]:
     return [out / f for f in (TABLE, SUMMARY, REPORT, *(f"{n}.png" for n in (*FIGURES, *extra)))]
 
 
-def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = None,
-                   interpolation: str | None = None) -> Path:
+def _write_outputs(res, out: Path, force: bool, view3d: bool,
+                   extra_figures: dict | None = None, interpolation: str | None = None) -> Path:
     from mrnea.report import plot_result, write_report
     from mrnea.report.drawing import save_figure
 
@@ -93,7 +94,7 @@ def _write_outputs(res, out: Path, force: bool, extra_figures: dict | None = Non
         save_figure(fig, out / f"{name}.png", force, dpi=110)
     checkpoint()
     return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures,
-                        interpolation=interpolation)
+                        interpolation=interpolation, view3d=view3d)
 
 
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
@@ -117,10 +118,12 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
 @click.option("--dt", type=POSITIVE, default=0.005, show_default=True, metavar="SECONDS",
               help="Cycle time [s].")
 @mode_opt
+@no_3d_opt
 @force_opt
 @quiet_opt
 @json_opt
-def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_json: bool) -> None:
+def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet: bool,
+         as_json: bool) -> None:
     """Simulate the built-in SDT's training profile and write the report.
 
     The profile (spin-up, a fast cabin yaw turn, roll and pitch manoeuvres, spin-down) exceeds
@@ -137,7 +140,7 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
         res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
         with compile_notice(quiet):  # the batch dynamics kernels fig3 calls
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
-        report = _write_outputs(res, folder, force, figs)
+        report = _write_outputs(res, folder, force, not no_3d, figs)
     _print_result(res, report, as_json, quiet)
     if not res.completed:
         exit_interrupted()
@@ -148,12 +151,14 @@ def demo(out: str | None, dt: float, mode: str, force: bool, quiet: bool, as_jso
 @fd_opt
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-out].")
+@no_3d_opt
 @force_opt
 @quiet_opt
 @json_opt
 def simulate(robot: str | None, program: str | None, dt: float | None,
              interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
-             fd: str, out: str | None, force: bool, quiet: bool, as_json: bool) -> None:
+             fd: str, out: str | None, no_3d: bool, force: bool, quiet: bool,
+             as_json: bool) -> None:
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json.
 
     ROBOT may be left out when the program file names its robot; given, it must be that robot.
@@ -165,7 +170,7 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
                    force)
-        report = _write_outputs(res, folder, force, interpolation=interp)
+        report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
     if not res.completed:
         exit_interrupted()

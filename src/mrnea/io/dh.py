@@ -26,9 +26,10 @@ Mapping to mrnea's frames (``T_i = T_{i-1} @ origin_i @ motion(q_i)``, axis z):
   ``F_i = L_i B_i`` with ``B_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``. Hence
   ``origin_1 = I`` (DH frame 0 is the base frame), ``origin_{i+1} = B_i``, and link i's inertials,
   given in DH frame i, are re-expressed in L_i: ``com_L = B_i com_F`` (a point) and
-  ``I_L = R_B I_F R_B^T``. The last fixed transform ``B_n`` (mrnea's last link frame -> DH frame n,
-  the DH "flange" frame) is not a joint of the chain: it is only used for link n's inertials and is
-  available from :func:`dh_tip_transform`, e.g. to place a tool or compare end-effector poses.
+  ``I_L = R_B I_F R_B^T``; its visuals too: ``origin_L = B_i origin_F``. The last fixed
+  transform ``B_n`` (mrnea's last link frame -> DH frame n, the DH "flange" frame) is not a
+  joint of the chain: it is only used for link n's inertials and visuals and is available from
+  :func:`dh_tip_transform`, e.g. to place a tool or compare end-effector poses.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, clip, listing, quote
 from mrnea.model import JOINT_TYPES, Joint, Link
+from mrnea.visual import Visual
 
 CONVENTIONS = ("standard", "modified")
 
@@ -76,6 +78,7 @@ class DHRow:
     com : (3,) centre of mass [m] in the DH link frame (frame i of the chosen convention).
     inertia : (3, 3) inertia [kg m^2] about the centre of mass, axes of the DH link frame.
     name, link_name : joint and link names (default ``joint<i>``, ``link<i>``, 1-based).
+    visuals : the link's :class:`mrnea.visual.Visual` in the DH link frame, like ``com``.
     joint : the joint's limit and actuator fields (:data:`JOINT_FIELDS`), passed on to
         :class:`mrnea.model.Joint` as keywords (joint side; limits in rad or m).
     """
@@ -90,6 +93,7 @@ class DHRow:
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
     name: str | None = None
     link_name: str | None = None
+    visuals: tuple[Visual, ...] = ()
     joint: Mapping[str, Any] = field(default_factory=dict)
 
 
@@ -243,14 +247,15 @@ def dh_joint_chain(
             to_link = np.eye(4)
         # Inertials: validate in the DH frame first (error messages name the link), then move.
         try:
-            lk = Link(lname, mass=r.mass, com=r.com, inertia=r.inertia)
+            lk = Link(lname, mass=r.mass, com=r.com, inertia=r.inertia, visuals=r.visuals)
         except ModelError as exc:
             raise ModelError(clip(f"{label}: {exc}")) from None
         R = to_link[:3, :3]
         com = R @ lk.com + to_link[:3, 3]
         inertia = R @ lk.inertia @ R.T
         inertia = 0.5 * inertia + 0.5 * inertia.T  # (I + I^T) / 2 could overflow
-        links.append(Link(lname, mass=lk.mass, com=com, inertia=inertia))
+        links.append(Link(lname, mass=lk.mass, com=com, inertia=inertia,
+                          visuals=tuple(v.moved(to_link) for v in lk.visuals)))
         joints.append(Joint(jname, r.type, parent, lname, origin=origin, axis=(0.0, 0.0, 1.0),
                             **r.joint))
         parent = lname

@@ -22,6 +22,10 @@ The full description, with a complete example, is in ``docs/robot-format.md``. I
     mass = 2.0                      # kg
     com = [0.2, 0.0, 0.0]           # m, link frame
     inertia = { ixx = 0.01, iyy = 0.03, izz = 0.03 }   # kg m^2 about the com (or a 3x3 list)
+    visual = [                      # what it looks like (optional; the report's 3D view)
+        { box = [0.5, 0.08, 0.08], xyz = [0.25, 0.0, 0.0], color = [0.36, 0.5, 0.65] },
+        { cylinder = [0.06, 0.12], rpy = [1.5707963267948966, 0.0, 0.0] },
+    ]
 
 Every problem is reported as :class:`mrnea.errors.RobotFileError` (a :class:`ModelError`) whose
 message names the file and the joint or link at fault: TOML syntax errors (with line and column),
@@ -43,6 +47,7 @@ import numpy as np
 
 from mrnea.errors import ModelError, RobotFileError, quote
 from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
+from mrnea.io.mesh import mesh_path
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck
@@ -57,16 +62,18 @@ from mrnea.model import (
     rpy_from_rotation,
     transform,
 )
+from mrnea.visual import VISUAL_KINDS, Visual
 
 __all__ = ["dumps_native", "load_native", "loads_native", "write_native"]
 
 _TOP_KEYS = ("robot", "joint")
-_ROBOT_KEYS = ("name", "gravity", "dh", "base")
+_ROBOT_KEYS = ("name", "gravity", "dh", "base", "base_visual")
 _COMMON_JOINT_KEYS = ("name", "type", "link", *JOINT_FIELDS)
 _ORIGIN_JOINT_KEYS = ("origin", "axis")
 _DH_JOINT_KEYS = ("a", "alpha", "d", "theta")
 _ORIGIN_KEYS = ("xyz", "rpy", "rotation")
-_LINK_KEYS = ("name", "mass", "com", "inertia")
+_LINK_KEYS = ("name", "mass", "com", "inertia", "visual")
+_VISUAL_KEYS = (*VISUAL_KINDS, *_ORIGIN_KEYS, "scale", "color")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 
 
@@ -88,6 +95,46 @@ def _inertia(check: TomlCheck, value: Any, where: str) -> np.ndarray:
                              f"{{ixx, iyy, izz, ixy, ixz, iyz}}, got {quote(value)}")
 
 
+def _visuals(check: TomlCheck, value: Any, where: str) -> tuple[Visual, ...]:
+    """A ``visual`` array of tables (docs/robot-format.md) as Visuals in the link's frame (a
+    mesh file is read when a view is drawn: :mod:`mrnea.io.mesh`)."""
+    if not isinstance(value, list):
+        raise check.error(where, "'visual' must be an array of tables: write visual = [{ ... }] "
+                                 "or [[...visual]]")
+    out = []
+    for k, entry in enumerate(value, start=1):
+        what = f"{where}: visual #{k}"
+        check.table(entry, where, f"visual #{k}")
+        check.check_keys(entry, _VISUAL_KEYS, what)
+        kinds = [kind for kind in VISUAL_KINDS if kind in entry]
+        if len(kinds) != 1:
+            raise check.error(what, f"give exactly one of {', '.join(VISUAL_KINDS)}, got "
+                                    f"{', '.join(kinds) or 'none'}")
+        kind, mesh = kinds[0], None
+        if "scale" in entry and kind != "mesh":
+            raise check.error(what, "'scale' goes with a mesh only")
+        if kind == "mesh":
+            mesh = mesh_path(check.string(entry["mesh"], what, "mesh"), Path(check.source))
+            size = check.vector(entry.get("scale", [1.0, 1.0, 1.0]), what, "scale", 3)
+        elif kind == "sphere":
+            size = [check.number(entry[kind], what, kind)]
+        else:
+            size = check.vector(entry[kind], what, kind, VISUAL_KINDS[kind])
+        color = None
+        if "color" in entry:
+            color = list(check.vector(entry["color"], what, "color"))
+            if len(color) not in (3, 4):
+                raise check.error(what, f"'color' must be [r, g, b] or [r, g, b, a] in [0, 1], "
+                                        f"got {entry['color']!r}")
+            color += [1.0] * (4 - len(color))
+        origin = _pose(check, entry, what, what)
+        try:
+            out.append(Visual(kind, tuple(size), origin, color, mesh))
+        except ModelError as exc:
+            raise check.error(what, str(exc)) from None
+    return tuple(out)
+
+
 def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) -> dict[str, Any]:
     where = f"joint {quote(jname)}"
     table = check.table(check.require(joint, "link", where), where, "link")
@@ -99,7 +146,8 @@ def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) ->
     com = check.vector(table.get("com", [0.0, 0.0, 0.0]), lwhere, "com", 3)
     inertia = (_inertia(check, table["inertia"], lwhere) if "inertia" in table
                else np.zeros((3, 3)))
-    return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia}
+    visuals = _visuals(check, table.get("visual", []), lwhere)
+    return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia, "visuals": visuals}
 
 
 def _origin(check: TomlCheck, table: Mapping[str, Any], joint: str) -> np.ndarray:
@@ -107,13 +155,19 @@ def _origin(check: TomlCheck, table: Mapping[str, Any], joint: str) -> np.ndarra
     joint ``joint`` (its label in messages)."""
     where = f"{joint}: origin"
     check.check_keys(table, _ORIGIN_KEYS, where)
+    return _pose(check, table, where, joint)
+
+
+def _pose(check: TomlCheck, table: Mapping[str, Any], where: str, label: str) -> np.ndarray:
+    """The 4x4 transform of the ``xyz`` and ``rpy`` or ``rotation`` keys of ``table`` (the
+    other keys are not looked at); ``where`` and ``label`` name it in messages."""
     xyz = check.vector(table.get("xyz", [0.0, 0.0, 0.0]), where, "xyz", 3)
     if "rotation" not in table:
         rpy = check.vector(table.get("rpy", [0.0, 0.0, 0.0]), where, "rpy", 3)
         try:
             return transform(xyz, rpy)
         except ModelError as exc:
-            raise check.error(joint, str(exc)) from None
+            raise check.error(label, str(exc)) from None
     if "rpy" in table:
         raise check.error(where, "give 'rpy' or 'rotation', not both")
     T = np.eye(4)
@@ -212,9 +266,11 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
         raise check.error("", "no [[joint]] tables: a robot needs at least one joint")
     if not isinstance(entries, list):
         raise check.error("", "'joint' must be an array of tables: write [[joint]], not [joint]")
+    base_visuals = _visuals(check, robot.get("base_visual", []), "[robot] base")
     joints, links = _parse_joints(check, entries, dh, base)
     try:
-        return Robot(joints, links, gravity=gravity, name=name, base=base)
+        return Robot(joints, links, gravity=gravity, name=name, base=base,
+                     base_visuals=base_visuals)
     except ModelError as exc:
         raise check.error("", str(exc)) from None
 
@@ -302,6 +358,24 @@ def _joint_field_lines(joint: Joint) -> list[str]:
     return out
 
 
+def _visual_lines(key: str, visuals: tuple[Visual, ...]) -> list[str]:
+    """``key = [...]``: one inline table per visual (none: no line)."""
+    if not visuals:
+        return []
+    out = [f"{key} = ["]
+    for v in visuals:
+        if v.kind == "mesh":
+            parts = [f"mesh = {_string(str(v.mesh))}", f"scale = {_numbers(v.size)}"]
+        else:
+            parts = [f"{v.kind} = " + (_number(v.size[0]) if v.kind == "sphere"
+                                       else _numbers(v.size))]
+        parts += _origin_lines(np.asarray(v.origin))
+        if v.color is not None:
+            parts.append(f"color = {_numbers(v.color)}")
+        out.append("    { " + ", ".join(parts) + " },")
+    return [*out, "]"]
+
+
 def dumps_native(robot: Robot) -> str:
     """The native TOML text of ``robot`` (format: ``docs/robot-format.md``): ``[robot]``, then
     per joint a ``[[joint]]`` table with its limit and actuator fields (those that differ from
@@ -311,13 +385,15 @@ def dumps_native(robot: Robot) -> str:
         raise TypeError(f"dumps_native: expected a Robot, got {type(robot).__name__}")
     lines = ["# mrnea robot file (docs/robot-format.md); SI units: m, rad, kg, kg m^2, N m, s",
              "[robot]", f"name = {_string(robot.name)}", f"base = {_string(robot.base)}",
-             f"gravity = {_numbers(robot.gravity)}"]
+             f"gravity = {_numbers(robot.gravity)}",
+             *_visual_lines("base_visual", robot.base_visuals)]
     for j, lk in zip(robot.joints, robot.links, strict=True):
         lines += ["", "[[joint]]", f"name = {_string(j.name)}", f"type = {_string(j.type)}",
                   f"axis = {_numbers(j.axis)}", *_joint_field_lines(j),
                   "[joint.origin]", *_origin_lines(j.origin),
                   "[joint.link]", f"name = {_string(lk.name)}", f"mass = {_number(lk.mass)}",
-                  f"com = {_numbers(lk.com)}", f"inertia = {_inertia_value(lk.inertia)}"]
+                  f"com = {_numbers(lk.com)}", f"inertia = {_inertia_value(lk.inertia)}",
+                  *_visual_lines("visual", lk.visuals)]
     return "\n".join(lines) + "\n"
 
 
@@ -325,8 +401,8 @@ def write_native(robot: Robot, path: str | Path, overwrite: bool = False) -> Pat
     """Write ``robot`` as a native TOML robot file (:func:`dumps_native`).
 
     Everything a Robot holds is written, what URDF cannot hold included (rotor inertia,
-    torque-speed curves, gravity), every number exactly: :func:`load_native` reads the file back
-    equal to ``robot``, bit for bit.
+    torque-speed curves, gravity, visuals; a mesh by its absolute path), every number exactly:
+    :func:`load_native` reads the file back equal to ``robot``, bit for bit.
 
     Parameters
     ----------

@@ -52,6 +52,7 @@ from mrnea.errors import (
 )
 from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
+from mrnea.io.urdf_visual import materials, visuals
 from mrnea.io.writer import create
 from mrnea.model import (
     DEFAULT_GRAVITY,
@@ -62,6 +63,7 @@ from mrnea.model import (
     rpy_from_rotation,
     transform,
 )
+from mrnea.visual import Visual
 
 __all__ = ["load_urdf", "write_urdf"]
 
@@ -87,6 +89,7 @@ class _UrdfLink:
     # [kg m^2] about the com, in the axes of the inertial frame, rotated by R from the link frame
     inertia: NDArray[np.float64] = field(default_factory=lambda: np.zeros((3, 3)))
     R: NDArray[np.float64] = field(default_factory=lambda: np.eye(3))
+    visuals: list[Visual] = field(default_factory=list)  # link frame (io/urdf_visual.py)
 
 
 @dataclass
@@ -364,10 +367,12 @@ def load_urdf(
     robot_name = root.get("name") or path.stem
 
     links: dict[str, _UrdfLink] = {}
+    named_colors, left_out = materials(rd, root), []
     for k, elem in enumerate(root.findall("link")):
         lk = rd.link(elem, k)
         if lk.name in links:
             raise rd.error(f"duplicate link name {quote(lk.name)}")
+        lk.visuals = visuals(rd, elem, lk.name, named_colors, left_out)
         links[lk.name] = lk
     joints: dict[str, _UrdfJoint] = {}
     parent_joint: dict[str, _UrdfJoint] = {}  # child link -> the joint above it
@@ -460,6 +465,7 @@ def load_urdf(
     pose = {base: np.eye(4)}
     chain_origin: dict[str, NDArray] = {}
     parts: list[list[tuple[float, NDArray, NDArray]]] = [[] for _ in range(len(chain) + 1)]
+    looks: list[list[Visual]] = [[] for _ in range(len(chain) + 1)]  # visuals, body frames
     for name in order:
         if name != base:
             j = parent_joint[name]
@@ -468,6 +474,7 @@ def load_urdf(
                 body[name], pose[name] = chain[j.name], np.eye(4)
             else:
                 body[name], pose[name] = body[j.parent], pose[j.parent] @ j.origin
+        looks[body[name]] += [v.moved(pose[name]) for v in links[name].visuals]
         if body[name] == 0:  # part of the fixed base: dropped, hence not validated either
             continue
         mass, com, inertia = rd.inertial(links[name])
@@ -490,11 +497,16 @@ def load_urdf(
                     kw["gear_ratio"] = red
             robot_joints.append(Joint(j.name, j.type, prev, j.child, chain_origin[j.name], **kw))
             mass, com, inertia = combine_inertials(parts[i])
-            robot_links.append(Link(j.child, mass, com, inertia))
+            robot_links.append(Link(j.child, mass, com, inertia, tuple(looks[i])))
             prev = j.child
-        robot = Robot(robot_joints, robot_links, DEFAULT_GRAVITY, name=robot_name, base=base)
+        robot = Robot(robot_joints, robot_links, DEFAULT_GRAVITY, name=robot_name, base=base,
+                      base_visuals=looks[0])
     except ModelError as exc:  # Joint/Link/Robot errors name the joint or link: add the file
         raise rd.error(str(exc)) from None
+    if left_out:
+        warnings.warn(f"{path}: {len(left_out)} visual(s) left out of the 3D view (the "
+                      f"dynamics are unchanged): " + "; ".join(left_out[:5])
+                      + ("; ..." if len(left_out) > 5 else ""), UserWarning, stacklevel=2)
     for tname, jnames in coupled.items():
         warnings.warn(
             f"{path}: transmission {quote(tname)} couples joint(s) {listing(jnames)} with other "

@@ -5,8 +5,11 @@
   (names in :data:`FIGURES`).
 * :func:`fig3` (:mod:`mrnea.report.paper`) -- the paper's Fig. 3: joint torques by the RNEA and
   by the mRNEA along a trajectory, and the input accelerations against forward dynamics.
-* :func:`write_report` (:mod:`mrnea.report.html`) -- one HTML file, verdict first, figures
-  embedded as PNG data URIs: no external resource, no JavaScript.
+* :func:`write_report` (:mod:`mrnea.report.html`) -- one HTML file, verdict first, then the
+  interactive 3D view of the motion (:mod:`mrnea.report.view3d` its data,
+  :mod:`mrnea.report.view3d_html` the page fragment with the vendored three.js,
+  :mod:`mrnea.report.shapes` the robot's shapes), figures embedded as PNG data URIs: no
+  external resource, no request, works from ``file://``.
 
 Drawing helpers, decimation (:data:`MAX_POINTS`) and :func:`~mrnea.report.drawing.save_figure`
 are in :mod:`mrnea.report.drawing`; every file is written through :mod:`mrnea.io.writer`.

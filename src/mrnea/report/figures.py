@@ -10,7 +10,8 @@ decimated to min/max envelopes (:mod:`mrnea.report.drawing`).
 from __future__ import annotations
 
 import os
-from typing import Any
+import sys
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -33,7 +34,9 @@ from mrnea.report.drawing import (
     save_figure,
     shade,
 )
-from mrnea.simulate import SimulationResult
+
+if TYPE_CHECKING:
+    from mrnea.simulate import SimulationResult
 
 FIGURES = ("motion", "efforts", "reactions", "tracking")
 """The names of :func:`plot_result`'s figures (and of their PNG files)."""
@@ -49,8 +52,14 @@ def _first_time(result: SimulationResult) -> float | None:
 
 
 def require_result(result: object) -> None:
-    """A StateError unless ``result`` is a :class:`~mrnea.simulate.SimulationResult`."""
-    if not isinstance(result, SimulationResult):
+    """A StateError unless ``result`` is a :class:`~mrnea.simulate.SimulationResult`.
+
+    The report sits below :mod:`mrnea.simulate` in the import order and does not import it
+    (docs/design.md): a SimulationResult exists only once that module is loaded, so the class is
+    looked up among the loaded modules.
+    """
+    simulate = sys.modules.get("mrnea.simulate")
+    if simulate is None or not isinstance(result, simulate.SimulationResult):
         raise StateError(f"result: expected a SimulationResult (mrnea.simulate.simulate's), got "
                          f"{type(result).__name__}")
 

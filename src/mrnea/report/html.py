@@ -1,6 +1,7 @@
-"""One self-contained HTML report of a simulation run: verdict first, then the first infeasible
-instant, the per-joint table, the run parameters and the figures, embedded as PNG data URIs (no
-external resource, no JavaScript)."""
+"""One self-contained HTML report of a simulation run: verdict first, then the 3D view of the
+motion (:mod:`mrnea.report.view3d_html`, optional), the first infeasible instant, the per-joint
+table, the run parameters and the figures, embedded as PNG data URIs. No external resource: the
+view's scripts and data are inline, and the page works from ``file://``."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import re
 from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -22,8 +24,12 @@ from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, create
 from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_uri
 from mrnea.report.figures import plot_result, require_result
-from mrnea.simulate import SimulationResult
+from mrnea.report.view3d import result_scene
+from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
 from mrnea.validate import choice
+
+if TYPE_CHECKING:
+    from mrnea.simulate import SimulationResult
 
 _CSS = """
 body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 0 auto;
@@ -73,19 +79,29 @@ def _row(cells: Sequence[str], cls: str = "", head: bool = False) -> str:
     return f"<tr{attr}>{body}</tr>"
 
 
+class _Html(str):
+    """Text that is HTML already: :func:`_kv_table` does not escape it again."""
+
+
 def _kv_table(rows: Sequence[tuple[str, str]]) -> str:
-    body = "".join(f'<tr><th class="l">{_e(k)}</th><td class="l">{_e(v)}</td></tr>'
-                   for k, v in rows)
+    body = "".join(f'<tr><th class="l">{_e(k)}</th><td class="l">'
+                   f'{v if isinstance(v, _Html) else _e(v)}</td></tr>' for k, v in rows)
     return f"<table>{body}</table>"
 
 
 def _time(t: float, dt: float) -> str:
     """``t`` with as many decimals as the cycle ``dt`` needs (at least 3)."""
-    decimals = max(3, math.ceil(-math.log10(dt) - 1e-9)) if dt > 0 else 6
-    return f"{t:.{decimals}f}"
+    return f"{t:.{decimals(dt)}f}"
 
 
-def _first_infeasible_html(result: SimulationResult) -> str:
+def _instant(t: float, dt: float, link: bool) -> _Html:
+    """The time ``t`` [s] as text, with ``link`` a link that shows it in the 3D view."""
+    text = _time(t, dt)
+    return _Html(f'<a href="#t={text}" title="show this instant in the 3D view">{text}</a>'
+                 if link else text)
+
+
+def _first_infeasible_html(result: SimulationResult, link: bool) -> str:
     fi = result.summary()["first_infeasible"]
     if fi is None and not result.completed:
         return (f"<p>None in the {result.K:,} cycles done before the run was interrupted: "
@@ -97,7 +113,7 @@ def _first_infeasible_html(result: SimulationResult) -> str:
     req, avail = fi["required_effort"], fi["available_effort"]
     ratio = abs(req) / avail if avail > 0 and math.isfinite(avail) else math.inf
     rows = [
-        ("time", f"{_time(fi['time'], result.dt)} s (cycle {k:,})"),
+        ("time", _Html(f"{_instant(fi['time'], result.dt, link)} s (cycle {k:,})")),
         ("joint", fi["joint"]),
         ("reason", fi["reason"]),
         ("required effort", f"{fmt_number(req)} {u['tau']}"),
@@ -116,7 +132,7 @@ def _first_infeasible_html(result: SimulationResult) -> str:
     return _kv_table(rows)
 
 
-def _joints_html(result: SimulationResult) -> str:
+def _joints_html(result: SimulationResult, link: bool) -> str:
     if result.K == 0:
         return "<p>No cycle was completed.</p>"
     s = result.summary()
@@ -147,10 +163,11 @@ def _joints_html(result: SimulationResult) -> str:
             fmt_number(jd["peak_radial_force"]), fmt_number(jd["peak_reaction_moment"]),
             fmt_number(jd["peak_bending_moment"]),
             f"{fmt_number(jd['max_tracking_error'])} {u['q']}",
-            _time(jd["max_tracking_error_time"], result.dt),
+            _instant(jd["max_tracking_error_time"], result.dt, link),
         ]
         bad = nsat or npos or nvel
-        rows.append(_row([_e(c) for c in cells], cls="sat" if bad else ""))
+        rows.append(_row([c if isinstance(c, _Html) else _e(c) for c in cells],
+                         cls="sat" if bad else ""))
     return f'<div class="scroll"><table>{"".join(rows)}</table></div>'
 
 
@@ -182,17 +199,19 @@ def write_report(
     overwrite: bool = False,
     extra_figures: Mapping[str, Figure] | None = None,
     interpolation: str | None = None,
+    view3d: bool = True,
 ) -> Path:
     """Write one self-contained HTML report of a simulation run.
 
     Contents, top to bottom: the verdict (:meth:`SimulationResult.verdict`), large, green when
-    achievable, red when not, amber for an interrupted run that exceeded no limit so far; the first
-    infeasible instant (time, joint, reason, required vs available effort); the per-joint table
+    achievable, red when not, amber for an interrupted run that exceeded no limit so far; the 3D
+    view of the motion (``view3d``); the first infeasible instant (time, joint, reason, required
+    vs available effort); the per-joint table
     of :meth:`SimulationResult.summary` (time saturated, peak and RMS motor torque, peak effort
     vs limit, peak reaction force with its axial and radial parts, peak moment and bending
     moment, worst tracking error and when); the run parameters; the figures of
     :func:`plot_result` and then ``extra_figures``. Figures are embedded as base64 PNG data URIs
-    and the style sheet is inline: the file needs no network, no other file and no JavaScript.
+    and the style sheet is inline: the file needs no network and no other file.
 
     Parameters
     ----------
@@ -207,6 +226,14 @@ def write_report(
     interpolation : str, optional
         How the program's CSV path was resampled to dt (:attr:`mrnea.io.Program.interpolation`,
         a name of :data:`mrnea.io.pathcsv.INTERPOLATIONS`): the run parameters say it.
+    view3d : bool, default True
+        Put the interactive 3D view of the motion under the verdict
+        (:mod:`mrnea.report.view3d_html`: the robot as it moves and, translucent, as the program
+        commands it, on a time slider that is the cycle clock; ``report.html#t=SECONDS`` opens
+        it at that instant). It needs a browser with WebGL 2 and adds about 0.6-1 MB (three.js
+        and the frames, inline). The times in the tables then link to their instant and the
+        figures mark the slider's time. False: no script in the page. A run without any cycle
+        gets no view.
 
     Returns
     -------
@@ -238,6 +265,7 @@ def write_report(
     verdict = result.verdict()
     cls = {True: "ok", False: "bad", None: "partial"}[s["achievable"]]
 
+    view3d = view3d and result.K > 0
     figures = list(plot_result(result).items())
     if extra_figures:
         figures += list(extra_figures.items())
@@ -245,9 +273,12 @@ def write_report(
     for k, (name, fig) in enumerate(figures):
         caption = f": {_e(_CAPTIONS[name])}" if name in _CAPTIONS else ""
         slug = re.sub(r"[^A-Za-z0-9_-]+", "-", str(name)).strip("-")
+        uri = png_data_uri(fig)  # the figure drawn as saved: figure_axes reads that layout
+        axes = f" data-xaxes='{figure_axes(fig)}'" if view3d else ""
         fig_html.append(
-            f'<figure id="fig{k + 1}-{slug}"><img alt="{_e(name)}" src="{png_data_uri(fig)}">'
+            f'<figure id="fig{k + 1}-{slug}"{axes}><img alt="{_e(name)}" src="{uri}">'
             f"<figcaption><b>{_e(name)}</b>{caption}</figcaption></figure>")
+    view_html = (f"<h2>3D view</h2>\n{scene_html(result_scene(result))}" if view3d else "")
 
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
     doc = f"""<!DOCTYPE html>
@@ -262,10 +293,11 @@ def write_report(
 <h1>Simulation report: {_e(result.robot.name)}</h1>
 <p class="note">Will the robot make the programmed motion? Generated {_e(stamp)} by mrnea.</p>
 <div class="verdict {cls}" id="verdict">{_e(verdict)}</div>
+{view_html}
 <h2>First infeasible instant</h2>
-{_first_infeasible_html(result)}
+{_first_infeasible_html(result, view3d)}
 <h2>Per joint</h2>
-{_joints_html(result)}
+{_joints_html(result, view3d)}
 <p class="note">Efforts are joint side (N m for revolute, N for prismatic joints); motor torque
 is τ/G. Reaction loads are in each joint's frame: axial along the joint axis, radial / bending
 across it. Rows in red: the joint saturated or its command was clamped.</p>
@@ -276,6 +308,7 @@ across it. Rows in red: the joint saturated or its command was clamped.</p>
 <p class="note">Series longer than {MAX_POINTS:,} samples are drawn as min/max envelopes;
 peaks are exact.</p>
 {"".join(fig_html)}
+{license_html() if view3d else ""}
 </body>
 </html>
 """

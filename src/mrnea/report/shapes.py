@@ -1,0 +1,198 @@
+"""The shapes the report's 3D view draws: a robot's visuals, or simple shapes made from its joints.
+
+Per body (the fixed base, then link 0 .. n-1) a list of :class:`Shape` in that body's frame,
+each with the joint whose saturation reddens it. A body with visuals
+(:attr:`mrnea.model.Link.visuals`, :attr:`mrnea.model.Robot.base_visuals`) is drawn as those;
+a body without, or whose mesh files cannot be read, as capsules between the joint origins and
+short cylinders along the joint axes (:func:`fallback`). Meshes are read through
+:func:`mrnea.io.mesh.read_mesh` and decimated so that the whole scene holds at most
+:data:`MAX_SCENE_FACES` triangles (:func:`decimate`).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea.errors import MrneaError, StateError, quote
+from mrnea.io.mesh import read_mesh
+from mrnea.model import Robot
+from mrnea.visual import VISUAL_KINDS
+
+MAX_SCENE_FACES = 40_000
+"""At most this many mesh triangles in one view (all meshes together)."""
+LINK_COLOR, DRIVE_COLOR = 0x5B7FA6, 0x3B4048
+
+
+@dataclass(frozen=True, eq=False)
+class Shape:
+    """One shape as the page draws it: a :class:`mrnea.visual.Visual`'s kind, size and origin
+    (``"mesh"``: size is the scale and ``vertices`` (V, 3), ``faces`` (F, 3) the triangles),
+    its colour ``0xRRGGBB`` (None: the view's), and the joint whose saturation reddens it
+    (None: none)."""
+
+    kind: str
+    size: tuple[float, ...]
+    origin: NDArray[np.float64] = field(default_factory=lambda: np.eye(4))
+    color: int | None = None
+    joint: int | None = None
+    vertices: NDArray[np.float32] | None = None
+    faces: NDArray[np.int64] | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in VISUAL_KINDS or len(self.size) != VISUAL_KINDS[self.kind]:
+            raise StateError(f"shape {self.kind!r} with sizes {self.size!r}: see Visual")
+        if (self.kind == "mesh") != (self.vertices is not None and self.faces is not None):
+            raise StateError("vertices and faces go with a mesh, and a mesh needs both")
+
+    def bounding_sphere(self) -> tuple[NDArray[np.float64], float]:
+        """Centre (3,) in the body frame and radius [m] of a sphere holding the shape."""
+        o = self.origin
+        if self.kind == "mesh":
+            v = np.asarray(self.vertices, dtype=float) * np.asarray(self.size)
+            c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+            return o[:3, :3] @ c + o[:3, 3], float(np.linalg.norm(v - c, axis=1).max())
+        s = self.size
+        if self.kind == "box":
+            r = 0.5 * math.hypot(*s)
+        elif self.kind == "sphere":
+            r = s[0]
+        elif self.kind == "cylinder":
+            r = math.hypot(s[0], s[1] / 2)
+        else:  # capsule
+            r = s[0] + s[1] / 2
+        return o[:3, 3].copy(), float(r)
+
+
+def frame_z_to(d: ArrayLike, at: ArrayLike) -> NDArray[np.float64]:
+    """(4, 4) frame at the point ``at`` whose z axis is along the vector ``d`` (not zero)."""
+    z = np.asarray(d, dtype=float) / np.linalg.norm(d)
+    x = np.cross([0.0, 0.0, 1.0] if abs(z[2]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    T[:3, 3] = at
+    return T
+
+
+def capsule_between(a: ArrayLike, b: ArrayLike, radius: float, joint: int | None = None,
+                    color: int | None = None) -> Shape:
+    """A capsule of ``radius`` [m] from point ``a`` to point ``b`` (3,) [m] of a body frame."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return Shape("capsule", (radius, float(np.linalg.norm(b - a))),
+                 frame_z_to(b - a, 0.5 * (a + b)), color, joint)
+
+
+def tip_point(robot: Robot) -> NDArray[np.float64]:
+    """The end-effector point whose path the view draws, in the last link's frame [m]: twice the
+    last link's centre of mass (the far end of a uniform bar from its joint), its origin when the
+    centre of mass is there."""
+    return 2.0 * np.asarray(robot.links[-1].com, dtype=float)
+
+
+def fallback(robot: Robot, body: int) -> list[Shape]:
+    """Simple shapes of body ``body`` (0: the base, i + 1: link i) from the joints alone.
+
+    A capsule from the body's origin to the next joint's origin (the last link: to
+    :func:`tip_point`; a sphere where they coincide), reddened with the joint that moves the
+    body; a short cylinder (revolute) or a square rail (prismatic) along the axis of the joint
+    the body carries, reddened with that joint; under the base a plinth. Sizes scale with the
+    robot's reach.
+    """
+    offsets = [np.asarray(j.origin[:3, 3], dtype=float) for j in robot.joints]
+    end = tip_point(robot)
+    reach = sum(float(np.linalg.norm(p)) for p in offsets) + float(np.linalg.norm(end))
+    r = 0.035 * (reach if reach > 0 else 1.0)
+    moved_by = None if body == 0 else body - 1
+    out = []
+    if body == 0:
+        out.append(Shape("cylinder", (3.0 * r, r), frame_z_to((0, 0, 1.0), (0, 0, -r / 2)),
+                         DRIVE_COLOR))
+    nxt = offsets[body] if body < robot.n else end
+    if np.linalg.norm(nxt) > 1e-9:
+        out.append(capsule_between((0, 0, 0), nxt, r, moved_by, LINK_COLOR))
+    elif body > 0:
+        out.append(Shape("sphere", (1.3 * r,), color=LINK_COLOR, joint=moved_by))
+    if body < robot.n:  # the drive of the joint this body carries
+        j = robot.joints[body]
+        frame = frame_z_to(j.origin[:3, :3] @ np.asarray(j.axis), offsets[body])
+        out.append(Shape("box", (1.8 * r, 1.8 * r, 8.0 * r), frame, DRIVE_COLOR, body)
+                   if j.is_prismatic else
+                   Shape("cylinder", (1.6 * r, 3.2 * r), frame, DRIVE_COLOR, body))
+    return out
+
+
+def decimate(vertices: ArrayLike, faces: ArrayLike, max_faces: int
+             ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """A mesh of at most ``max_faces`` (>= 4) triangles approximating (V, 3), (F, 3).
+
+    Quadric decimation (the ``fast_simplification`` package) where it is installed and meets the
+    budget; otherwise the convex hull of every k-th vertex, at most ``max_faces // 2`` of them
+    (a hull of m points has at most 2 m - 4 faces; holes and concavities are lost).
+    """
+    V, F = np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64)
+    if F.shape[0] <= max_faces:
+        return V, F
+    try:
+        import fast_simplification
+
+        V2, F2 = fast_simplification.simplify(V, F, target_count=max_faces)
+        if 0 < F2.shape[0] <= max_faces:
+            return np.asarray(V2, dtype=float), np.asarray(F2, dtype=np.int64)
+    except ImportError:
+        pass
+    import trimesh
+
+    every = math.ceil(V.shape[0] / max(4, max_faces // 2))
+    hull = trimesh.convex.convex_hull(V[::every])
+    return np.asarray(hull.vertices, dtype=float), np.asarray(hull.faces, dtype=np.int64)
+
+
+def _rgb(color: tuple[float, ...] | None) -> int | None:
+    if color is None:
+        return None
+    r, g, b = (round(255 * c) for c in color[:3])
+    return (r << 16) | (g << 8) | b
+
+
+def robot_shapes(robot: Robot, max_faces: int = MAX_SCENE_FACES) -> list[list[Shape]]:
+    """The shapes of every body: ``[base, link 0, ..., link n-1]``, each in its body's frame.
+
+    Mesh files that cannot be read (not found, not installed trimesh, not a mesh) give one
+    UserWarning saying why, and a body is drawn as if it had no visual (:func:`fallback`) when
+    none of its visuals is left.
+    """
+    bodies = [robot.base_visuals, *(lk.visuals for lk in robot.links)]
+    meshes: dict[str, tuple[NDArray, NDArray]] = {}
+    failed: dict[str, str] = {}
+    for v in (v for vs in bodies for v in vs if v.kind == "mesh"):
+        if v.mesh not in meshes and v.mesh not in failed:
+            try:
+                meshes[v.mesh] = read_mesh(v.mesh)
+            except MrneaError as exc:
+                failed[str(v.mesh)] = str(exc)
+    if failed:
+        warnings.warn(f"3D view of {quote(robot.name)}: {len(failed)} mesh file(s) not drawn "
+                      "(a link left without any shape is drawn as a capsule): "
+                      + "; ".join(list(failed.values())[:3])
+                      + ("; ..." if len(failed) > 3 else ""), UserWarning, stacklevel=3)
+    total = sum(F.shape[0] for _, F in meshes.values())
+    for path, (V, F) in meshes.items():  # the budget shared in proportion to the faces
+        meshes[path] = decimate(V, F, max(100, max_faces * F.shape[0] // max(total, 1)))
+    out = []
+    for b, visuals in enumerate(bodies):
+        joint = None if b == 0 else b - 1
+        shapes = []
+        for v in visuals:
+            if v.kind != "mesh":
+                shapes.append(Shape(v.kind, v.size, v.origin, _rgb(v.color), joint))
+            elif v.mesh in meshes:
+                V, F = meshes[v.mesh]
+                shapes.append(Shape("mesh", v.size, v.origin, _rgb(v.color), joint,
+                                    V.astype(np.float32), F))
+        out.append(shapes or fallback(robot, b))
+    return out

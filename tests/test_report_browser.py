@@ -1,0 +1,304 @@
+"""The report's 3D view in a real browser: headless Chromium driven through the DevTools protocol
+(tests/chromium_cdp.py). Skips, saying why, only where no Chromium can be started.
+
+Two pages. A test page whose frames are closed forms (a planar two-link arm swinging with a
+period of 2 s, independent of mrnea's kinematics; joint 1 flagged saturated from 1.0 to 1.5 s;
+a matplotlib figure with a green vertical line at T_MARK), and the report ``mrnea demo`` writes.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from chromium_cdp import Browser, ChromiumUnavailable
+from click.testing import CliRunner
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from mrnea.cli import main
+from mrnea.report import shapes as shp
+from mrnea.report import view3d, view3d_html
+
+Image = pytest.importorskip("PIL.Image")  # matplotlib's dependency
+
+DT, PERIOD, T_END, T_MARK = 0.01, 2.0, 6.0, 2.75
+L1, L2 = 0.6, 0.4
+DEMO_BUDGET = 3_000_000  # bytes: the demo's report stays under 3 MB
+
+
+def planar_frames(t: np.ndarray) -> np.ndarray:
+    """(F, 2, 4, 4): joint 1 about z at 0.3 m above the base, joint 2 about z at (L1, 0, 0)."""
+    q1, q2 = 0.9 * np.sin(2 * np.pi * t / PERIOD), 1.2 * np.sin(2 * np.pi * t / PERIOD + 1)
+    T = np.zeros((t.size, 2, 4, 4))
+    T[..., 3, 3] = 1
+    for i, a in enumerate((q1, q1 + q2)):
+        T[:, i, 0, 0], T[:, i, 0, 1], T[:, i, 1, 0], T[:, i, 1, 1] = (np.cos(a), -np.sin(a),
+                                                                      np.sin(a), np.cos(a))
+        T[:, i, 2, 2] = 1
+    T[:, 0, 2, 3] = 0.3
+    T[:, 1, :3, 3] = T[:, 0, :3, 3] + L1 * np.column_stack([np.cos(q1), np.sin(q1),
+                                                             np.zeros_like(q1)])
+    return T
+
+
+def closed_form_page() -> str:
+    t = np.arange(0.0, T_END + DT / 2, DT)
+    idx = view3d.frame_indices(t, 2)
+    sat = np.zeros((t.size, 2), dtype=bool)
+    sat[(t >= 1.0) & (t < 1.5), 0] = True
+    shapes = [[shp.Shape("cylinder", (0.1, 0.3), shp.frame_z_to((0, 0, 1.0), (0, 0, 0.15)))],
+              [shp.capsule_between((0, 0, 0), (L1, 0, 0), 0.04, joint=0)],
+              [shp.capsule_between((0, 0, 0), (L2, 0, 0), 0.04, joint=1)]]
+    spec = view3d.scene_data(t[idx], planar_frames(t[idx]), planar_frames(t[idx] - 0.1), shapes,
+                             view3d.pool_flags(sat, idx), ["j1", "j2"], (0.0, T_END, DT),
+                             (L2, 0, 0))
+    fig = Figure(figsize=(8, 3), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.1, 0.2, 0.85, 0.7))
+    ax.plot(t, np.sin(t))
+    ax.axvline(T_MARK, color="#00ff00", lw=1)
+    ax.set_xlim(-0.3, T_END + 0.3)
+    ax.set_xlabel("time t [s]")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    png = base64.b64encode(buf.getvalue()).decode()
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>t</title></head><body>"
+            f"{view3d_html.scene_html(spec)}<figure id='f' data-xaxes='"
+            f"{view3d_html.figure_axes(fig)}'><img style='border:1px solid #ddd' "
+            f"src='data:image/png;base64,{png}'></figure></body></html>")
+
+
+@pytest.fixture(scope="module")
+def browser():
+    try:
+        b = Browser(width=1100, height=1300)
+    except ChromiumUnavailable as exc:
+        pytest.skip(f"no Chromium for the browser tests: {exc}")
+    with b:
+        yield b
+
+
+def open_view(browser: Browser, url: str):
+    page = browser.open(url)
+    assert page.evaluate("mrneaView3d.ready.then(a => a !== null)"), "no WebGL in Chromium"
+    page.evaluate("document.querySelectorAll('.mv3d-legend, .mv3d-sat, .mv3d-hint')"
+                  ".forEach(e => e.style.visibility = 'hidden')")  # the 3D scene alone in shots
+    page.next_frames(2)
+    return page
+
+
+@pytest.fixture(scope="module")
+def page(browser, tmp_path_factory):
+    path = tmp_path_factory.mktemp("view3d") / "page.html"
+    path.write_text(closed_form_page(), encoding="utf-8")
+    return open_view(browser, path.as_uri() + "#t=0.5")
+
+
+def shot(page, t: float | None = None, selector: str = ".mv3d-stage") -> np.ndarray:
+    if t is not None:
+        page.evaluate(f"mrneaView3d.setTime({t})")
+        page.next_frames(2)
+    png = page.screenshot(selector)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+
+
+def changed(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of pixels that differ by more than 30 in some channel."""
+    return float((np.abs(a - b).max(axis=2) > 30).mean())
+
+
+def test_opens_at_the_url_time(page) -> None:
+    assert page.evaluate("mrneaView3d.time()") == 0.5
+    assert page.evaluate("document.querySelector('.mv3d input[type=range]').value") == "0.5"
+    assert page.evaluate("document.querySelector('.mv3d output').textContent") == "0.500 s"
+
+
+def test_canvas_shows_a_scene(page) -> None:
+    img = shot(page, 0.5)
+    assert img.reshape(-1, 3).std(axis=0).mean() > 5  # not one flat colour
+
+
+def test_motion_changes_the_picture_and_only_the_motion(page) -> None:
+    a, b = shot(page, 0.5), shot(page, 1.5)
+    same = shot(page, 0.5 + PERIOD)  # the arm is where it was one period earlier
+    moved = changed(a, b)
+    assert 0.002 < moved < 0.3
+    # the paths are drawn up to the current time, so the later picture has more path; the arm
+    # itself (and so all but a thin line) is where it was
+    assert changed(a, same) < 0.2 * moved
+
+
+def test_saturated_joint_is_red_only_while_it_saturates(page) -> None:
+    def red(img: np.ndarray) -> float:
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        return float(((r > 150) & (g < 90) & (b < 90)).mean())
+
+    assert red(shot(page, 1.2)) > 0.001
+    assert red(shot(page, 2.5)) < 1e-5
+    assert page.evaluate("document.querySelector('.mv3d-sat').textContent") == ""
+    page.evaluate("mrneaView3d.setTime(1.2)")
+    assert page.evaluate("document.querySelector('.mv3d-sat').textContent") == "saturated: j1"
+
+
+def columns(img: np.ndarray, mask) -> np.ndarray:
+    return np.flatnonzero(mask(img).any(axis=0))
+
+
+def purple(img: np.ndarray) -> np.ndarray:
+    return (np.abs(img[..., 0] - 123) < 40) & (img[..., 1] < 100) & (img[..., 2] > 140)
+
+
+def hide_markers(page, hidden: bool) -> None:
+    page.evaluate("document.querySelectorAll('.mv3d-tline').forEach(e => e.style.visibility = "
+                  f"'{'hidden' if hidden else 'visible'}')")
+
+
+def test_time_marker_lands_on_matplotlibs_line(page) -> None:
+    img = shot(page, T_MARK, "#f img")
+    hide_markers(page, True)  # the marker covers matplotlib's line when it is right
+    bare = shot(page, None, "#f img")
+    hide_markers(page, False)
+    green = columns(bare, lambda x: (x[..., 1] > 200) & (x[..., 0] < 80))
+    marker = columns(img, purple)
+    assert green.size and marker.size
+    assert abs(marker.mean() - green.mean()) <= 1.5  # pixels
+
+
+def test_play_advances_the_clock(page) -> None:
+    page.evaluate("mrneaView3d.setTime(0)")
+    page.evaluate("mrneaView3d.play()")
+    page.evaluate("new Promise(r => setTimeout(r, 400))")
+    page.evaluate("mrneaView3d.pause()")
+    assert 0.0 < page.evaluate("mrneaView3d.time()") < T_END
+
+
+def test_orbit_zoom_and_reset_view(page) -> None:
+    page.evaluate("document.querySelector('.mv3d').scrollIntoView()")
+    before = shot(page, 0.5)
+    box = page.evaluate("(() => { const r = document.querySelector('.mv3d canvas')"
+                        ".getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; })()")
+    cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
+    page.mouse("mouseMoved", cx, cy)
+    page.mouse("mousePressed", cx, cy, button="left", clickCount=1)
+    for k in range(1, 11):
+        page.mouse("mouseMoved", cx + 15 * k, cy + 3 * k, button="left", buttons=1)
+    page.mouse("mouseReleased", cx + 150, cy + 30, button="left", clickCount=1)
+    page.next_frames(2)
+    orbited = shot(page)
+    assert changed(before, orbited) > 0.01  # the camera turned
+    page.mouse("mouseWheel", cx, cy, deltaX=0, deltaY=-600)
+    page.next_frames(2)
+    assert changed(orbited, shot(page)) > 0.01  # and moved closer
+    page.evaluate("document.querySelector('.mv3d-home').click()")
+    page.next_frames(2)
+    assert changed(before, shot(page)) < 0.001  # "reset view": the first camera again
+
+
+def test_no_webgl_says_so_and_raises_nothing(tmp_path) -> None:
+    """Without WebGL (GPU and software rasteriser off) the view says so in one line and hides
+    its controls; the rest of the page is there and nothing is logged as an error."""
+    path = tmp_path / "page.html"
+    path.write_text(closed_form_page(), encoding="utf-8")
+    try:
+        b = Browser(width=900, height=900,
+                    extra_flags=("--disable-gpu", "--disable-software-rasterizer"))
+    except ChromiumUnavailable as exc:
+        pytest.skip(f"no Chromium for the browser tests: {exc}")
+    with b:
+        page = b.open(path.as_uri())
+        if page.evaluate("!!document.createElement('canvas').getContext('webgl2')"):
+            pytest.skip("this Chromium gives WebGL 2 even with the GPU and rasteriser off")
+        assert page.evaluate("mrneaView3d.ready") is None
+        assert page.evaluate("getComputedStyle(document.querySelector('.mv3d-nogl-msg'))"
+                             ".display") == "block"
+        assert page.evaluate("getComputedStyle(document.querySelector('.mv3d-controls'))"
+                             ".display") == "none"
+        assert page.evaluate("document.querySelector('#f img').complete")
+        assert page.errors == [] and page.outside_requests == []
+
+
+def test_no_error_and_no_request_outside_the_file(page) -> None:
+    assert page.errors == []
+    assert page.outside_requests == []
+    assert Path(page.requests[0]).name.startswith("page.html")
+
+
+# --- the demo's report ---------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo") / "out"
+    res = CliRunner().invoke(main, ["demo", "--out", str(out), "--quiet"],
+                             catch_exceptions=False)
+    assert res.exit_code == 0, res.output
+    return out / "report.html", json.loads((out / "summary.json").read_text())
+
+
+def test_demo_report_size(demo) -> None:
+    report, _ = demo
+    assert report.stat().st_size < DEMO_BUDGET
+
+
+def test_demo_report_in_the_browser(browser, demo) -> None:
+    report, summary = demo
+    t_first = summary["first_infeasible"]["time"]
+    page = open_view(browser, report.as_uri())
+    page.evaluate("document.querySelector('.mv3d').scrollIntoView()")
+    a = shot(page, 5.0)
+    assert a.reshape(-1, 3).std(axis=0).mean() > 5  # the canvas is not blank
+    b = shot(page, 20.0)
+    again = shot(page, 5.0)
+    assert changed(a, b) > 0.005  # the trainer turned between 5 s and 20 s ...
+    assert changed(a, again) == 0.0  # ... and the picture is the instant's alone
+    # the first infeasible instant's link in the table shows that instant
+    href = page.evaluate("""(() => { const a = [...document.querySelectorAll('a[href^="#t="]')]
+        .find(a => !a.closest('.mv3d')); a.click(); return a.getAttribute('href'); })()""")
+    page.next_frames(2)
+    assert href == f"#t={t_first:.3f}"
+    assert abs(page.evaluate("mrneaView3d.time()") - t_first) < 1e-9
+    assert page.evaluate("document.querySelector('.mv3d-sat').textContent") == "saturated: cab_yaw"
+    assert page.errors == [] and page.outside_requests == []
+
+
+def test_demo_report_opens_at_its_url_time(browser, demo) -> None:
+    report, summary = demo
+    t_first = summary["first_infeasible"]["time"]
+    page = open_view(browser, f"{report.as_uri()}#t={t_first}")
+    assert page.evaluate("mrneaView3d.time()") == t_first
+    assert float(page.evaluate("document.querySelector('.mv3d input[type=range]').value")) \
+        == pytest.approx(t_first, abs=1e-9)
+    # the plots mark that time: on the motion figure, the marker covers matplotlib's dotted
+    # red line of the first infeasible instant (first axes)
+    selector = "figure[id$='-motion'] img"
+    box = json.loads(page.evaluate(f"document.querySelector(\"{selector}\").closest('figure')"
+                                   ".dataset.xaxes"))[0]
+    marked = shot(page, None, selector)
+    hide_markers(page, True)
+    bare = shot(page, None, selector)
+    hide_markers(page, False)
+    h, w = bare.shape[:2]
+    x0, x1, y0, y1 = (round(box[0] * w), round(box[1] * w), round((1 - box[3]) * h),
+                      round((1 - box[2]) * h))
+
+    def axes(img: np.ndarray) -> np.ndarray:
+        return img[y0 + 2:y1 - 2, x0 + 2:x1 - 2]
+
+    # the dotted line is thin and the page shows the PNG scaled down: faint red, on every
+    # other run of pixels; the column where most pixels are reddish
+    reddish = axes(bare)[..., 0] - axes(bare)[..., 1:].max(axis=2) > 30
+    counts = reddish.sum(axis=0)
+    assert counts.max() > 0.3 * reddish.shape[0]
+    red = np.flatnonzero(counts >= 0.5 * counts.max())
+    marker = columns(axes(marked), purple)
+    assert red.size <= 2 and marker.size
+    assert abs(marker.mean() - red.mean()) <= 1.5
+    n_axes = page.evaluate("[...document.querySelectorAll('figure[data-xaxes]')]"
+                           ".reduce((s, f) => s + JSON.parse(f.dataset.xaxes).length, 0)")
+    shown = page.evaluate("[...document.querySelectorAll('.mv3d-tline')]"
+                          ".filter(e => e.style.display === 'block').length")
+    assert n_axes > 0 and shown == n_axes
+    assert page.errors == [] and page.outside_requests == []
