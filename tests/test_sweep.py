@@ -10,18 +10,15 @@ the separate scheduler and worker); the interrupt and the larger grids are ``slo
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
-import os
 import struct
 import subprocess
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import environment
 from test_cli import EXAMPLES
 from test_sweep_variants import two_link_arm
 
@@ -50,14 +47,6 @@ def same(got: object, expected: object) -> bool:
         return isinstance(got, (float, np.floating)) and (
             struct.pack("<d", float(got)) == struct.pack("<d", expected))
     return got == expected
-
-
-def environment(**extra: str) -> dict[str, str]:
-    """The environment of a subprocess that must import the mrnea under test, from any
-    folder."""
-    src = str(Path(mrnea.__file__).resolve().parents[1])
-    return {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]),
-            **extra}
 
 
 def serial(robot, program, grid):
@@ -98,37 +87,6 @@ def demo() -> Program:
 @pytest.fixture(scope="module")
 def sdt_serial(demo):
     return serial(sdt(), demo, SDT_GRID)
-
-
-@pytest.fixture(scope="module")
-def scheduler_address(tmp_path_factory):
-    """A scheduler and one single-threaded worker, each a process of its own (as a real
-    cluster's are), started from the command line; the tests reach it through its address."""
-    folder = tmp_path_factory.mktemp("dask")
-    info = folder / "scheduler.json"
-    log = open(folder / "cluster.log", "w")
-    common = {"stdout": log, "stderr": subprocess.STDOUT, "cwd": folder, "env": environment()}
-    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
-                               "--scheduler-file", str(info), "--host", "127.0.0.1",
-                               "--port", "0", "--no-dashboard"], **common)]
-    try:
-        deadline = time.monotonic() + 120
-        while not info.exists() and time.monotonic() < deadline:
-            time.sleep(0.1)
-        address = json.loads(info.read_text())["address"]
-        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
-                                       "--scheduler-file", str(info), "--nworkers", "1",
-                                       "--nthreads", "1", "--no-dashboard"], **common))
-        from distributed import Client
-
-        with Client(address, timeout="60s") as c:
-            c.wait_for_workers(1, timeout=120)
-        yield address
-    finally:
-        for p in reversed(procs):
-            p.terminate()
-            p.wait(timeout=60)
-        log.close()
 
 
 def test_local_cluster_equals_serial_loop(demo, sdt_serial):

@@ -14,9 +14,10 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from conftest import environment
 from test_cli import EXAMPLES, html_text
 from test_cli import run as run_in_process
-from test_sweep import environment, serial
+from test_sweep import serial
 
 from mrnea.io import load_program
 from mrnea.robots import puma560
@@ -75,6 +76,19 @@ def test_sweep_writes_its_files_and_nothing_else_reaches_the_terminal(tmp_path, 
     again = run("sweep", "puma560", "--grid", str(puma_grid), "--out", "o", "--quiet", cwd=tmp_path)
     assert again.returncode == 2 and again.stdout == ""
     assert again.stderr.startswith("mrnea: error: ") and "exists" in again.stderr
+
+
+def test_scheduler_option_runs_on_that_cluster(tmp_path, puma_grid, scheduler_address):
+    """--scheduler: the rows of a cluster in processes of its own (one worker) are the serial
+    loop's."""
+    r = run_in_process("sweep", "puma560", "--grid", str(puma_grid), "--out",
+                       str(tmp_path / "o"), "--scheduler", scheduler_address, "--quiet")
+    assert r.exit_code == 0 and r.stdout == "" and r.stderr == "", r.stderr
+    csv = pd.read_csv(tmp_path / "o/sweep.csv", index_col="case")
+    expected = serial(puma560(), load_program(EXAMPLES / "puma_pick.toml"),
+                      {"payload": [0.0, 15.0], "time_scale": [0.5, 1.0]})
+    assert csv["worst_effort_ratio"].tolist() == [s["worst_effort_ratio"] for _, s in expected]
+    assert csv["achievable"].tolist() == [s["achievable"] for _, s in expected]
 
 
 @pytest.mark.parametrize("text, args, words", [
