@@ -472,7 +472,8 @@ def simulation_table(res: dict, cfg: Config) -> str:
     return (f"K = {cfg.cycles:,} cycles; time per cycle [us] (speed-up: the Python loop's time "
             "/ this one's). Paper mode, effort limits 1e9 (generous: nothing saturates, the "
             "clip still runs). mrnea's cycle also clamps the command to position and velocity "
-            "limits and checks static friction; the loop (benchmarks/simloop.py) does not.\n\n"
+            "limits and solves the cycle exactly (limits, Coulomb friction), and computes the "
+            "program's own requirement; the loop (benchmarks/simloop.py) does not.\n\n"
             + table(["loop", *res], rows)
             + "\n\nChecked before timing, largest deviation of the Python loop from "
             "`simulate(paper)` (relative to the largest value, absolute below 1):\n\n"

@@ -7,14 +7,17 @@ robot)`` gives the largest deviations from an ``mrnea.simulate(..., mode="paper"
 Per cycle k, as kernels/simulate.py and kernels/achievable.py do in paper mode (Eq. 44):
 desired acceleration from the commanded velocity, ``qdd_des = (qd_cmd[k+1] - qd) / dt``; required
 efforts ``tau_req = pin.rnea(q, qd, qdd_des) + F_v qd + F_s sign(qd)`` (the rotor inertia is
-``model.armature = G^2 J_m``, so rnea includes it); saturation ``tau = clip(tau_req, -limit,
-limit)``; achievable accelerations ``qdd = pin.aba(q, qd, tau - friction)``; the joint reactions
-of that motion from ``pin.rnea(q, qd, qdd)``'s ``data.f``; and the state update mrnea uses,
-``qd += qdd dt``, ``q += qd dt``. A joint at rest takes its Coulomb friction against the
-desired acceleration, as mrnea's first guess does; mrnea's further consistency check of static
-friction, its position and velocity clamps and its speed-dependent limits are not repeated here
-(so the loop does a little less than mrnea's), and the reactions are stored as Pinocchio gives
-them (``data.f``, joint frame after the motion) and converted only for the check.
+``model.armature = G^2 J_m``, so rnea includes it), with the Coulomb friction of the velocity
+the cycle wants, v (F+ moving up, -F- moving down; at rest, static friction takes up to its
+capacity of the holding effort); saturation ``tau = clip(tau_req, -limit, limit)``; achievable
+accelerations ``qdd = pin.aba(q, qd, tau - friction)``; the joint reactions of that motion from
+``pin.rnea(q, qd, qdd)``'s ``data.f``; and the state update mrnea uses, ``qd += qdd dt``,
+``q += qd dt``. With limits that never bind this is mrnea's exact cycle solve's answer (the
+velocity wanted is the velocity held); mrnea's solve where a limit binds or a joint stops or
+reverses against friction, its position and velocity clamps and its
+speed-dependent limits are not repeated here (so the loop does a little less than mrnea's), and
+the reactions are stored as Pinocchio gives them (``data.f``, joint frame after the motion) and
+converted only for the check.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ def pinocchio_loop(model: pin.Model, data: pin.Data, robot: Robot, q_cmd: np.nda
                    limit: np.ndarray) -> dict[str, np.ndarray]:
     """Run the cycle over every row of q_cmd (K, n) (module docstring); returns the arrays."""
     K, n = q_cmd.shape
-    Fv, Fs = robot.viscous_friction, robot.coulomb_friction
+    Fv, Fp, Fn = robot.viscous_friction, robot.coulomb_friction[:, 0], robot.coulomb_friction[:, 1]
     v_cmd = np.zeros_like(q_cmd)
     v_cmd[1:] = np.diff(q_cmd, axis=0) / dt
     out = {k: np.empty((K, n)) for k in ("q", "qd", "qdd_des", "qdd", "tau", "tau_required")}
@@ -41,11 +44,9 @@ def pinocchio_loop(model: pin.Model, data: pin.Data, robot: Robot, q_cmd: np.nda
     for k in range(K):
         v = v_cmd[k + 1] if k + 1 < K else zero  # the program ends at rest
         qdd_des = (v - qd) / dt
-        s = np.sign(qd)
-        if not s.all():  # a joint at rest: friction against the wanted motion
-            s = np.where(qd != 0.0, s, np.sign(qdd_des))
-        friction = Fv * qd + Fs * s
-        tau_req = pin.rnea(model, data, q, qd, qdd_des) + friction
+        h = pin.rnea(model, data, q, qd, qdd_des) + Fv * qd
+        friction = Fv * qd + np.where(v > 0.0, Fp, np.where(v < 0.0, -Fn, np.clip(-h, -Fn, Fp)))
+        tau_req = h + friction - Fv * qd
         tau = np.clip(tau_req, -limit, limit)
         qdd = pin.aba(model, data, q, qd, tau - friction)
         pin.rnea(model, data, q, qd, qdd)

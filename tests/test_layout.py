@@ -27,6 +27,7 @@ from mrnea.kernels.layout import (
     REACTIONS,
     SOLVE,
     achievable_buffers,
+    drive_solve_buffers,
     effort_buffer,
     entry_scratch,
     force_buffers,
@@ -51,21 +52,23 @@ def _slots(kind: int, n: int) -> dict[str, list[np.ndarray]]:
         out["solve"] = list(_py(solve_buffers)(ws, n))
     if kind == ACHIEVABLE:
         out["achievable"] = list(_py(achievable_buffers)(ws, n))
+        out["drive_solve"] = list(_py(drive_solve_buffers)(ws, n))
     return out
 
 
 SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's docstring
     "pose": ["n33", "n3", "n3", "n3", "n33"], "mrnea": ["n3"] * 4, "force": ["n3"] * 2,
     "effort": ["n"], "solve": ["nn", "nn", "n", "n"],
-    "achievable": ["nn", "nn", "nn", *["n"] * 6, *["n"] * 4],
+    "achievable": ["nn", *["n"] * 6],
+    "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
 }
 # the slots used at the same time: a kernel's own, and those of every kernel it calls
 TOGETHER = {
     POSE: [("pose", "mrnea"), ("pose", "force")],
     REACTIONS: [("pose", "force", "effort")],
     SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve")],
-    ACHIEVABLE: [("pose", "mrnea", "achievable"), ("pose", "force", "achievable"),
-                 ("pose", "force", "effort")],
+    ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve"),
+                 ("pose", "force", "achievable", "drive_solve"), ("pose", "force", "effort")],
 }
 
 
@@ -73,7 +76,8 @@ TOGETHER = {
 @pytest.mark.parametrize("kind", [POSE, REACTIONS, SOLVE, ACHIEVABLE])
 def test_slots_fit_their_scratch_and_do_not_overlap(kind: int, n: int) -> None:
     slots = _slots(kind, n)
-    want = {"n": (n,), "n3": (n, 3), "n33": (n, 3, 3), "nn": (n, n)}
+    want = {"n": (n,), "n3": (n, 3), "n33": (n, 3, 3), "nn": (n, n), "2n": (2, n),
+            "3n": (3, n)}
     for name, views in slots.items():
         assert [v.shape for v in views] == [want[s] for s in SHAPES[name]], name
     for group in TOGETHER[kind]:
@@ -83,8 +87,8 @@ def test_slots_fit_their_scratch_and_do_not_overlap(kind: int, n: int) -> None:
 
 
 def test_integer_slots_are_integers() -> None:
-    *_, known, held, fixed, idx = _py(achievable_buffers)(entry_scratch(3, ACHIEVABLE), 3)
-    assert all(a.dtype == np.int64 for a in (known, held, fixed, idx))
+    *_, pat, nbp, idx, tabu = _py(drive_solve_buffers)(entry_scratch(3, ACHIEVABLE), 3)
+    assert all(a.dtype == np.int64 for a in (pat, nbp, idx, tabu))
 
 
 def test_compiled_arrays_live_outside_the_robot_and_go_with_it() -> None:

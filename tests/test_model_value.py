@@ -114,8 +114,9 @@ def test_actuator_fields_are_one_list() -> None:
                 "torque_speed": "N m, rad/s"}
     assert header[-len(names):] == [f"{f.symbol} [{revolute[f.name]}]" for f in ACTUATOR_FIELDS]
     j = robot.joints[1]
+    assert j.coulomb_pair == (13.58469, 7.654865)  # asymmetric: both magnitudes
     assert re.split(" {2,}", lines[3])[-len(names):] == [
-        f"{getattr(j, f.name):.5g}" for f in ACTUATOR_FIELDS[:-1]] + ["-"]
+        f"{getattr(j, f.name):.5g}" for f in ACTUATOR_FIELDS[:-2]] + ["13.585/7.6549", "-"]
     doc = (DOCS / "robot-format.md").read_text()
     section = doc.split("### Actuator fields", 1)[1].split("\n\n")[2]
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines()[2:]]

@@ -508,8 +508,11 @@ def test_puma560_matches_robotics_toolbox() -> None:
         assert j.gear_ratio == pytest.approx(abs(L.G), rel=1e-12)
         assert j.rotor_inertia == pytest.approx(L.Jm, rel=1e-12)
         assert j.viscous_friction == pytest.approx(L.B * L.G**2, rel=1e-9)
-        assert j.coulomb_friction == pytest.approx(
-            abs(L.G) * (abs(L.Tc[0]) + abs(L.Tc[1])) / 2, rel=1e-9)
+        # asymmetric Coulomb friction as published: RTB's own friction model (joint side,
+        # the sign of the joint velocity picks Tc+ or Tc-) minus its viscous part
+        for v, F in ((1e-3, j.coulomb_pair[0]), (-1e-3, -j.coulomb_pair[1])):
+            assert -L.friction(v) - L.B * L.G**2 * v == pytest.approx(F, rel=1e-9)
+        assert j.coulomb_pair[0] != j.coulomb_pair[1]
         assert (j.lower, j.upper) == pytest.approx(tuple(L.qlim), abs=1e-12)
     qs = [np.zeros(6), *rng.uniform(-math.pi, math.pi, (4, 6))]
     for q in qs:

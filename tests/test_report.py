@@ -149,8 +149,9 @@ def test_plot_result_writes_four_pngs(saturating: SimulationResult, tmp_path: Pa
 
 
 def test_efforts_plot_limit_array_and_saturation(sdt: Robot, saturating: SimulationResult) -> None:
-    """The limit drawn is the per-cycle limit array (a torque-speed curve makes it vary), and
-    saturated intervals are shaded only where the joint saturated."""
+    """The limit drawn is the per-cycle limit array (a torque-speed curve makes it vary), the
+    requirement drawn is the program's, and saturated intervals are shaded only where the joint
+    saturated."""
     curves = [(25000.0, 0.05, 3.2), (4000.0, 0.05, 3.0), (5000.0, 0.05, 2.0), (3000.0, 0.3, 1.5)]
     res = simulate(sdt.with_actuators(torque_speed=curves), program(), DT)
     assert np.ptp(res.limit[:, 1]) > 1.0  # cab_yaw's limit falls with speed
@@ -161,7 +162,10 @@ def test_efforts_plot_limit_array_and_saturation(sdt: Robot, saturating: Simulat
             ys = [line.get_ydata() for line in ax.get_lines()]
             assert any(np.array_equal(y, r.limit[:, i]) for y in ys)
             assert any(np.array_equal(y, -r.limit[:, i]) for y in ys)
-            assert any(np.array_equal(y, r.tau_required[:, i]) for y in ys)
+            # the program's own requirement, never the cycle's lag recovery (issue 11)
+            assert any(np.array_equal(y, r.program_effort[:, i]) for y in ys)
+            lagging = not np.array_equal(r.tau_required[:, i], r.program_effort[:, i])
+            assert not (lagging and any(np.array_equal(y, r.tau_required[:, i]) for y in ys))
             shaded = any(isinstance(c, PolyCollection) for c in ax.collections)
             assert shaded == bool(r.saturated[:, i].any())
 

@@ -40,7 +40,7 @@ def test_urdf_actuator_fields(urdf):
     assert r.effort_limit.tolist() == [40.0, 20.0]
     assert r.velocity_limit.tolist() == [2.0, 3.0]
     assert r.viscous_friction.tolist() == [0.5, 0.0]
-    assert r.coulomb_friction.tolist() == [1.0, 0.0]
+    assert r.coulomb_friction.tolist() == [[1.0, 1.0], [0.0, 0.0]]  # [F+, F-] per joint
     assert r.gear_ratio.tolist() == [50.0, 1.0]
     assert r.rotor_inertia.tolist() == [0.0, 0.0]
 

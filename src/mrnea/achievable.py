@@ -9,13 +9,17 @@ desired acceleration, achievable acceleration, next state).
 Modes (docs/achievable.md explains when each models a real drive):
 
 * ``"paper"`` -- Eq. 44 literally: every required effort is clamped to +-limit and the
-  accelerations solve ``H_a qdd = tau - u'_a`` for all joints at once.
-* ``"hybrid"`` (default) -- Sec. II's speed-controlled drives: saturated joints deliver their
-  limit, every other joint keeps its desired acceleration and takes the effort that needs; the
-  saturated set grows one joint at a time, worst first (an active set, at most n rounds).
+  accelerations solve ``H_a qdd = tau - u'_a - phi`` for all joints at once.
+* ``"hybrid"`` (default) -- Sec. II's speed-controlled drives, their velocity loops infinitely
+  stiff and their efforts limited: each joint either keeps its desired acceleration with an
+  effort within its limit, or its drive gives +-limit and the joint falls short of (or
+  overshoots) the desired acceleration on the side that effort pushes it to.
 
-Coulomb friction at rest and the actuator convention: :mod:`mrnea.kernels.drive` and
-:mod:`mrnea.actuators`. Efforts are joint side [N m | N]; ``tau_motor = tau / G``.
+Coulomb friction phi is set-valued: +F+ or -F- while a joint moves, anything in [-F-, F+] while
+it is stuck. Each mode's law with it is solved exactly, all joints together
+(:mod:`mrnea.kernels.drive_solve`; docs/achievable.md). The actuator convention:
+:mod:`mrnea.kernels.drive` and :mod:`mrnea.actuators`. Efforts are joint side [N m | N];
+``tau_motor = tau / G``.
 """
 
 from __future__ import annotations
@@ -52,13 +56,19 @@ class AchievableResult:
     Attributes
     ----------
     qdd : achievable joint accelerations [rad/s^2 | m/s^2].
-    tau : joint-side efforts actually applied [N m | N].
+    tau : joint-side efforts the drives apply [N m | N]: ``tau = H_a qdd + u' + F_v qd +
+        coulomb`` (rigid body with rotor inertia, viscous and Coulomb friction).
     tau_motor : motor torques, ``tau / G`` [N m].
     tau_required : efforts the desired accelerations would need.
-    saturated : True where the joint's effort is at its limit (``"paper"``: where the required
-        effort exceeded it).
+    saturated : True where the joint's drive is at its limit and misses the desired
+        acceleration (``"paper"``: where the required effort exceeded the limit).
     margin : ``limit - |tau|``, >= 0 up to rounding.
     limit : effort limit at the current speed.
+    coulomb : the Coulomb friction effort phi [N m | N], joint side: ``F+`` for a joint moving
+        up, ``-F-`` moving down, and for a joint at rest the part of the effort static friction
+        takes (within ``[-F-, F+]``).
+    stuck : True where a joint at rest stays at rest (``qdd = 0``), held by static friction
+        (:func:`achievable_step`: where the new velocity is exactly 0).
     """
 
     qdd: NDArray[np.float64]
@@ -68,6 +78,8 @@ class AchievableResult:
     saturated: NDArray[np.bool_]
     margin: NDArray[np.float64]
     limit: NDArray[np.float64]
+    coulomb: NDArray[np.float64]
+    stuck: NDArray[np.bool_]
 
     @property
     def achievable(self) -> bool:
@@ -81,7 +93,8 @@ class StepResult(AchievableResult):
 
     Attributes
     ----------
-    q_next, qd_next : the state after dt at the achievable accelerations.
+    q_next, qd_next : the state after dt: the velocity the drives hold over the cycle, and the
+        position it leads to (a stuck joint stays exactly where it is).
     qdd_des : the desired accelerations, ``(qd_next_cmd_clamped - qd) / dt``.
     q_cmd, qd_cmd : the command after clamping to the joint limits.
     position_clamped : True where the commanded position was outside [lower, upper].
@@ -110,13 +123,16 @@ def achievable_accelerations(
 
     q, qd, qdd_des: (n,) or (B, n). f_ext, f_ext_point as in :mod:`mrnea.dynamics` (the wrench
     the last link exerts on its environment). Effort limits are taken at the current speed qd.
+    The limit of the cycle solve for dt -> 0: a moving joint meets its sliding friction, a
+    joint at rest static friction (it stays at rest where that can hold it).
     """
     code = validate.choice("mode", mode, MODES)
     args = {"q": q, "qd": qd, "qdd_des": qdd_des}
     batched, (q, qd, qdd_des), fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)
     m, _, _, act = compiled.of(robot)
-    out = (np.empty_like(q), np.empty_like(q), np.empty_like(q), np.empty_like(q),
-           np.empty(q.shape, dtype=np.bool_))  # qdd, tau, tau_req, limit, sat
+    out = (*(np.empty_like(q) for _ in range(5)),
+           np.empty(q.shape, dtype=np.bool_), np.empty(q.shape, dtype=np.bool_))
+    # qdd, tau, phi, tau_req, limit, sat, stuck
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
         achievable_batch((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out,
@@ -124,10 +140,10 @@ def achievable_accelerations(
     else:
         status = achievable((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out)
     validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
-    qdd, tau, tau_req, limit, sat = out
+    qdd, tau, phi, tau_req, limit, sat, stuck = out
     return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau),
                             tau_required=tau_req, saturated=sat,
-                            margin=limit - np.abs(tau), limit=limit)
+                            margin=limit - np.abs(tau), limit=limit, coulomb=phi, stuck=stuck)
 
 
 def achievable_step(
@@ -145,9 +161,10 @@ def achievable_step(
 
     Clamps the commanded velocity to +-velocity limit and, where the commanded next position is
     outside [lower, upper], lowers the velocity so the joint stops at the limit; forms the desired
-    acceleration ``(qd_next_cmd - qd) / dt``, computes the achievable accelerations and advances
-    the state as the paper's speed-controlled drives do: ``qd_next = qd + qdd dt`` and
-    ``q_next = q + qd_next dt`` (the velocity is held over the cycle). dt [s] > 0.
+    acceleration ``(qd_next_cmd - qd) / dt``, solves the cycle exactly (the velocity the drives
+    hold over dt, with their limits and Coulomb friction) and advances the state as the paper's
+    speed-controlled drives do: ``qd_next`` = that velocity, ``qdd = (qd_next - qd) / dt`` and
+    ``q_next = q + qd_next dt``. dt [s] > 0.
     """
     code = validate.choice("mode", mode, MODES)
     validate.require_robot(robot)
@@ -155,16 +172,17 @@ def achievable_step(
     states = {"q": q, "qd": qd, "q_next_cmd": q_next_cmd, "qd_next_cmd": qd_next_cmd}
     arrays, fe, pe = validate.one_state(robot, states, f_ext, f_ext_point, "achievable_step")
     (m, _, _, act), n = compiled.of(robot), robot.n
-    qdd, tau, tau_req, limit, qdd_des, q_next, qd_next = (np.empty(n) for _ in range(7))
-    sat = np.empty(n, dtype=np.bool_)
+    qdd, tau, phi, tau_req, limit, qdd_des, q_next, qd_next = (np.empty(n) for _ in range(8))
+    sat, stuck = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
     clamp = np.empty(n, dtype=np.int64)
     status = step(m, act, arrays["q"], arrays["qd"], arrays["q_next_cmd"], arrays["qd_next_cmd"],
-                  dt, fe, pe, code, ENGINE_MRNEA, qdd_des, qdd, tau, tau_req, limit, sat, q_next,
-                  qd_next, clamp, entry_scratch(n, ACHIEVABLE))
+                  dt, fe, pe, code, ENGINE_MRNEA, qdd_des, qdd, tau, phi, tau_req, limit, sat,
+                  stuck, q_next, qd_next, clamp, entry_scratch(n, ACHIEVABLE))
     validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return StepResult(
         qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau), tau_required=tau_req,
-        saturated=sat, margin=limit - np.abs(tau), limit=limit, q_next=q_next, qd_next=qd_next,
+        saturated=sat, margin=limit - np.abs(tau), limit=limit, coulomb=phi, stuck=stuck,
+        q_next=q_next, qd_next=qd_next,
         qdd_des=qdd_des, q_cmd=np.clip(arrays["q_next_cmd"], robot.lower, robot.upper),
         qd_cmd=arrays["qd"] + qdd_des * dt,
         position_clamped=(clamp & CLAMP_POSITION) != 0,

@@ -2,14 +2,19 @@
 
 Per joint, joint side unless said otherwise (the fields: :data:`mrnea.model.ACTUATOR_FIELDS`):
 gear ratio G (motor turns per joint turn), rotor inertia J_m [kg m^2, motor side], viscous
-friction F_v, Coulomb friction F_s, effort limit (constant, or a torque-speed curve: see
-:class:`mrnea.model.Joint`), velocity and position limits. The convention, exactly::
+friction F_v, Coulomb friction F+ and F- (the magnitudes opposing positive and negative
+motion; one value for both, or two), effort limit (constant, or a torque-speed curve: see
+:class:`mrnea.model.Joint`), velocity and position limits. The convention for a joint that moves
+on with its velocity qd, exactly::
 
-    tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + F_s sign(qd) = H_a qdd + u'_a
+    tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + phi(qd) = H_a qdd + u'_a
+    phi(qd) = F+ (qd > 0), -F- (qd < 0), 0 (qd = 0)
 
-``tau`` is the joint-side effort; the motor torque is ``tau / G`` (:func:`motor_torque`). The
-law itself, in compiled code, including Coulomb friction at rest: :mod:`mrnea.kernels.drive`;
-the functions here are its Python side. :mod:`mrnea.dynamics` is the rigid-body model alone.
+``tau`` is the joint-side effort; the motor torque is ``tau / G`` (:func:`motor_torque`). At rest
+Coulomb friction is set-valued (anything in [-F-, F+] while the joint is stuck): a cycle
+resolves it with the drives' limits (:mod:`mrnea.kernels.drive_solve`, docs/achievable.md). The
+law itself, in compiled code: :mod:`mrnea.kernels.drive`; the functions here are its Python side.
+:mod:`mrnea.dynamics` is the rigid-body model alone.
 """
 
 from __future__ import annotations
@@ -30,9 +35,10 @@ def actuator_mass_matrix_and_bias(
     f_ext: ArrayLike | None = None,
     f_ext_point: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """H_a = H + diag(G^2 J_m) and u'_a = u' + F_v qd + F_s sign(qd) (Eqs. 42-43).
+    """H_a = H + diag(G^2 J_m) and u'_a = u' + F_v qd + phi(qd) (Eqs. 42-43; phi: the module
+    docstring, 0 at rest).
 
-    One state or a batch, as :func:`mrnea.mass_matrix_and_bias`; sign(0) = 0.
+    One state or a batch, as :func:`mrnea.mass_matrix_and_bias`.
     """
     args = {"q": q, "qd": qd}
     batched, (q, qd), fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)

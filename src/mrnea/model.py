@@ -14,7 +14,9 @@ Conventions (the same as URDF's, so URDF files map one to one):
 * Actuator fields per joint (joint side unless said otherwise; the list, with units and
   meanings: :data:`ACTUATOR_FIELDS`): ``gear_ratio`` G (motor turns per joint turn, in
   [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
-  [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N], ``effort_limit`` [N m or N]
+  [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N] (one magnitude, or two,
+  ``(positive direction, negative direction)``: the friction opposing motion with q̇ > 0 and with
+  q̇ < 0), ``effort_limit`` [N m or N]
   (``inf``: unlimited); joint limits ``velocity_limit`` [rad/s or m/s] (``inf``: unlimited),
   ``lower``/``upper`` position limits [rad or m] (``-inf``/``inf``: none; always so for
   continuous joints).
@@ -66,7 +68,9 @@ ACTUATOR_FIELDS = (
     ActuatorField("gear_ratio", "G", "-", "motor turns per joint turn, in [1e-6, 1e6]"),
     ActuatorField("rotor_inertia", "J_m", "kg m^2", "rotor inertia, motor side"),
     ActuatorField("viscous_friction", "F_v", "N m s/rad or N s/m", "viscous friction, joint side"),
-    ActuatorField("coulomb_friction", "F_s", "N m or N", "Coulomb friction, joint side"),
+    ActuatorField("coulomb_friction", "F_s", "N m or N",
+                  "Coulomb friction, joint side: one magnitude, or two (positive direction, "
+                  "negative direction)"),
     ActuatorField("torque_speed", "curve", "N m or N, rad/s or m/s",
                   "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
@@ -162,6 +166,29 @@ def _check_inertia(inertia: NDArray, what: str) -> None:
             f"used as given", stacklevel=4)
 
 
+def _coulomb(value: object, what: str) -> float | tuple[float, float]:
+    """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
+    an equal pair is stored as one number."""
+    pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
+    if len(pair) != 2:
+        raise ModelError(f"{what}: coulomb_friction must be a number or two, [positive "
+                         f"direction, negative direction], got {value!r}")
+    p, m = (_number(v, f"{what}: coulomb_friction") for v in pair)
+    if p < 0 or m < 0:
+        raise ModelError(f"{what}: coulomb_friction must be >= 0, got {value!r}")
+    return p if p == m else (p, m)
+
+
+def _coulomb_per_joint(value: object, n: int) -> list[object]:
+    """with_actuators' coulomb_friction: one number, or n entries (a number or a pair each)."""
+    if not isinstance(value, (list, tuple)) and np.ndim(value) == 0:  # type: ignore[arg-type]
+        return [value] * n
+    if len(value) != n:
+        raise ModelError(f"with_actuators: coulomb_friction must be a number or {n} entries (a "
+                         f"number or a [positive, negative] pair each), got {value!r}")
+    return [tuple(e) if isinstance(e, (list, tuple, np.ndarray)) else e for e in value]
+
+
 def combine_inertials(parts: Sequence[tuple[float, NDArray, NDArray]]
                       ) -> tuple[float, NDArray, NDArray]:
     """Total mass [kg], centre of mass [m] and inertia [kg m^2] about that centre of rigidly
@@ -228,7 +255,7 @@ class Joint(Frozen):
     gear_ratio: float = 1.0
     rotor_inertia: float = 0.0
     viscous_friction: float = 0.0
-    coulomb_friction: float = 0.0
+    coulomb_friction: float | tuple[float, float] = 0.0
     torque_speed: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
@@ -262,11 +289,12 @@ class Joint(Frozen):
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
             values[name] = v
-        for name in ("rotor_inertia", "viscous_friction", "coulomb_friction"):
+        for name in ("rotor_inertia", "viscous_friction"):
             v = _number(getattr(self, name), f"{what}: {name}")
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
             values[name] = v
+        values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
         g = _number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
@@ -295,6 +323,12 @@ class Joint(Frozen):
     @property
     def is_prismatic(self) -> bool:
         return self.type == "prismatic"
+
+    @property
+    def coulomb_pair(self) -> tuple[float, float]:
+        """``(F+, F-)``: the Coulomb friction magnitudes opposing positive and negative motion."""
+        c = self.coulomb_friction
+        return c if isinstance(c, tuple) else (c, c)
 
     def unit(self, quantity: str) -> str:
         """SI unit of its ``"q"``, ``"qd"``, ``"qdd"`` or ``"tau"`` (:data:`JOINT_UNITS`)."""
@@ -413,8 +447,10 @@ class Robot(Frozen):
                              doc="(n,) rotor inertias J_m [kg m^2], motor side.")
     viscous_friction = property(lambda self: self._per_joint("viscous_friction"),
                                 doc="(n,) viscous friction F_v, joint side.")
-    coulomb_friction = property(lambda self: self._per_joint("coulomb_friction"),
-                                doc="(n,) Coulomb friction F_s, joint side.")
+    coulomb_friction = property(
+        lambda self: np.array([j.coulomb_pair for j in self._joints], dtype=np.float64),
+        doc="(n, 2) Coulomb friction magnitudes [F+, F-] per joint (opposing positive, "
+            "negative motion) [N m or N], joint side.")
 
     @property
     def torque_speed(self) -> tuple[tuple[float, float, float] | None, ...]:
@@ -439,7 +475,9 @@ class Robot(Frozen):
 
         Keywords are any of :data:`ACTUATOR_FIELDS`. ``effort_limit``, ``gear_ratio``,
         ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
-        or an ``(n,)`` sequence (per joint, root to tip). ``effort_limit`` sets a constant limit
+        or an ``(n,)`` sequence (per joint, root to tip); ``coulomb_friction`` also an ``(n, 2)``
+        array, or a sequence of n entries each a number or a pair ``[positive direction,
+        negative direction]`` (asymmetric friction). ``effort_limit`` sets a constant limit
         at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
@@ -489,6 +527,8 @@ class Robot(Frozen):
                                  f"or None each), got {type(curves).__name__} {quote(curves)}")
         if "effort_limit" in fields:
             per_joint["torque_speed"] = [None] * n
+        if "coulomb_friction" in fields:
+            per_joint["coulomb_friction"] = _coulomb_per_joint(fields.pop("coulomb_friction"), n)
         for k, v in fields.items():
             per_joint[k] = values(k, v)
         joints = [

@@ -32,14 +32,18 @@ from numpy.typing import ArrayLike, NDArray
 from mrnea import compiled, validate
 from mrnea.achievable import MODES
 from mrnea.actuators import motor_torque
-from mrnea.errors import StateError
+from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
+from mrnea.kernels.drive import actuator_terms
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
-from mrnea.kernels.simulate import simulate_cycles
+from mrnea.kernels.layout import POSE, entry_scratch
+from mrnea.kernels.simulate import program_requirement, simulate_cycles
+from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
 from mrnea.resources import require_memory
+from mrnea.summary import start_violations, summarize, verdict
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -49,7 +53,8 @@ if TYPE_CHECKING:
 _PER_JOINT = {"q_cmd": "q", "qd_cmd": "qd", "qdd_des": "qdd", "q": "q", "qd": "qd", "qdd": "qdd",
               "tau": "tau", "tau_motor": "tau", "tau_required": "tau", "limit": "tau",
               "margin": "tau", "saturated": None, "position_clamped": None,
-              "velocity_clamped": None, "tracking_error": "q"}
+              "velocity_clamped": None, "tracking_error": "q", "coulomb": "tau", "stuck": None,
+              "program_effort": "tau", "program_limit": "tau"}
 #: A tracking error at most this many times max(1, max |q_cmd|) of its joint [rad | m] is 0:
 #: rounding, not lag (q's float resolution is 2.2e-16 |q|; this leaves room for the rounding of
 #: many cycles and is far below any drive's resolution).
@@ -94,10 +99,21 @@ class SimulationResult:
     t : (K,) time [s].
     q_cmd, qd_cmd : the program: positions and velocities (see the module docstring).
     qdd_des : accelerations each cycle asked for, after clamping to the joint limits.
-    q, qd, qdd : the motion the robot really makes.
-    tau : joint-side efforts applied [N m | N]; tau_motor = tau / G; tau_required: what qdd_des
-        needed; limit: the effort limit at the current speed; margin = limit - |tau|.
-    saturated : (K, n) bool, effort at its limit.
+    q, qd, qdd : the motion the robot really makes (the simulated response).
+    tau : joint-side efforts the drives apply [N m | N]; tau_motor = tau / G; limit: the effort
+        limit at the current speed; margin = limit - |tau|.
+    tau_required : what qdd_des needed at the robot's own state [N m | N]. After a saturation
+        the robot lags its program and this includes recovering the lag within one cycle
+        ((v - qd) / dt): use program_effort to size a drive.
+    coulomb : the Coulomb friction effort phi each cycle resolved [N m | N], joint side: F+
+        moving up, -F- moving down, within [-F-, F+] while stuck (tau = H_a qdd + u' + F_v qd
+        + coulomb).
+    stuck : (K, n) bool, the joint is at rest over the cycle (its new velocity is exactly 0).
+    program_effort : the program's own requirement [N m | N], joint side: the effort cycle k
+        needs at the program's state q_cmd[k], qd_cmd[k] to make the program's next velocity,
+        with the full actuator model, before any lag (kernels/simulate.py
+        ``program_requirement``); program_limit: the effort limit at the program's speed.
+    saturated : (K, n) bool, the drive is at its limit and misses the command.
     position_clamped, velocity_clamped : (K, n) bool, the command exceeded a joint limit.
     reaction : (K, n, 6) each joint's reaction wrench [f; n] in its joint frame
         (:func:`mrnea.joint_reactions`).
@@ -127,6 +143,10 @@ class SimulationResult:
     velocity_clamped: NDArray
     reaction: NDArray
     tracking_error: NDArray
+    coulomb: NDArray
+    stuck: NDArray
+    program_effort: NDArray
+    program_limit: NDArray
     completed: bool = True
     fd: str = "mrnea"
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
@@ -138,10 +158,12 @@ class SimulationResult:
 
     @property
     def achievable(self) -> bool | None:
-        """True when the whole program ran with no saturated effort and no clamped command;
-        False when some cycle saturated or clamped; None when the run was interrupted before
-        any did (unknown: the rest of the program was not simulated)."""
-        if self.saturated.any() or self.position_clamped.any() or self.velocity_clamped.any():
+        """True when the whole program ran from a start within the joint limits with no
+        saturated effort and no clamped command; False when the start is outside the limits or
+        some cycle saturated or clamped; None when the run was interrupted before any did
+        (unknown: the rest of the program was not simulated)."""
+        if (self.saturated.any() or self.position_clamped.any()
+                or self.velocity_clamped.any() or start_violations(self)):
             return False
         return True if self.completed else None
 
@@ -155,105 +177,40 @@ class SimulationResult:
                             np.linalg.norm(m, axis=2), m_axial, m_bending)
 
     def summary(self) -> dict[str, Any]:
-        """The answers a designer wants, as plain JSON-ready data (SI units).
+        """The answers a designer wants, as strict JSON data (RFC 8259: an unlimited value is
+        ``None``, JSON ``null``; no NaN or infinity), SI units; :mod:`mrnea.summary`.
 
-        ``achievable`` (:attr:`achievable`: true, false, or null for an interrupted run that
-        exceeded no limit in the cycles it did); ``completed`` and ``interrupted_after_cycles``
-        (the number of cycles done if the run was interrupted, else null);
-        ``first_infeasible`` (time, cycle, joint, reason, required vs available effort) or None;
-        per joint: time saturated [s], peak and RMS motor torque [N m], peak joint-side effort,
-        peak speed [rad/s | m/s], peak reaction force [N] and moment [N m] (magnitudes; axial
-        and radial split of the force along the joint axis, bending moment), worst tracking
-        error and when, and the position error q_cmd - q at the last cycle
+        Top level: ``achievable`` (:attr:`achievable`: true, false, or null for an interrupted
+        run that exceeded no limit in the cycles it did), ``completed`` and
+        ``interrupted_after_cycles``; ``first_infeasible`` (time, cycle, joint, reason, and what
+        was commanded or needed against what was available) or null; ``start_infeasible`` (the
+        joints whose start is outside their position or velocity limits); ``worst_joint`` and
+        ``worst_effort_ratio`` (the program's largest required effort / limit, below).
+
+        Per joint, the program's own requirement (:attr:`program_effort`, before any lag):
+        ``program_peak_effort`` [N m | N] and ``program_peak_time`` [s], ``program_rms_effort``,
+        ``program_peak_motor_torque`` and ``program_rms_motor_torque`` [N m, motor side],
+        ``program_effort_ratio`` (peak of |required| / the limit at the program's speed; null
+        for a joint without a drive, ``drive = "unpowered"``, or without a limit,
+        ``"unlimited"``, or commanded beyond its no-load speed), with its time, effort and
+        limit, and ``program_first_over_time``. Then the simulated response: time saturated
+        and stuck [s], peak and RMS motor torque [N m], peak effort [N m | N] against
+        ``effort_limit``, peak speed [rad/s | m/s], peak reaction force [N] and moment [N m]
+        (magnitudes; axial and radial split of the force along the joint axis, bending
+        moment), worst tracking error and when, and the position error q_cmd - q at the last cycle
         (``final_position_error``; tracking errors [rad | m] are 0 below the resolution
         :attr:`tracking_error` states).
         """
-        if self._summary:
-            return self._summary
-        head = {"robot": self.robot.name, "achievable": self.achievable, "mode": self.mode,
-                "fd": self.fd, "dt": self.dt, "cycles": self.K,
-                "duration": float(self.K * self.dt), "completed": self.completed,
-                "interrupted_after_cycles": None if self.completed else self.K}
-        if self.K == 0:  # interrupted before the first chunk ended
-            return {**head, "first_infeasible": None, "max_tracking_error": 0.0, "joints": []}
-        names = self.robot.joint_names
-        infeasible = self.saturated | self.position_clamped | self.velocity_clamped
-        first = None
-        if infeasible.any():
-            k, i = (int(x) for x in np.argwhere(infeasible)[0])
-            reasons = [r for r, m in (("effort saturated", self.saturated),
-                                      ("position limit", self.position_clamped),
-                                      ("velocity limit", self.velocity_clamped)) if m[k, i]]
-            nxt = min(k + 1, self.K - 1)
-            first = {
-                "time": float(self.t[k]), "cycle": k, "joint": names[i],
-                "reason": ", ".join(reasons),
-                "required_effort": float(self.tau_required[k, i]),
-                "available_effort": float(self.limit[k, i]),
-                "commanded_velocity": float(self.qd_cmd[nxt, i]),
-                "velocity_limit": float(self.robot.velocity_limit[i]),
-                "commanded_position": float(self.q_cmd[nxt, i]),
-                "position_limits": [float(self.robot.lower[i]), float(self.robot.upper[i])],
-            }
-        loads = self.bearing_loads()
-        err = np.abs(self.tracking_error)
-        joints = []
-        for i, name in enumerate(names):
-            ke = int(np.argmax(err[:, i]))
-            joints.append({
-                "joint": name,
-                "time_saturated": float(self.saturated[:, i].sum() * self.dt),
-                "peak_motor_torque": float(np.abs(self.tau_motor[:, i]).max()),
-                "rms_motor_torque": float(np.sqrt(np.mean(self.tau_motor[:, i] ** 2))),
-                "peak_effort": float(np.abs(self.tau[:, i]).max()),
-                "effort_limit": float(self.robot.effort_limit[i]),
-                "peak_speed": float(np.abs(self.qd[:, i]).max()),
-                "peak_reaction_force": float(loads.force[:, i].max()),
-                "peak_axial_force": float(loads.axial_force[:, i].max()),
-                "peak_radial_force": float(loads.radial_force[:, i].max()),
-                "peak_reaction_moment": float(loads.moment[:, i].max()),
-                "peak_bending_moment": float(loads.bending_moment[:, i].max()),
-                "max_tracking_error": float(err[ke, i]),
-                "max_tracking_error_time": float(self.t[ke]),
-                "final_position_error": float(self.tracking_error[-1, i]),
-            })
-        out = {**head, "first_infeasible": first,
-               "max_tracking_error": float(err.max()) if err.size else 0.0, "joints": joints}
-        object.__setattr__(self, "_summary", out)
-        return out
+        if not self._summary:
+            object.__setattr__(self, "_summary", summarize(self))
+        return self._summary
 
     def verdict(self) -> str:
-        """One line: achievable, or where and why not; an interrupted run says after how many
-        cycles, and is never called achievable."""
-        s = self.summary()
-        head = ("" if self.completed else
-                f"INTERRUPTED (partial result): interrupted after {self.K} cycles; ")
-        if self.K == 0:
-            return f"{head}no cycle was completed."
-        if s["achievable"] is None:
-            return (f"{head}no limit exceeded in the {s['duration']:.3f} s simulated; whether the "
-                    "rest of the program is achievable is unknown.")
-        if s["achievable"]:
-            return (f"{head}ACHIEVABLE: {self.robot.name} follows the program "
-                    f"({self.K} cycles, {s['duration']:.3f} s) within every limit.")
-        fi = s["first_infeasible"]
-        joint = self.robot.joints[self.robot.joint_names.index(fi["joint"])]
-        if fi["reason"].startswith("effort"):
-            u = joint.unit("tau")
-            what = (f"effort required {fi['required_effort']:.4g} {u}, available "
-                    f"{fi['available_effort']:.4g} {u}")
-        elif fi["reason"].startswith("position"):
-            lo, hi = fi["position_limits"]
-            what = (f"position commanded {fi['commanded_position']:.4g} {joint.unit('q')}, "
-                    f"range [{lo:.4g}, {hi:.4g}] {joint.unit('q')}")
-        else:
-            what = (f"velocity commanded {fi['commanded_velocity']:.4g} {joint.unit('qd')}, "
-                    f"limit {fi['velocity_limit']:.4g} {joint.unit('qd')}")
-        worst = max(range(self.robot.n), key=lambda i: s["joints"][i]["max_tracking_error"])
-        return (f"{head}NOT ACHIEVABLE: first at t = {fi['time']:.3f} s, joint '{fi['joint']}' "
-                f"({fi['reason']}): {what}; worst tracking error "
-                f"{s['joints'][worst]['max_tracking_error']:.4g} "
-                f"{self.robot.joints[worst].unit('q')} ('{self.robot.joint_names[worst]}').")
+        """One line: ACHIEVABLE with the worst joint's headroom, or NOT ACHIEVABLE with the
+        worst joint's requirement against its limit (units: N m or N) and when; an
+        interrupted run says after how many cycles, and is never called achievable
+        (:func:`mrnea.summary.verdict`)."""
+        return verdict(self)
 
     def final_position_line(self) -> str | None:
         """None when the run completed and the robot ended where the program ends; else one
@@ -328,7 +285,7 @@ class SimulationResult:
     def save_summary(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
         """Write :meth:`summary` as JSON (``summary.json``), as :meth:`to_csv` writes."""
         with create(path, overwrite) as fh:
-            json.dump(self.summary(), fh, indent=2)
+            json.dump(self.summary(), fh, indent=2, allow_nan=False)
             fh.write("\n")
         return Path(path)
 
@@ -417,19 +374,22 @@ def simulate(
     def zeros(dtype: type = float) -> NDArray:
         return np.zeros((K, n), dtype=dtype)
 
+    m, _, _, act = compiled.of(robot)
+    _check_moves(robot, x0)
     res = SimulationResult(
         robot=robot, dt=dt, mode=mode, fd=fd, t=np.arange(K) * dt, q_cmd=Qc, qd_cmd=Vc,
         qdd_des=zeros(), q=zeros(), qd=zeros(), qdd=zeros(), tau=zeros(), tau_motor=zeros(),
         tau_required=zeros(), limit=zeros(), margin=zeros(), saturated=zeros(np.bool_),
         position_clamped=zeros(np.bool_), velocity_clamped=zeros(np.bool_),
-        reaction=np.zeros((K, n, 6)), tracking_error=zeros())
+        reaction=np.zeros((K, n, 6)), tracking_error=zeros(), coulomb=zeros(),
+        stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros())
     clamp = zeros(np.int64)
+    status_k = np.empty(K, dtype=np.int64)  # the program requirement's, per cycle
     res.q[0], res.qd[0] = x0, v0
     resolution = TRACKING_RESOLUTION * np.maximum(1.0, np.abs(Qc).max(axis=0))
-    m, _, _, act = compiled.of(robot)
     program = (Qc, Vc, FE, PE)
-    run = (res.q, res.qd, res.qdd_des, res.qdd, res.tau, res.tau_required, res.limit,
-           res.saturated, clamp, res.reaction)
+    run = (res.q, res.qd, res.qdd_des, res.qdd, res.tau, res.coulomb, res.tau_required,
+           res.limit, res.saturated, res.stuck, clamp, res.reaction)
     done = kept = 0  # cycles done, and the bytes of the streamed table that hold them
     with contextlib.nullcontext() if stream is None else create(stream, overwrite,
                                                                  binary=True) as fh:
@@ -440,6 +400,10 @@ def simulate(
                                             catch_up, done, k1, run)
                 if status != OK:
                     validate.check_cycle(robot, k, status, res.q[k], res.qd[k], dt)
+                program_requirement((m, act), program, dt, done, k1,
+                                    (res.program_effort, res.program_limit), status_k)
+                for k in np.flatnonzero(status_k[done:k1] != OK) + done:
+                    validate.check_cycle(robot, int(k), int(status_k[k]), Qc[k], Vc[k], dt)
                 rows = slice(done, k1)
                 res._derive(rows, clamp, resolution)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
@@ -462,3 +426,30 @@ def _require_memory(K: int, n: int) -> None:
     require_memory(8.0 * K * (32 * n + 12), f"simulating {K:.3g} cycles of {n} joints",
                    "use a coarser dt or a shorter program, or split the program and simulate "
                    "the parts one after another", StateError)
+
+
+def _check_moves(robot: Robot, q0: NDArray) -> None:
+    """Refuse, before the run, a robot whose actuated mass matrix H_a is singular at the start
+    (a joint that moves no mass and no rotor inertia: the cycle's accelerations are undefined,
+    and no verdict can be given): SingularMassMatrixError naming the joint and the links."""
+    n = robot.n
+    m, _, _, act = compiled.of(robot)
+    Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
+    actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
+                   entry_scratch(n, POSE))  # one thread: no worker threads left spinning
+    j = cholesky_solve(Ha, zero, np.empty((n, n)), np.empty(n))
+    if j == OK:
+        return
+    joint = robot.joints[j]
+    moved = robot.links[j:]
+    bare = [lk.name for lk in moved if lk.mass == 0.0 and not np.any(lk.inertia)]
+    if len(bare) == len(moved) and joint.rotor_inertia == 0.0:
+        why = (f"joint '{joint.name}' moves no mass and no rotor inertia (link"
+               f"{'s' if len(bare) > 1 else ''} {', '.join(repr(b) for b in bare)} without "
+               "inertials)")
+    else:
+        why = (f"joint '{joint.name}' moves no inertia about its axis at the start state (links "
+               f"{', '.join(repr(lk.name) for lk in moved)})")
+    raise SingularMassMatrixError(
+        f"robot '{robot.name}': the actuated mass matrix H_a is singular: {why}; give the links "
+        "their masses and inertias (or the joint a rotor inertia): no verdict without them")

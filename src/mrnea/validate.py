@@ -17,12 +17,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
-from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
+from mrnea.kernels.status import CYCLE_LIMIT, NONFINITE, OK, OVERFLOW
 from mrnea.model import Robot
 
 T = TypeVar("T")
 _ZERO_WRENCH = np.zeros(6)  # f_ext=None, f_ext_point=None (kernels never write their inputs)
 _ZERO_POINT = np.zeros(3)
+_CYCLE_LIMIT = ("the exact cycle solve stopped at its step bound, which only rounding can reach "
+                "(an extremely ill-conditioned mass matrix?); please report the case")
 
 
 def require_robot(robot: object) -> None:
@@ -182,6 +184,9 @@ def check_status(robot: Robot, status: int | NDArray, states: dict[str, object])
         raise MrneaError(
             f"{where}the result is not finite although every input is: the state or the "
             f"robot '{robot.name}' holds values too large for float64 arithmetic")
+    if np.any(st == CYCLE_LIMIT):
+        b = int(np.flatnonzero(st == CYCLE_LIMIT)[0])
+        raise MrneaError((f"state {b}: " if batched else "") + _CYCLE_LIMIT)
     b = int(np.flatnonzero(st >= 0)[0])
     where = f"state {b}: " if batched else ""
     raise SingularMassMatrixError(
@@ -197,6 +202,8 @@ def check_cycle(robot: Robot, k: int, status: int, q: NDArray, qd: NDArray, dt: 
         raise MrneaError(
             f"cycle {k} (t = {k * dt:.6g} s): the state became non-finite (q = {q.tolist()}, "
             f"qd = {qd.tolist()}); check the program and the robot's limits")
+    if status == CYCLE_LIMIT:
+        raise MrneaError(f"cycle {k} (t = {k * dt:.6g} s): {_CYCLE_LIMIT}")
     raise SingularMassMatrixError(
         f"cycle {k} (t = {k * dt:.6g} s): the mass matrix is singular (pivot of joint "
         f"'{robot.joint_names[status]}') at q = {q.tolist()}")

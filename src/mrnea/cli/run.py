@@ -102,7 +102,7 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
         s = dict(res.summary())
         if report is not None:
             s["report"] = str(report)
-        click.echo(json.dumps(s, indent=2))
+        click.echo(json.dumps(s, indent=2, allow_nan=False))
         return
     if not quiet:
         click.echo(res.verdict())

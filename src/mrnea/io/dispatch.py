@@ -15,6 +15,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from numpy.typing import NDArray
+
 from mrnea.errors import ModelError, ModelWarning, RobotFileError, quote
 from mrnea.io import native, urdf
 from mrnea.io.payload import Payload
@@ -22,8 +24,8 @@ from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path
 from mrnea.model import Robot
 
-__all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "RobotOptions", "load_builtin", "load_robot",
-           "load_robot_spec", "resolve_robot", "same_robot"]
+__all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "RobotOptions", "flange_of", "load_builtin",
+           "load_robot", "load_robot_spec", "resolve_robot", "same_robot"]
 
 #: Names of the built-in robots (files ``mrnea/robots/data/<name>.toml``).
 BUILTIN_ROBOTS = ("sdt", "puma560")
@@ -207,3 +209,16 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
     except ModelError as exc:
         raise RobotFileError(f"{source}: {exc}") from None
     return robot
+
+
+def flange_of(source: str) -> NDArray | None:
+    """The pose (4x4) of the DH flange frame in the last link's frame of the robot ``source``
+    names (:func:`resolve_robot`): a built-in robot or a native file given by a DH table
+    (:func:`mrnea.io.native.native_flange`); None for a robot given otherwise (URDF, origin/axis
+    form), which has no DH frames."""
+    if source in BUILTIN_ROBOTS:
+        resource = resources.files("mrnea").joinpath("robots", "data", f"{source}.toml")
+        with resources.as_file(resource) as path, warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelWarning)
+            return native.native_flange(path)
+    return native.native_flange(source) if Path(source).suffix.lower() == ".toml" else None

@@ -44,9 +44,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mrnea.errors import ModelError, RobotFileError, quote
-from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain
+from mrnea.io.dh import CONVENTIONS, JOINT_FIELDS, DHRow, dh_joint_chain, dh_tip_transform
 from mrnea.io.mesh import mesh_path
 from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.source import as_path, read_text
@@ -64,7 +65,7 @@ from mrnea.model import (
 )
 from mrnea.visual import VISUAL_KINDS, Visual
 
-__all__ = ["dumps_native", "load_native", "loads_native", "write_native"]
+__all__ = ["dumps_native", "load_native", "loads_native", "native_flange", "write_native"]
 
 _TOP_KEYS = ("robot", "joint")
 _ROBOT_KEYS = ("name", "gravity", "dh", "base", "base_visual")
@@ -177,7 +178,9 @@ def _pose(check: TomlCheck, table: Mapping[str, Any], where: str, label: str) ->
 
 
 def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: str
-                  ) -> tuple[list[Joint], list[Link]]:
+                  ) -> tuple[list[Joint], list[Link], NDArray | None]:
+    """The joints, the links, and for a DH table the pose of DH frame n (the flange) in the last
+    link's frame (:func:`mrnea.io.dh.dh_tip_transform`; None without a DH table)."""
     allowed = _COMMON_JOINT_KEYS + (_DH_JOINT_KEYS if dh else _ORIGIN_JOINT_KEYS)
     hint_other = (" ('origin'/'axis' are not used when [robot] dh is set)" if dh else
                   " (DH parameters need dh = \"standard\" or \"modified\" in [robot])")
@@ -220,10 +223,10 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         parent = lname
     if dh:
         try:
-            return dh_joint_chain(rows, dh, base=base)
+            return (*dh_joint_chain(rows, dh, base=base), dh_tip_transform(rows, dh))
         except ModelError as exc:
             raise check.error("", str(exc)) from None
-    return joints, links
+    return joints, links, None
 
 
 def loads_native(text: str, source: str = "<string>") -> Robot:
@@ -267,12 +270,26 @@ def loads_native(text: str, source: str = "<string>") -> Robot:
     if not isinstance(entries, list):
         raise check.error("", "'joint' must be an array of tables: write [[joint]], not [joint]")
     base_visuals = _visuals(check, robot.get("base_visual", []), "[robot] base")
-    joints, links = _parse_joints(check, entries, dh, base)
+    joints, links, _ = _parse_joints(check, entries, dh, base)
     try:
         return Robot(joints, links, gravity=gravity, name=name, base=base,
                      base_visuals=base_visuals)
     except ModelError as exc:
         raise check.error("", str(exc)) from None
+
+
+def native_flange(path: str | Path) -> NDArray | None:
+    """Pose (4x4) of the DH flange frame (DH frame n) in the last link's frame of the native
+    robot file ``path``, given by a DH table (:func:`mrnea.io.dh.dh_tip_transform`); None for a
+    file in the origin/axis form. Raises RobotFileError as :func:`load_native`."""
+    text = read_text(path, "robot file", RobotFileError)
+    loads_native(text, str(path))  # the whole file checked, errors naming it
+    check = TomlCheck(str(path), RobotFileError, finite=False)
+    doc = check.parse(text)
+    robot = doc.get("robot", {})
+    if robot.get("dh") is None:
+        return None
+    return _parse_joints(check, doc["joint"], robot["dh"], robot.get("base", "base"))[2]
 
 
 def load_native(path: str | Path, actuators: str | Path | None = None) -> Robot:

@@ -23,6 +23,7 @@ from mrnea.errors import MrneaError, ProgramFileError, StateError, quote, shorte
 from mrnea.io.dispatch import (
     BUILTIN_ROBOTS,
     RobotOptions,
+    flange_of,
     load_robot_spec,
     resolve_robot,
     same_robot,
@@ -62,7 +63,9 @@ class Program:
     q_cmd : (K, n) commanded joint positions [rad | m].
     f_ext : (K, 6) wrench ``[f; n]`` [N, N m] the end effector exerts on its environment, base
         frame, one row per cycle; None: no external wrench.
-    f_ext_point : (3,) point [m] of the last link's frame where f_ext acts; None: its origin.
+    f_ext_point : (3,) point [m] where f_ext acts, in the last link's frame (mrnea's link frame
+        n, not the DH frame n of the paper; a program may give it in DH frame n with
+        ``point_frame = "flange"``, converted here); None: the last link frame's origin.
     mode : ``"hybrid"``, ``"paper"`` or None (the simulator's default).
     name : the program's name.
     source : the program file it was read from (for messages).
@@ -160,7 +163,10 @@ _PROGRAM_KEYS = ("name", "robot", "dt", "mode", "actuators", "tip", "payload", "
 _CSV_KEYS = ("csv", "units", "interpolation")
 _PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
               "dwell", "csv", "units", "interpolation")
-_WRENCH_KEYS = ("times", "values", "point")
+_WRENCH_KEYS = ("times", "values", "point", "point_frame")
+#: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
+#: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
+POINT_FRAMES = ("link", "flange")
 
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
@@ -272,7 +278,7 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         raise check.error(where, str(exc)) from None
 
 
-def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray
+def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray, robot: str
             ) -> tuple[NDArray, NDArray | None]:
     where = "[wrench]"
     check.check_keys(table, _WRENCH_KEYS, where)
@@ -289,6 +295,17 @@ def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray
     point = None
     if "point" in table:
         point = check.vector(table["point"], where, "point", 3)
+    frame = table.get("point_frame", "link")
+    if frame not in POINT_FRAMES:
+        raise check.error(where, f"'point_frame' must be one of "
+                                 f"{', '.join(map(repr, POINT_FRAMES))}, got {frame!r}")
+    if frame == "flange":  # DH frame n -> the last link's frame: p_link = B_n p_flange
+        B = flange_of(robot)
+        if B is None:
+            raise check.error(where, f"point_frame = 'flange' needs a robot given by a DH table "
+                                     f"(dh = \"standard\" or \"modified\"); {robot} is not")
+        p = np.zeros(3) if point is None else point
+        point = B[:3, :3] @ p + B[:3, 3]
     return f_ext, point
 
 
@@ -340,7 +357,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
-        f_ext, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"), t)
+        f_ext, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"), t, robot)
     for a in (t, q, f_ext, point, rows):
         if a is not None:
             a.setflags(write=False)

@@ -26,7 +26,9 @@ __all__ = ["apply_actuator_file", "joint_fields"]
 def joint_fields(check: TomlCheck, table: Mapping[str, Any], where: str) -> dict[str, Any]:
     """The limit and actuator fields (:data:`JOINT_FIELDS`) a table sets, as Joint keywords.
 
-    Numbers, ``torque_speed`` a ``[peak, corner_speed, no_load_speed]`` triple; NaN is refused.
+    Numbers, ``torque_speed`` a ``[peak, corner_speed, no_load_speed]`` triple,
+    ``coulomb_friction`` a number or a ``[positive direction, negative direction]`` pair; NaN is
+    refused.
     ``effort_limit`` alone sets a constant limit (``torque_speed = None``: it replaces a curve);
     given with ``torque_speed``, it must equal the curve's peak.
     """
@@ -36,6 +38,9 @@ def joint_fields(check: TomlCheck, table: Mapping[str, Any], where: str) -> dict
             continue
         if key == "torque_speed":
             out[key] = tuple(check.vector(table[key], where, key, 3).tolist())
+            continue
+        if key == "coulomb_friction" and isinstance(table[key], list):  # [F+, F-]
+            out[key] = tuple(check.vector(table[key], where, key, 2).tolist())
             continue
         out[key] = check.number(table[key], where, key)
         if math.isnan(out[key]):
@@ -54,8 +59,9 @@ def apply_actuator_file(robot: Robot, path: str | Path) -> Robot:
 
     One TOML table per joint, named like the joint; keys (joint side, SI units)
     ``gear_ratio``, ``rotor_inertia`` [kg m^2, motor side], ``viscous_friction``,
-    ``coulomb_friction``, ``effort_limit``, ``torque_speed = [peak, corner_speed,
-    no_load_speed]``, ``velocity_limit``, ``lower``, ``upper``::
+    ``coulomb_friction`` (a number, or ``[positive direction, negative direction]``),
+    ``effort_limit``, ``torque_speed = [peak, corner_speed, no_load_speed]``,
+    ``velocity_limit``, ``lower``, ``upper``::
 
         [shoulder_pan_joint]
         rotor_inertia = 3.3e-5

@@ -570,8 +570,9 @@ def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
       :func:`load_urdf` reads that value back as infinite. Continuous joints get no
       ``lower``/``upper``.
     * Not representable in plain URDF, hence dropped: the rotor inertia, a torque-speed curve
-      (its peak is the ``effort`` written) and a non-default gravity
-      (:func:`mrnea.io.write_native` keeps them all).
+      (its peak is the ``effort`` written), a non-default gravity, and the asymmetry of a
+      Coulomb friction ``(positive direction, negative direction)``: URDF's ``friction`` is one
+      value, written as the mean of the two (:func:`mrnea.io.write_native` keeps them all).
     * Numbers are written in their shortest exact decimal form, so masses, centres of mass,
       inertias, translations, axes and limits round-trip exactly.
     """
@@ -594,7 +595,7 @@ def write_urdf(robot: Robot, path: str | Path, overwrite: bool = False) -> Path:
             limit = {"lower": _fmt(j.lower), "upper": _fmt(j.upper), **limit}
         ET.SubElement(je, "limit", limit)
         ET.SubElement(je, "dynamics", damping=_fmt(j.viscous_friction),
-                      friction=_fmt(j.coulomb_friction))
+                      friction=_fmt(sum(j.coulomb_pair) / 2))  # URDF holds one value
         le = ET.SubElement(root, "link", name=lk.name)
         inertial = ET.SubElement(le, "inertial")
         ET.SubElement(inertial, "origin", xyz=_fmt(*lk.com), rpy="0.0 0.0 0.0")

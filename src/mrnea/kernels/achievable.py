@@ -1,35 +1,27 @@
 """Achievable accelerations: what the actuators can really do this cycle (paper Secs. II, V).
 
 Usage: ``status = achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, out)`` with
-``compiled = (model, act)`` and ``out = (qdd, tau, tau_req, limit, sat)``; ``status =
-step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, qdd, tau, tau_req,
-limit, sat, q_next, qd_next, clamp, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch
+``compiled = (model, act)`` and ``out = (qdd, tau, phi, tau_req, limit, sat, stuck)``; ``status =
+step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, qdd, tau, phi,
+tau_req, limit, sat, stuck, q_next, qd_next, clamp, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch
 (kernels/layout.py). The kernels Python calls take tuples; the per-state kernels inside the
 batch and simulation loops (``achievable_ws``, ``step``) take their arrays one by one, which
 measured 3-6 % faster in the simulation loop (docs/design.md).
 
-The drive's law (kernels/drive.py): tau = H_a qdd + u'_a (Eqs. 42-43), the effort limit at speed
-and Coulomb friction at rest.
+The drive's law (kernels/drive.py): tau = H_a qdd + u'_a + phi (Eqs. 42-43), the effort limit at
+speed and set-valued Coulomb friction phi. One cycle is one exact solve of that law with the
+drives' limits (kernels/drive_solve.py), in either mode:
 
-Modes:
-
-* PAPER (Eq. 44): clamp every required effort to +-limit and solve H_a qdd = tau - u'_a.
+* PAPER (Eq. 44): every required effort is clamped to +-limit, and the accelerations follow.
 * HYBRID (Sec. II: "other joint accelerations keep their values obtained from the path
-  interpolator"): joints whose required effort exceeds the limit deliver the limit; every other
-  joint keeps qdd_des and takes the effort that needs. The saturated set is found one joint at a
-  time: the joint furthest over its limit (|tau| / limit) saturates, the rest are solved again,
-  and so on (an active set that only grows: at most n rounds). One at a time, because another
-  joint's excess may come only from its coupling to the first one's unachievable acceleration.
+  interpolator"): each drive either keeps its joint on the program with an effort within its
+  limit, or gives +-limit and misses the program on the side that effort pushes it to.
 
-Both are one mixed linear system: per joint either the acceleration or the effort is known.
-
-Coulomb friction at rest (kernels/drive.py) makes the mixed system a small complementarity
-problem: a joint whose effort is prescribed (saturated, or any joint in PAPER mode) is first taken
-to move the way the program wants (friction against that direction), or to stay at rest if the
-program wants it to. The guess is then checked and revised until consistent: a joint held at
-rest whose holding friction would exceed F_s starts moving the way the net effort pushes; a
-moving joint that would accelerate against its own friction stays at rest instead. The revision
-stops after 4n + 2 rounds, which has sufficed in every case tested.
+``step`` is the whole cycle over dt: the velocity the drives hold over the next interval is
+solved for directly, so a joint that stops is at rest exactly. ``achievable_ws`` is one state
+without a cycle time, the limit dt -> 0 of the same problem: the accelerations solved at the
+state (qd := 0, v_des := qdd_des, dt := 1 in the solve), a moving joint meeting its sliding
+friction coulomb(qd) (it cannot reach zero in no time) and a joint at rest the set-valued one.
 """
 
 from __future__ import annotations
@@ -38,17 +30,13 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import chunk, finite, n_chunks
-from mrnea.kernels.drive import (
-    actuator_terms,
-    effort_limit,
-    sliding_friction,
-    slips,
-    static_friction,
-)
+from mrnea.kernels.drive import actuator_terms, coulomb, effort_limit
+from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
 from mrnea.kernels.layout import (
     ACHIEVABLE,
     ALLOC,
-    FS,
+    FNEG,
+    FPOS,
     JIT,
     LOWER,
     UPPER,
@@ -56,175 +44,82 @@ from mrnea.kernels.layout import (
     achievable_buffers,
     scratch,
 )
-from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
-PAPER, HYBRID = 0, 1
+__all__ = ["CLAMP_POSITION", "CLAMP_VELOCITY", "HYBRID", "PAPER", "achievable",
+           "achievable_batch", "achievable_ws", "step"]
+
 # clamp flags of ``step``, per joint
 CLAMP_POSITION, CLAMP_VELOCITY = 1, 2
-
-
-@nb.njit(**JIT)
-def _mixed_solve(Ha, ua, fric, known, qdd, tau, Hs, rhs, L, x, idx):
-    """Solve ``H_a qdd + u'_a + fric = tau`` where qdd[i] is given if known[i], else tau[i].
-
-    Fills the unknown entries: qdd where not known; tau = H_a qdd + u'_a (friction excluded)
-    where known. Returns OK or the joint index of a failed pivot.
-    """
-    n = Ha.shape[0]
-    m = 0
-    for i in range(n):
-        if not known[i]:
-            idx[m] = i
-            m += 1
-    for a in range(m):
-        i = idx[a]
-        s = tau[i] - ua[i] - fric[i]
-        for j in range(n):
-            if known[j]:
-                s -= Ha[i, j] * qdd[j]
-        rhs[a] = s
-        for b in range(m):
-            Hs[a, b] = Ha[i, idx[b]]
-    if m > 0:
-        status = cholesky_solve(Hs[:m, :m], rhs[:m], L[:m, :m], x[:m])
-        if status != OK:
-            return idx[status]
-        for a in range(m):
-            qdd[idx[a]] = x[a]
-    for i in range(n):
-        if known[i]:
-            s = ua[i]
-            for j in range(n):
-                s += Ha[i, j] * qdd[j]
-            tau[i] = s
-    return OK
-
-
-@nb.njit(**JIT)
-def _start_from_rest(act, qd, qdd_des, i, held, slip):
-    """First guess for a joint at rest whose effort is prescribed: it moves the way the program
-    wants (friction F_s opposing that), or, asked to stay, static friction holds it."""
-    if qd[i] != 0.0 or act[i, FS] == 0.0:
-        return
-    if qdd_des[i] != 0.0:
-        slip[i] = np.sign(qdd_des[i])
-    else:
-        held[i] = True
 
 
 @nb.njit(**ALLOC)
 def achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, out):
     """``achievable_ws`` with its own scratch; ``compiled = (model, act)``, ``out = (qdd, tau,
-    tau_req, limit, sat)``."""
+    phi, tau_req, limit, sat, stuck)``."""
     model, act = compiled
-    qdd, tau, tau_req, limit, sat = out
-    return achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
-                         limit, sat, scratch(q.shape[0], ACHIEVABLE))
+    qdd, tau, phi, tau_req, limit, sat, stuck = out
+    return achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, phi,
+                         tau_req, limit, sat, stuck, scratch(q.shape[0], ACHIEVABLE))
 
 
 @nb.njit(**JIT)
-def achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req, limit,
-                  sat, ws):
+def achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, phi, tau_req,
+                  limit, sat, stuck, ws):
     """Achievable accelerations of one state (module docstring). Returns a status.
 
-    Fills qdd (achievable), tau (effort applied, joint side), tau_req (effort qdd_des needs),
-    limit (effort limit at the current speed) and sat (True where the joint is saturated).
-    ``ws``: an ``ACHIEVABLE`` scratch (its ``achievable_buffers``).
+    Fills qdd (achievable), tau (effort applied, joint side), phi (Coulomb friction: the
+    sliding friction of a moving joint, the resolved one of a joint at rest), tau_req (effort
+    qdd_des needs), limit (effort limit at the current speed), sat (True where the joint is
+    saturated) and stuck (a joint at rest that static friction keeps there). ``ws``: an
+    ``ACHIEVABLE`` scratch.
     """
     n = q.shape[0]
     if not finite(qdd_des):
         return NONFINITE
-    Ha, Hs, L, ua, slip, tau_cmd, fric, rhs, x, known, held, fixed, idx = achievable_buffers(ws, n)
-    # slip: direction (+-1) of a joint starting from rest, its effort prescribed; tau_cmd: the
-    # prescribed efforts; fric: Coulomb friction of joints starting from rest; known: 0/1,
-    # acceleration prescribed (HYBRID, unsaturated); held: 0/1, effort prescribed, kept at rest
-    # by static friction; fixed: 0/1, acceleration known this round (known or held); idx: the
-    # unknowns' joint indices (_mixed_solve)
+    Ha, ua, Fp, Fn, _, v, rest = achievable_buffers(ws, n)
     status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
-
-    # Eq. 42 with qdd_des: the efforts the programmed motion needs, and the limits at this speed
     for i in range(n):
-        need = ua[i]
-        for j in range(n):
-            need += Ha[i, j] * qdd_des[j]
-        tau_req[i] = static_friction(need, act, i, qd[i] != 0.0, qdd_des[i])
         limit[i] = effort_limit(act, i, qd[i])
-
+        rest[i] = 0.0
+        if qd[i] == 0.0:  # at rest: set-valued friction
+            Fp[i], Fn[i] = act[i, FPOS], act[i, FNEG]
+        else:  # moving: sliding friction, Eq. 43's F_s sign(qd)
+            Fp[i], Fn[i] = 0.0, 0.0
+            ua[i] += coulomb(qd[i], act[i, FPOS], act[i, FNEG])
+    status = solve_cycle(Ha, ua, rest, qdd_des, 1.0, limit, Fp, Fn, mode, v, qdd, tau, phi,
+                         tau_req, sat, stuck, ws)
+    if status != OK:
+        return status
     for i in range(n):
-        known[i] = mode == HYBRID
-        held[i] = False
-        slip[i] = 0.0
-        fric[i] = 0.0
-        tau_cmd[i] = min(max(tau_req[i], -limit[i]), limit[i])  # Eq. 44's clamp
-        if not known[i]:
-            _start_from_rest(act, qd, qdd_des, i, held, slip)
-    for _ in range(4 * n + 2):
-        for i in range(n):
-            fixed[i] = known[i] or held[i]
-            fric[i] = sliding_friction(act, i, slip[i])
-            if known[i]:
-                qdd[i] = qdd_des[i]
-            elif held[i]:
-                qdd[i] = 0.0
-            else:
-                tau[i] = tau_cmd[i]
-        status = _mixed_solve(Ha, ua, fric, fixed, qdd, tau, Hs, rhs, L, x, idx)
-        if status != OK:
-            return status
-        changed = False
-        worst, worst_ratio = -1, 1.0  # HYBRID: the joint furthest over its limit
-        for i in range(n):
-            if held[i]:
-                d = tau_cmd[i] - tau[i]  # what static friction must absorb to hold the joint
-                if slips(act, i, d):  # it cannot: the joint starts moving that way
-                    held[i] = False
-                    slip[i] = np.sign(d)
-                    changed = True
-                tau[i] = tau_cmd[i]
-            elif slip[i] != 0.0 and qdd[i] * slip[i] < 0.0:
-                # friction cannot drive a joint backwards: it stays at rest instead
-                held[i] = True
-                slip[i] = 0.0
-                changed = True
-            elif known[i]:
-                tau[i] = static_friction(tau[i], act, i, qd[i] != 0.0, qdd[i])
-                ratio = abs(tau[i]) / limit[i] if limit[i] > 0.0 else np.inf
-                if abs(tau[i]) > limit[i] and ratio > worst_ratio:
-                    worst, worst_ratio = i, ratio
-        if worst >= 0 and not changed:
-            # saturate one joint per round: another joint's excess may only come from its
-            # coupling to this one's unachievable acceleration
-            known[worst] = False
-            tau_cmd[worst] = limit[worst] * np.sign(tau[worst])
-            _start_from_rest(act, qd, qdd_des, worst, held, slip)
-            changed = True
-        if not changed:
-            break
-    for i in range(n):
-        sat[i] = abs(tau_req[i]) > limit[i] if mode == PAPER else not known[i]
+        if qd[i] != 0.0:
+            phi[i] = coulomb(qd[i], act[i, FPOS], act[i, FNEG])
+            stuck[i] = False
     return OK if finite(qdd) and finite(tau) and finite(tau_req) else OVERFLOW
 
 
 @nb.njit(**JIT)
-def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
-         qdd_des, qdd, tau, tau_req, limit, sat, q_next, qd_next, clamp, ws):
+def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, qdd, tau, phi,
+         tau_req, limit, sat, stuck, q_next, qd_next, clamp, ws):
     """One interpolation cycle of Sec. II. Returns a status.
 
     Clamps the commanded velocity qd_cmd to +-velocity limit and, where the commanded next
     position q_cmd lies outside [lower, upper], lowers the velocity so that the joint reaches the
-    limit at the end of the cycle and goes no further. Forms qdd_des = (qd_cmd - qd) / dt,
-    computes the achievable accelerations and advances the state the way Sec. II describes the
-    drives: the velocity changes to qd_next = qd + qdd dt and the speed controller holds it for
-    dt, so q_next = q + qd_next dt. A feasible command is reproduced exactly (q_next = q_cmd when
-    qd_cmd = (q_cmd - q) / dt). ``clamp`` gets CLAMP_POSITION | CLAMP_VELOCITY flags per joint;
-    the caller's q_cmd and qd_cmd are not modified.
+    limit at the end of the cycle and goes no further. That velocity v_des is what the drives
+    are asked to hold over the next interval (qdd_des = (v_des - qd) / dt); the exact solve
+    (kernels/drive_solve.py) gives the velocity v they do hold, with the limits at the current
+    speed and the Coulomb friction resolved, and the state advances the way Sec. II describes
+    the drives: qd_next = v, held for dt, so q_next = q + v dt (a stuck joint stays exactly
+    where it is). A feasible command is reproduced exactly (q_next = q_cmd when qd_cmd =
+    (q_cmd - q) / dt). ``clamp`` gets CLAMP_POSITION | CLAMP_VELOCITY flags per joint; the
+    caller's q_cmd and qd_cmd are not modified.
     """
     n = q.shape[0]
     if not (finite(q_cmd) and finite(qd_cmd) and np.isfinite(dt)):
         return NONFINITE
+    Ha, ua, Fp, Fn, v_des, _, _ = achievable_buffers(ws, n)
     for i in range(n):
         flags = 0
         qc = q_cmd[i]  # read only: the caller's command is never modified
@@ -242,28 +137,35 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine,
             vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
             flags |= CLAMP_VELOCITY
         clamp[i] = flags
+        v_des[i] = vc
         qdd_des[i] = (vc - qd[i]) / dt
-    status = achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, tau_req,
-                           limit, sat, ws)
+    status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
     for i in range(n):
-        qd_next[i] = qd[i] + qdd[i] * dt
+        limit[i] = effort_limit(act, i, qd[i])
+        Fp[i], Fn[i] = act[i, FPOS], act[i, FNEG]
+    status = solve_cycle(Ha, ua, qd, v_des, dt, limit, Fp, Fn, mode, qd_next, qdd, tau, phi,
+                         tau_req, sat, stuck, ws)
+    if status != OK:
+        return status
+    for i in range(n):
         q_next[i] = q[i] + qd_next[i] * dt
-    return OK
+    return OK if finite(qd_next) and finite(tau) and finite(tau_req) else OVERFLOW
 
 
 @nb.njit(**{**ALLOC, "parallel": True})
 def achievable_batch(compiled, Q, QD, QDD_DES, FEXT, PE, mode, engine, OUT, STATUS):
-    """``achievable`` over a batch (B, n): OUT = (QDD, TAU, TAU_REQ, LIMIT, SAT), each (B, n);
-    FEXT (B, 6), PE (B, 3), STATUS (B,)."""
+    """``achievable`` over a batch (B, n): OUT = (QDD, TAU, PHI, TAU_REQ, LIMIT, SAT, STUCK),
+    each (B, n); FEXT (B, 6), PE (B, 3), STATUS (B,)."""
     B, n = Q.shape
     model, act = compiled
-    QDD, TAU, TAU_REQ, LIMIT, SAT = OUT
+    QDD, TAU, PHI, TAU_REQ, LIMIT, SAT, STUCK = OUT
     nc = n_chunks(B)
     for ch in nb.prange(nc):
         ws = scratch(n, ACHIEVABLE)
         lo, hi = chunk(ch, nc, B)
         for b in range(lo, hi):
             STATUS[b] = achievable_ws(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
-                                      engine, QDD[b], TAU[b], TAU_REQ[b], LIMIT[b], SAT[b], ws)
+                                      engine, QDD[b], TAU[b], PHI[b], TAU_REQ[b], LIMIT[b],
+                                      SAT[b], STUCK[b], ws)

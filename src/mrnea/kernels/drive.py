@@ -1,45 +1,51 @@
 """The drive: what an actuator adds to the rigid body, and what it can give (paper Eqs. 42-43).
 
 Usage: ``status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)`` fills H_a
-(n, n) and u'_a (n,) (``actuator_terms_batch(compiled, ...)``, ``compiled = (model, act)``, over a
-batch); ``effort_limit(act, i, qd_i)``; the friction law at rest, ``static_friction``, ``slips``,
-``sliding_friction``. The actuator array ``act`` (n, NACT) as kernels/layout.py describes it:
-per joint, joint side, gear ratio G (motor turns per joint turn), rotor inertia J_m (motor
-side), viscous friction F_v, Coulomb friction F_s, the torque-speed curve and the joint limits.
+(n, n) and u'_a (n,) without the Coulomb term (``actuator_terms_batch(compiled, ...)``,
+``compiled = (model, act)``, over a batch, with it); ``drive_effort(act, i, qd_i, qdd_i)``, the
+same terms of one joint; ``effort_limit(act, i, qd_i)``; the Coulomb friction law, ``coulomb`` (a
+moving joint), ``holding_friction`` (a joint held at rest) and ``wanted_friction`` (a wanted
+motion). The
+actuator array ``act`` (n, NACT) as kernels/layout.py describes it: per joint, joint side, gear
+ratio G (motor turns per joint turn), rotor inertia J_m (motor side), viscous friction F_v,
+Coulomb friction F+ and F- (the magnitudes opposing positive and negative motion), the
+torque-speed curve and the joint limits.
 
 Actuator equation (Eqs. 42-43), joint side, on the rigid-body H and u' of one engine
 (kernels/engines.py)::
 
-    tau = H_a qdd + u'_a,   H_a = H + diag(G^2 J_m),   u'_a = u' + F_v qd + F_s sign(qd)
+    tau = H_a qdd + u'_a + phi,   H_a = H + diag(G^2 J_m),   u'_a = u' + F_v qd
 
-G^2 J_m is the rotor's inertia reflected through the gear; sign(0) = 0. The motor torque is
-tau / G (mrnea.actuators.motor_torque).
+G^2 J_m is the rotor's inertia reflected through the gear. phi is the Coulomb friction the
+drive must overcome, Eq. 43's F_s sign(qd) made set-valued (the velocity v the joint moves
+with):
+
+    phi_i = F+_i  (v_i > 0),   -F-_i  (v_i < 0),   any value in [-F-_i, F+_i]  (v_i = 0: stuck)
+
+A cycle resolves phi together with the drives' efforts (kernels/drive_solve.py); where the
+velocity is known and not zero, phi = ``coulomb(v, F+, F-)``. A joint held at rest whose drive
+and friction share a holding effort h (only their difference is fixed): friction takes up to its
+capacity first, the drive the rest, phi = ``holding_friction(h, F+, F-)`` = clip(-h, -F-, F+).
+The public u'_a (``actuator_terms_batch``, :mod:`mrnea.actuators`) adds ``coulomb(qd)``, the
+friction of a joint that moves on (0 at rest). The motor torque is tau / G
+(mrnea.actuators.motor_torque).
 
 Effort limit at speed |qd|: ``peak`` up to the corner speed, then the smaller of constant power
 ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the no-load
 speed; zero beyond it. A constant limit has corner = no-load = inf.
-
-Coulomb friction at rest (qd_i = 0, F_s > 0):
-
-* a joint whose acceleration is prescribed and non-zero breaks away: friction F_s sign(qdd_i);
-* a joint prescribed to stay at rest gets up to F_s of its holding effort from static friction,
-  the actuator supplies the rest (``static_friction``);
-* a joint whose effort is prescribed and that starts moving one way (direction s = +-1) meets the
-  friction F_s s (``sliding_friction``); held at rest, it slips when the effort static friction
-  would have to absorb exceeds F_s (``slips``).
 """
 
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from mrnea.kernels.common import chunk, n_chunks
 from mrnea.kernels.engines import mass_matrix_bias
 from mrnea.kernels.layout import (
     ALLOC,
     CORNER,
-    FS,
+    FNEG,
+    FPOS,
     FV,
     GEAR,
     INLINE,
@@ -66,17 +72,49 @@ def effort_limit(act, i, qd_i):
 
 
 @nb.njit(**INLINE)
+def coulomb(v, Fp, Fn):
+    """Coulomb friction of a joint moving with velocity v: F+ (v > 0), -F- (v < 0), 0 (v = 0)."""
+    if v > 0.0:
+        return Fp
+    if v < 0.0:
+        return 0.0 - Fn  # (0.0 - 0.0 is +0.0; -0.0 would print as "-0")
+    return 0.0
+
+
+@nb.njit(**INLINE)
+def holding_friction(h, Fp, Fn):
+    """Friction's share of the effort h that holds a joint at rest: up to its capacity first,
+    clip(-h, -F-, F+) (h = tau - phi: the drive gives h + phi)."""
+    return min(max(-h, -Fn), Fp)
+
+
+@nb.njit(**INLINE)
+def wanted_friction(h, v_des, Fp, Fn):
+    """The Coulomb friction of a joint that makes the wanted velocity v_des, its drive and
+    friction sharing the effort h = (H_a qdd_des + u'_a)_i: coulomb(v_des), or, held at rest
+    (v_des = 0), holding_friction(h)."""
+    return coulomb(v_des, Fp, Fn) if v_des != 0.0 else holding_friction(h, Fp, Fn)
+
+
+@nb.njit(**INLINE)
+def drive_effort(act, i, qd_i, qdd_i):
+    """What the drive adds to joint i's rigid-body effort, Coulomb friction aside (Eqs. 42-43):
+    G^2 J_m qdd + F_v qd."""
+    return act[i, GEAR] ** 2 * act[i, JM] * qdd_i + act[i, FV] * qd_i
+
+
+@nb.njit(**INLINE)
 def add_drive(act, qd, Ha, ua):
-    """H += diag(G^2 J_m) and u' += F_v qd + F_s sign(qd), in place: H_a and u'_a (Eqs. 42-43)."""
+    """H += diag(G^2 J_m) and u' += F_v qd, in place: H_a and u'_a (Eqs. 42-43)."""
     for i in range(qd.shape[0]):
         Ha[i, i] += act[i, GEAR] ** 2 * act[i, JM]
-        ua[i] += act[i, FV] * qd[i] + act[i, FS] * np.sign(qd[i])
+        ua[i] += act[i, FV] * qd[i]
 
 
 @nb.njit(**JIT)
 def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
-    """H_a (n, n) and u'_a (n,) of Eqs. 42-43, the rigid-body part by ``engine``
-    (kernels/engines.py); ``ws``: scratch (kernels/layout.py). Returns a status."""
+    """H_a (n, n) and u'_a (n,) of Eqs. 42-43 without the Coulomb term, the rigid-body part by
+    ``engine`` (kernels/engines.py); ``ws``: scratch (kernels/layout.py). Returns a status."""
     status = mass_matrix_bias(model, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
@@ -86,7 +124,8 @@ def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
 
 @nb.njit(**{**ALLOC, "parallel": True})
 def actuator_terms_batch(compiled, Q, QD, FEXT, PE, engine, HA, UA, STATUS):
-    """``actuator_terms`` over a batch: HA (B, n, n), UA (B, n), STATUS (B,)."""
+    """H_a and u'_a with the Coulomb friction of the joints' motion, ``coulomb(qd)``, over a
+    batch: HA (B, n, n), UA (B, n), STATUS (B,)."""
     B, n = Q.shape
     model, act = compiled
     nc = n_chunks(B)
@@ -96,27 +135,5 @@ def actuator_terms_batch(compiled, Q, QD, FEXT, PE, engine, HA, UA, STATUS):
         for b in range(lo, hi):
             STATUS[b] = actuator_terms(model, act, Q[b], QD[b], FEXT[b], PE[b], engine, HA[b],
                                        UA[b], ws)
-
-
-@nb.njit(**JIT)
-def static_friction(need, act, i, moving, qdd_i):
-    """Effort of joint i, its acceleration qdd_i prescribed, when the rigid body and the drive's
-    other terms need ``need``: Coulomb friction at rest added (module docstring)."""
-    fs = act[i, FS]
-    if moving or fs == 0.0:
-        return need
-    if qdd_i != 0.0:
-        return need + fs * np.sign(qdd_i)  # breakaway
-    return need - min(max(need, -fs), fs)  # static friction holds up to F_s
-
-
-@nb.njit(**INLINE)
-def sliding_friction(act, i, direction):
-    """Coulomb friction of joint i starting from rest in ``direction`` (+-1; 0: none)."""
-    return act[i, FS] * direction
-
-
-@nb.njit(**INLINE)
-def slips(act, i, d):
-    """True when static friction cannot absorb the effort d of joint i held at rest."""
-    return abs(d) > act[i, FS]
+            for i in range(n):
+                UA[b, i] += coulomb(QD[b, i], act[i, FPOS], act[i, FNEG])

@@ -25,7 +25,8 @@ leaves both flags at 0 and so runs every term: the general path the tests compar
 Actuator array (:func:`compile_actuators`): read-only float64, ``(n, NACT)``, joint side, row i
 for joint i (fields: :data:`mrnea.model.ACTUATOR_FIELDS`)::
 
-    GEAR  G     JM  J_m [kg m^2, motor side]     FV  F_v     FS  F_s
+    GEAR  G     JM  J_m [kg m^2, motor side]     FV  F_v
+    FPOS, FNEG  Coulomb friction F+, F- (magnitudes opposing positive, negative motion)
     PEAK, CORNER, NOLOAD   the torque-speed curve (a constant limit: CORNER = NOLOAD = inf)
     LOWER, UPPER, VLIM     position and velocity limits
 
@@ -45,7 +46,8 @@ holds because every kernel writes a slot before it reads it::
     force_buffers     f, nm = V[3n:5n]                             the Newton-Euler passes
     effort_buffer     S[0]                                         reactions' efforts
     solve_buffers     H, L = S[:2n]; u', rhs = S[2n:2n + 2]         forward dynamics
-    achievable_buffers  S[:3n + 6], I[:4]                          the achievable accelerations
+    achievable_buffers  H_a = S[:n]; S[3n:3n + 6]                  one cycle's problem
+    drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
 scratch, the largest an entry needs); batch kernels allocate one per chunk of states, the
@@ -70,8 +72,8 @@ NCOL = 52
 PRISMATIC = 1.0
 
 # --- the actuator array ---------------------------------------------------------------------------
-GEAR, JM, FV, FS, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(10)
-NACT = 10
+GEAR, JM, FV, FPOS, FNEG, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(11)
+NACT = 11
 
 # --- Numba options, set in one place: compiled code is cached on disk next to the sources --------
 # JIT: a kernel that allocates nothing runs without reference counting ("_nrt": False). Every
@@ -142,7 +144,7 @@ def compile_actuators(robot: Robot) -> np.ndarray:
     a = np.empty((robot.n, NACT))
     for i, j in enumerate(robot.joints):
         curve = j.torque_speed or (j.effort_limit, math.inf, math.inf)
-        a[i] = (j.gear_ratio, j.rotor_inertia, j.viscous_friction, j.coulomb_friction,
+        a[i] = (j.gear_ratio, j.rotor_inertia, j.viscous_friction, *j.coulomb_pair,
                 *curve, j.lower, j.upper, j.velocity_limit)
     a.setflags(write=False)
     return a
@@ -158,7 +160,7 @@ POSE, REACTIONS, SOLVE, ACHIEVABLE = 0, 1, 2, 3
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
-        return 3 * n + 6, 4
+        return 3 * n + 15, 4
     if kind == SOLVE:
         return 2 * n + 2, 0
     if kind == REACTIONS:
@@ -224,13 +226,25 @@ def solve_buffers(ws, n):
 
 @nb.njit(**INTO_CALLER)
 def achievable_buffers(ws, n):
-    """The achievable accelerations' buffers (kernels/achievable.py): H_a (n, n), the system of
-    the unknown accelerations Hs (n, n) and its Cholesky factor L (n, n); the (n,) float rows
-    u'_a, slip, tau_cmd, fric, rhs, x; the (n,) int rows known, held, fixed, idx."""
+    """One cycle's problem (kernels/achievable.py): H_a (n, n) and the (n,) rows u'_a, F+, F-
+    (the Coulomb friction the solve resolves), v_des (the velocity wanted), v (the new one)
+    and rest (zeros: the start velocity of the one-state form)."""
+    S = ws[2]
+    return (S[:n], S[3 * n], S[3 * n + 1], S[3 * n + 2], S[3 * n + 3], S[3 * n + 4],
+            S[3 * n + 5])
+
+
+@nb.njit(**INTO_CALLER)
+def drive_solve_buffers(ws, n):
+    """The exact cycle solve's buffers (kernels/drive_solve.py): the free joints' block of H_a
+    Hs (n, n) and its Cholesky factor Lc (n, n); the (n,) float rows rhs, x (the free joints'
+    solution), vstar (their target velocity) and tauc (clamped efforts, PAPER); breakpoints bp
+    (2, n) and piece slopes sl (3, n); the (n,) int rows pat (pattern), nbp (number of
+    breakpoints), idx (free joints' indices) and tabu."""
     S, ints = ws[2], ws[3]
-    return (S[:n], S[n:2 * n], S[2 * n:3 * n],
-            S[3 * n], S[3 * n + 1], S[3 * n + 2], S[3 * n + 3], S[3 * n + 4], S[3 * n + 5],
-            ints[0], ints[1], ints[2], ints[3])
+    v0 = 3 * n + 6
+    return (S[n:2 * n], S[2 * n:3 * n], S[v0], S[v0 + 1], S[v0 + 2], S[v0 + 3],
+            S[v0 + 4:v0 + 6], S[v0 + 6:v0 + 9], ints[0], ints[1], ints[2], ints[3])
 
 
 @nb.njit(**ALLOC)

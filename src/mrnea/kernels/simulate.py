@@ -1,16 +1,21 @@
-"""The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code.
+"""The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code; and the
+program's own requirement, every cycle at once.
 
 Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run)``
 with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
-``run = (q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench)``, unpacked once per call:
-the per-cycle ``step`` takes its arrays one by one (docs/design.md).
+``run = (q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench)``, unpacked
+once per call: the per-cycle ``step`` takes its arrays one by one (docs/design.md).
+``program_requirement(compiled, program, dt, k0, k1, out, status)`` with ``out = (req, limit)``
+fills rows k0 <= k < k1.
 
 Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
 at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
 q[k], qd[k] (qd[k] is the velocity the drives held over that interval), and what cycle k does:
 qdd_des[k] = (v - qd[k]) / dt with v the velocity wanted over the next interval, the achievable
-qdd[k], the efforts, the limits, saturation and clamp flags, and each joint's reaction wrench
-(kernels/rnea.py ``reactions``) at q[k], qd[k], qdd[k]. Then q[k+1], qd[k+1] follow.
+qdd[k], the drives' efforts tau, the Coulomb friction phi, the requirement tau_req, the limits,
+saturation, stuck and clamp flags, and each joint's reaction wrench (kernels/rnea.py
+``reactions``) at q[k], qd[k], qdd[k]. Then q[k+1], qd[k+1] follow (kernels/achievable.py
+``step``).
 
 v is the program's qd_cmd[k+1] (the paper's behaviour: after a saturation the robot lags its
 program and keeps the lag), plus, with a position-loop gain ``catch_up`` > 0 [1/s],
@@ -18,6 +23,14 @@ catch_up * (q_cmd[k] - q[k]): the velocity feed-forward and proportional positio
 cascaded servo, which closes the lag exponentially (rate catch_up) once the limits allow.
 On entry q[k0], qd[k0] hold the state.
 Returns (k1, OK), or the cycle and status of a failure.
+
+The program's requirement is the same cycle's requirement at the program's own state, before
+any lag: at q_cmd[k], qd_cmd[k], wanting qd_cmd[k+1] (zero after the last cycle), not clamped:
+qdd_des = (qd_cmd[k+1] - qd_cmd[k]) / dt, h = ID(q_cmd[k], qd_cmd[k], qdd_des, f_ext) + G^2 J_m
+qdd_des + F_v qd_cmd[k] (the RNEA pass, Eq. 42's H_a qdd_des + u'_a without forming H_a), and
+the requirement h + phi_des with the friction of that motion (kernels/drive.py
+``wanted_friction``), as the cycle's exact solve forms it; the effort limit at the program's
+speed.
 """
 
 from __future__ import annotations
@@ -26,9 +39,10 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.achievable import step
+from mrnea.kernels.drive import drive_effort, effort_limit, wanted_friction
 from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import ACHIEVABLE, ALLOC, scratch
-from mrnea.kernels.rnea import reactions_ws
+from mrnea.kernels.layout import ACHIEVABLE, ALLOC, FNEG, FPOS, POSE, scratch
+from mrnea.kernels.rnea import reactions_ws, rnea_ws
 from mrnea.kernels.status import OK
 
 
@@ -37,7 +51,7 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
-    q, qd, qdd_des, qdd, tau, tau_req, limit, sat, clamp, wrench = run
+    q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench = run
     K, n = q_cmd.shape
     ws = scratch(n, ACHIEVABLE)  # step's, then the reactions'
     nxt = np.empty((3, n))  # the next state and the velocity wanted over the next interval
@@ -48,8 +62,8 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
             v[i] = 0.0 if last else qd_cmd[k + 1, i]  # the program ends at rest
             v[i] += catch_up * (q_cmd[k, i] - q[k, i])
         status = step(model, act, q[k], qd[k], q_cmd[k] if last else q_cmd[k + 1], v, dt,
-                      fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], tau_req[k],
-                      limit[k], sat[k], q_next, qd_next, clamp[k], ws)
+                      fext[k], pe[k], mode, engine, qdd_des[k], qdd[k], tau[k], phi[k],
+                      tau_req[k], limit[k], sat[k], stuck[k], q_next, qd_next, clamp[k], ws)
         if status != OK:
             return k, status
         # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
@@ -61,3 +75,26 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
             q[k + 1] = q_next
             qd[k + 1] = qd_next
     return k1, OK
+
+
+@nb.njit(**ALLOC)
+def program_requirement(compiled, program, dt, k0, k1, out, status):
+    """The program's own requirement (module docstring) in cycles k0 <= k < k1: out = (req,
+    limit), each (K, n) [N m | N], joint side; status (K,) per cycle. One thread, as the loop:
+    a parallel kernel's worker threads would compete with the loop for the cores."""
+    model, act = compiled
+    q_cmd, qd_cmd, fext, pe = program
+    req, limit = out
+    K, n = q_cmd.shape
+    ws = scratch(n, POSE)
+    qdd_des = np.empty(n)
+    for k in range(k0, k1):
+        for i in range(n):
+            v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]  # the program ends at rest
+            qdd_des[i] = (v - qd_cmd[k, i]) / dt
+        status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws)
+        for i in range(n):
+            v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
+            h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])
+            req[k, i] = h + wanted_friction(h, v, act[i, FPOS], act[i, FNEG])
+            limit[k, i] = effort_limit(act, i, qd_cmd[k, i])

@@ -9,3 +9,4 @@ OK = -1  # the outputs hold the result
 NONFINITE = -2  # an input holds NaN or inf
 OVERFLOW = -3  # finite inputs gave a result that is not finite: values too large for float64
 SIZE = -4  # a state array's length is not the model's n (checked by the single-state entries)
+CYCLE_LIMIT = -5  # the exact cycle solve reached its exact-arithmetic step bound (rounding)

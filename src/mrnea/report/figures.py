@@ -1,9 +1,10 @@
 """The four figures a designer reads after :func:`mrnea.simulate.simulate` (paper Sec. VI).
 
-``"motion"`` (programmed vs achieved position, velocity, acceleration), ``"efforts"`` (joint
-effort and required effort against the speed-dependent limit, saturated intervals shaded, motor
-torque on the right-hand axis), ``"reactions"`` (joint reaction force and moment magnitudes with
-their axial/radial and bending parts, for bearing design) and ``"tracking"``. Long series are
+``"motion"`` (programmed vs achieved position, velocity, acceleration), ``"efforts"`` (the
+program's own requirement, the speed-dependent limit and the effort the drives applied,
+saturated intervals shaded, motor torque on the right-hand axis), ``"reactions"`` (joint
+reaction force and moment magnitudes with their axial/radial and bending parts, for bearing
+design) and ``"tracking"``. Long series are
 decimated to min/max envelopes (:mod:`mrnea.report.drawing`).
 """
 
@@ -34,6 +35,7 @@ from mrnea.report.drawing import (
     save_figure,
     shade,
 )
+from mrnea.summary import TIMES
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -152,24 +154,32 @@ def _efforts_figure(r: SimulationResult) -> Figure:
             plot_line(ax, lt, lv, color=_C_LIM, lw=1.0)
             plot_line(ax, lt, -lv, color=_C_LIM, lw=1.0)
         plot_line(ax, t, r.tau[:, i], color=_C_ACT, lw=1.3)
-        plot_line(ax, t, r.tau_required[:, i], color=_C_REQ, lw=1.0, ls="--")  # dashes on top
+        need = r.program_effort[:, i]  # the commanded motion's, never the lag's recovery
+        plot_line(ax, t, need, color=_C_REQ, lw=1.0, ls="--")  # dashes on top
         if t_first is not None:
             ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
-        fit_ylim(ax, [r.tau[:, i]], [("required", r.tau_required[:, i]), ("limit", lim)])
+        fit_ylim(ax, [r.tau[:, i]], [("program requirement", need), ("limit", lim)])
         G = float(r.robot.gear_ratio[i])
         sec = ax.secondary_yaxis("right", functions=(lambda x, G=G: x / G,
                                                      lambda x, G=G: x * G))
         sec.set_ylabel(f"motor τ/G [{u['motor']}]\n(G = {G:g})", fontsize="small")
         ax.set_ylabel(f"τ [{u['tau']}]")
         sat_time = float(r.saturated[:, i].sum() * r.dt)
-        ax.set_title(f"{label(j.name)}: joint effort (saturated {fmt_number(sat_time)} s)",
-                     fontsize="medium", loc="left")
+        title = f"{label(j.name)}: joint effort (saturated {fmt_number(sat_time)} s"
+        if r.K:
+            jd = r.summary()["joints"][i]
+            ratio = jd["program_effort_ratio"]
+            title += (f"; the program needs up to {fmt_number(jd['program_peak_effort'])} "
+                      f"{u['tau']}, " + (f"{ratio:.2f} {TIMES} limit" if ratio is not None
+                                         else jd["drive"]))
+        ax.set_title(title + ")", fontsize="medium", loc="left")
         ax.grid(True, alpha=0.3)
     axs[-1].set_xlabel("time t [s]")
     handles: list[Any] = [
-        Line2D([], [], color=_C_ACT, label="applied effort τ"),
-        Line2D([], [], color=_C_REQ, ls="--", label="required for the program τ_required"),
-        Line2D([], [], color=_C_LIM, label="± effort limit at current speed"),
+        Line2D([], [], color=_C_ACT, label="applied effort τ (simulated robot)"),
+        Line2D([], [], color=_C_REQ, ls="--",
+               label="program's requirement (commanded motion, before any lag)"),
+        Line2D([], [], color=_C_LIM, label="± effort limit at the robot's speed"),
     ]
     if any_sat:
         handles.append(Patch(color=_C_SAT, alpha=0.3, label="saturated"))
@@ -268,9 +278,11 @@ def plot_result(result: SimulationResult, path: str | os.PathLike[str] | None = 
     dict of str to matplotlib.figure.Figure
         ``"motion"``: per joint, programmed (dashed) vs achieved position, velocity and
         acceleration; clamped commands shaded. ``"efforts"``: per joint, applied effort
-        ``tau``, required effort ``tau_required`` (dashed) and ``±limit`` (the limit at the
-        current speed, so it follows a torque-speed curve), saturated intervals shaded, motor
-        torque ``tau / G`` on the right-hand axis. ``"reactions"``: per joint, magnitude, axial
+        ``tau``, the program's own requirement ``program_effort`` (dashed; not
+        ``tau_required``, which after a saturation holds the drive's attempt to recover the lag
+        within one cycle) and ``±limit`` (the limit at the current speed, so it follows a
+        torque-speed curve), saturated intervals shaded, motor torque ``tau / G`` on the
+        right-hand axis. ``"reactions"``: per joint, magnitude, axial
         and radial parts of the reaction force [N] and of the reaction moment [N m] (the
         across-axis moment is the bending moment a bearing carries). ``"tracking"``: per joint,
         ``q_cmd - q`` with its largest value marked.

@@ -26,6 +26,7 @@ from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_u
 from mrnea.report.figures import plot_result, require_result
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
+from mrnea.summary import TIMES
 from mrnea.validate import choice
 
 if TYPE_CHECKING:
@@ -58,9 +59,9 @@ _CAPTIONS = {
     "motion": "Programmed (dashed) vs achieved (solid) position, velocity and acceleration per "
               "joint; shaded: command clamped to a joint limit; dotted red: first infeasible "
               "instant.",
-    "efforts": "Applied joint effort, effort the program required (dashed) and ± the effort "
-               "limit at the current speed; shaded: saturated. Right-hand axis: motor side "
-               "(τ/G).",
+    "efforts": "The program's own requirement (dashed: the commanded motion with the full "
+               "actuator model, before any lag), ± the effort limit and the effort the drives "
+               "applied; shaded: saturated. Right-hand axis: motor side (τ/G).",
     "reactions": "Reaction force and moment each joint transmits (magnitude, axial part, "
                  "radial force / bending moment), in the joint frame.",
     "tracking": "Tracking error q_cmd - q per joint; shaded: effort saturated.",
@@ -110,7 +111,13 @@ def _first_infeasible_html(result: SimulationResult, link: bool) -> str:
         return "<p>None: every cycle stays within the effort, position and velocity limits.</p>"
     k, i = fi["cycle"], result.robot.joint_names.index(fi["joint"])
     u, j = joint_units(result.robot)[i], result.robot.joints[i]
+    if "value" in fi:  # the start state is outside the joint's limits
+        lo, hi = (fmt_number(x) if x is not None else "∞" for x in fi["limits"])
+        return _kv_table([("time", "0 s (the start)"), ("joint", fi["joint"]),
+                          ("reason", fi["reason"]), ("value", fmt_number(fi["value"])),
+                          ("limits", f"[{lo}, {hi}]")])
     req, avail = fi["required_effort"], fi["available_effort"]
+    avail = math.inf if avail is None else avail  # null: unlimited
     ratio = abs(req) / avail if avail > 0 and math.isfinite(avail) else math.inf
     rows = [
         ("time", _Html(f"{_instant(fi['time'], result.dt, link)} s (cycle {k:,})")),
@@ -141,8 +148,9 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
         use = np.where(result.limit > 0, np.abs(result.tau) / result.limit, 0.0)
     use = np.nan_to_num(use, nan=0.0, posinf=0.0)
     head = ["joint", "type", "time saturated [s]", "saturated cycles",
-            "clamped cycles (pos / vel)", "peak motor torque", "RMS motor torque",
-            "peak effort / rated limit", "peak |τ| / limit at speed", "peak reaction force [N]",
+            "clamped cycles (pos / vel)", "program's peak effort", "peak motor torque",
+            "RMS motor torque", "peak effort / rated limit", "peak |τ| / limit at speed",
+            "peak reaction force [N]",
             "peak axial force [N]", "peak radial force [N]", "peak reaction moment [N m]",
             "peak bending moment [N m]", "max tracking error", "at t [s]"]
     rows = [_row([_e(h) for h in head], head=True)]
@@ -150,11 +158,14 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
         nsat = int(result.saturated[:, i].sum())
         npos = int(result.position_clamped[:, i].sum())
         nvel = int(result.velocity_clamped[:, i].sum())
-        lim = jd["effort_limit"]
+        lim = math.inf if jd["effort_limit"] is None else jd["effort_limit"]  # null: unlimited
         pct = f" ({100 * jd['peak_effort'] / lim:.0f} %)" if 0 < lim < math.inf else ""
+        ratio = jd["program_effort_ratio"]
+        need = f"{fmt_number(jd['program_peak_effort'])} {u['tau']}" + (
+            f" ({ratio:.2f} {TIMES} limit)" if ratio is not None else f" ({jd['drive']})")
         cells = [
             jd["joint"], j.type, fmt_number(jd["time_saturated"]), f"{nsat:,}",
-            f"{npos:,} / {nvel:,}",
+            f"{npos:,} / {nvel:,}", need,
             f"{fmt_number(jd['peak_motor_torque'])} {u['motor']}",
             f"{fmt_number(jd['rms_motor_torque'])} {u['motor']}",
             f"{fmt_number(jd['peak_effort'])} / {fmt_number(lim)} {u['tau']}{pct}",

@@ -32,7 +32,8 @@ def puma560() -> Robot:
     """The Puma 560 with Robotics Toolbox's published parameters (standard DH, SI units).
 
     Joint-side actuator mapping: ``gear_ratio = |G|``, ``rotor_inertia = Jm``,
-    ``viscous_friction = B G^2``, ``coulomb_friction = |G| (|Tc+| + |Tc-|) / 2``;
+    ``viscous_friction = B G^2``, ``coulomb_friction = |G| [Tc+, |Tc-|]`` (asymmetric, as
+    published: positive direction, negative direction);
     effort limits from Armstrong, Khatib & Burdick (1986). Details in ``puma560.toml``.
     """
     return load_builtin("puma560")

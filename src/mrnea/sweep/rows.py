@@ -26,11 +26,10 @@ from typing import Any
 import numba
 import numpy as np
 
-from mrnea.dynamics import inverse_dynamics
 from mrnea.errors import ModelWarning, MrneaError
 from mrnea.io.program import Program
 from mrnea.model import Robot
-from mrnea.simulate import SimulationResult, simulate
+from mrnea.simulate import simulate
 from mrnea.sweep.variants import variant
 
 __all__ = ["FIRST_COLUMNS", "RETIME_COLUMNS", "TOP_COLUMNS", "code_version", "run_batch",
@@ -59,62 +58,6 @@ def summary_row(summary: Mapping[str, Any]) -> dict[str, Any]:
     return row
 
 
-# --- the program's own requirement: until the summary has it (issue 11) --------------------
-
-
-def _limit_at(robot: Robot, qd: np.ndarray) -> np.ndarray:
-    """(K, n) effort limits at joint speeds qd: the torque-speed law of :mod:`mrnea.model`."""
-    out = np.empty_like(qd)
-    for i, (j, curve) in enumerate(zip(robot.joints, robot.torque_speed, strict=True)):
-        if curve is None:
-            out[:, i] = j.effort_limit
-            continue
-        peak, corner, no_load = curve
-        w = np.abs(qd[:, i])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            fall = np.minimum(peak * corner / w, peak * (no_load - w) / (no_load - corner))
-        out[:, i] = np.where(w <= corner, peak, np.where(w >= no_load, 0.0, fall))
-    return out
-
-
-def program_summary(res: SimulationResult, program: Program) -> dict[str, Any]:
-    """``res.summary()`` with the program's own requirement, where the summary lacks it.
-
-    Per joint, from the efforts the commanded path itself needs (the actuator model's inverse
-    dynamics along ``q_cmd`` with its velocity ``qd_cmd`` and acceleration
-    ``(qd_cmd[k+1] - qd_cmd[k]) / dt``, ending at rest, with the program's wrench):
-    ``program_peak_effort`` and ``program_rms_effort`` (joint side),
-    ``program_peak_motor_torque`` and ``program_rms_motor_torque`` (/ G), and
-    ``program_effort_ratio``, the largest |effort| / the limit at the commanded speed
-    (0 / 0 = 0). Top level: ``worst_joint`` and ``worst_effort_ratio``, the largest of them.
-    Only what the summary does not give is added (issue 11 adds these entries to the summary
-    itself; this function goes with it).
-    """
-    s = res.summary()
-    if "worst_effort_ratio" in s:
-        return s
-    s = {**s, "joints": [dict(j) for j in s["joints"]]}
-    rob, dt = res.robot, res.dt
-    v = res.qd_cmd
-    a = np.diff(np.vstack([v, np.zeros((1, rob.n))]), axis=0) / dt
-    fe = None if program.f_ext is None else program.f_ext[: res.K]
-    tau = np.abs(inverse_dynamics(rob, res.q_cmd, v, a, f_ext=fe, f_ext_point=program.f_ext_point)
-                 + rob.gear_ratio**2 * rob.rotor_inertia * a + rob.viscous_friction * v
-                 + rob.coulomb_friction * np.sign(v))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(tau == 0.0, 0.0, tau / _limit_at(rob, v))
-    for i, j in enumerate(s["joints"]):
-        G = float(rob.gear_ratio[i])
-        peak, rms = float(tau[:, i].max()), float(np.sqrt(np.mean(tau[:, i] ** 2)))
-        j.update(program_peak_effort=peak, program_rms_effort=rms,
-                 program_peak_motor_torque=peak / G, program_rms_motor_torque=rms / G,
-                 program_effort_ratio=float(ratio[:, i].max()))
-    worst = max(s["joints"], key=lambda j: j["program_effort_ratio"]) if s["joints"] else None
-    s["worst_joint"] = None if worst is None else worst["joint"]
-    s["worst_effort_ratio"] = math.nan if worst is None else worst["program_effort_ratio"]
-    return s
-
-
 # --- runs ----------------------------------------------------------------------------------
 
 
@@ -134,7 +77,7 @@ def run_case(robot: Robot, program: Program, params: Mapping[str, Any], retime: 
         rob = variant(robot, **params)
         res = simulate(rob, program.q_cmd, program.dt, mode=program.mode or "hybrid",
                        f_ext=program.f_ext, f_ext_point=program.f_ext_point)
-        row.update(summary_row(program_summary(res, program)))
+        row.update(summary_row(res.summary()))
     except Exception as exc:
         row["error"] = _error(exc)
         return row
@@ -196,7 +139,5 @@ def warm(robot: Robot, client_pid: int) -> dict[str, Any]:
     numba.set_num_threads(1)
     q0 = np.clip(np.zeros(robot.n), robot.lower, robot.upper)
     with contextlib.suppress(MrneaError):
-        res = simulate(robot, np.repeat(q0[None], 3, axis=0), 0.005)
-        program_summary(res, Program(robot=robot.name, dt=0.005, t=res.t, q_cmd=res.q_cmd,
-                                     f_ext=None, f_ext_point=None, mode=None, name="warm-up"))
+        simulate(robot, np.repeat(q0[None], 3, axis=0), 0.005).summary()
     return {"code": code_version(), "pid": os.getpid(), "seconds": time.perf_counter() - t0}

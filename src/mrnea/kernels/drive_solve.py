@@ -1,0 +1,330 @@
+"""One interpolation cycle solved exactly: effort limits and Coulomb friction (paper Secs. II
+and V, Eqs. 42-44).
+
+Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi,
+tau_req, sat, stuck, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py,
+``drive_solve_buffers``).
+
+Everything is joint side. The cycle starts at speed qd [rad/s | m/s]; the drives hold the new
+velocity v over the next dt [s], so qdd = (v - qd) / dt. Eq. 42, with the Coulomb friction phi
+that this cycle resolves (kernels/drive.py; u'_a = u' + F_v qd, Eq. 43 without F_s sign(qd)):
+
+    H_a qdd + u'_a + phi = tau
+    phi_i = F+_i (v_i > 0),  -F-_i (v_i < 0),  anything in [-F-_i, F+_i] (v_i = 0: stuck)
+    HYBRID (Sec. II, speed-controlled drives, their velocity loops infinitely stiff):
+        tau_i = +L_i if v_i < v_des_i,  -L_i if v_i > v_des_i,  |tau_i| <= L_i if v_i = v_des_i
+    PAPER (Eq. 44): tau_i = clip(tau_req_i, -L_i, L_i), whatever v does
+
+L_i is the effort limit at the cycle's speed (inf: none; 0: no drive). These are the optimality
+conditions of minimising the strictly convex (H_a is SPD) function
+
+    f(v) = 1/2 (v - qd)^T H_a (v - qd) + dt u'_a^T v + dt sum_i g_i(v_i)
+    g_i(v) = L_i |v - v_des_i| + F+_i max(v, 0) + F-_i max(-v, 0)      HYBRID
+    g_i(v) = -tau_i v          + F+_i max(v, 0) + F-_i max(-v, 0)      PAPER
+
+(df/dv / dt = H_a qdd + u'_a + s, s_i in dg_i(v_i), s = phi - tau), so v is unique. Each g_i is
+convex and piecewise linear with at most two breakpoints, 0 (if F+ + F- > 0) and v_des_i
+(HYBRID, L_i > 0; merged when v_des_i = 0). A joint's *pattern* p says where v_i is: p = 2k on
+the open piece k (slope sigma_k; piece k lies between breakpoints k - 1 and k), p = 2k + 1 held
+at breakpoint beta_k with s_i in [sigma_k, sigma_{k+1}]. Crossing a breakpoint moves p by one.
+In HYBRID, L_i = inf fixes v_i = v_des_i (slopes -inf, +inf).
+
+Algorithm, a primal active-set method on this piecewise quadratic (W: held joints, F: free):
+
+0. tau_req (the program's requirement, below). HYBRID fast path: if every |tau_req_i| <= L_i,
+   v = v_des is optimal (its subgradient condition) and nothing is solved.
+1. Start: HYBRID v_i = v_des_i (qd_i without a drive), PAPER v = qd; each joint on the piece
+   holding it, held where it sits on a breakpoint.
+2. Eq. 44 for the free joints, the held ones' accelerations known:
+   H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W,  qdd_W = (beta_W - qd_W) / dt,
+   v*_F = qd_F + dt qdd_F.
+3. Step from v towards v*, stopping where the first free joint reaches a breakpoint (it is held
+   there, v_i = beta exactly); if one did, back to 2.
+4. At v = v*: the held joints' multipliers s_W = -(H_a qdd + u'_a)_W. If each lies in its
+   interval, v is optimal (KKT of a strictly convex problem). Else release the joint with the
+   largest predicted decrease violation^2 / H_ii (ties: lowest index) onto the piece its
+   multiplier points to, and back to 2.
+
+Termination (exact arithmetic): every free joint lies strictly inside its piece (one that
+reaches a breakpoint is held at once). After a release the released joint moves into its new
+piece and every other free joint is strictly inside, so the next step has length > 0; f equals
+the subproblem's strictly convex quadratic on the closure of the current cell, so it strictly
+decreases between two visits of step 4. Each visit is at the unique minimiser of its pattern, so
+no pattern repeats: at most prod_i (2 nb_i + 1) <= 5^n visits, with at most n partial steps
+between two; beyond that bound the loop stops with CYCLE_LIMIT (never reached). The order of the
+joints decides ties only: v is unique. In floating point: a multiplier within MULT_TOL
+(relative) of its interval counts as inside; a free joint within SNAP_TOL (relative) of a
+breakpoint is held on it (a joint that stops is at 0 exactly, so the next cycle sees qd = 0,
+never 1e-18: no creep, no sign flips); a release that rounding sends the wrong way, or straight
+back onto its breakpoint, is undone and that joint not released again until another release
+succeeds (``tabu``). None of these acts in exact arithmetic.
+
+Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
+HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
+(H_a qdd + u'_a)_i is: friction takes up to its capacity first, the drive the rest
+(``holding_friction``). The program's requirement: tau_req = H_a qdd_des + u'_a + phi_des,
+qdd_des = (v_des - qd) / dt, phi_des = coulomb(v_des), and for v_des_i = 0 the same split
+(kernels/drive.py ``wanted_friction``).
+Flags: sat_i (HYBRID) v_i != v_des_i, the drive is at +-L_i and misses the program; (PAPER)
+|tau_req_i| > L_i. stuck_i: v_i == 0 exactly (friction holds the joint).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from mrnea.kernels.drive import coulomb, holding_friction, wanted_friction
+from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
+from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.status import CYCLE_LIMIT, OK
+
+PAPER, HYBRID = 0, 1  # how the drives meet their limits (module docstring)
+MULT_TOL = 1e-12  # a multiplier this close (relative) to its interval counts as inside
+SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held there
+# compiled into the caller: the active set into solve_cycle, solve_cycle into step and
+# achievable_ws. As calls of their own (17 array arguments) they cost 0.1-0.25 us a cycle in
+# paper mode (measured: docs/design.md)
+INTO = {**JIT, "inline": "always"}
+
+
+@nb.njit(**INLINE)
+def _required(Ha, ua, qdd_des, i, v_des_i, Fp, Fn):
+    """Row i of Eq. 42 at the program's motion: (phi_des_i, tau_req_i)."""
+    h = ua[i]
+    for j in range(qdd_des.shape[0]):
+        h += Ha[i, j] * qdd_des[j]
+    phi = wanted_friction(h, v_des_i, Fp, Fn)
+    return phi, h + phi
+
+
+@nb.njit(**INLINE)
+def _setup_joint(i, hybrid, v_des_i, L_i, Fp, Fn, tauc_i, bp, sl):
+    """Breakpoints (sorted) and piece slopes of g_i; returns their number."""
+    if hybrid and L_i == math.inf:  # fixed to the program: held at v_des forever
+        bp[0, i] = v_des_i
+        sl[0, i], sl[1, i] = -math.inf, math.inf
+        return 1
+    has_zero = Fp + Fn > 0.0
+    has_vdes = hybrid and L_i > 0.0
+    nb_, iz, iv = 0, 2, 2  # number of breakpoints; index of the breakpoint 0, of v_des (2: none)
+    if has_zero and has_vdes and v_des_i == 0.0:  # merged
+        bp[0, i] = 0.0
+        nb_, iz, iv = 1, 0, 0
+    elif has_zero and has_vdes:
+        bp[0, i], bp[1, i] = min(0.0, v_des_i), max(0.0, v_des_i)
+        nb_ = 2
+        iz, iv = (0, 1) if v_des_i > 0.0 else (1, 0)
+    elif has_zero:
+        bp[0, i] = 0.0
+        nb_, iz = 1, 0
+    elif has_vdes:
+        bp[0, i] = v_des_i
+        nb_, iv = 1, 0
+    for k in range(nb_ + 1):  # piece k lies above breakpoints 0..k-1
+        fric = Fp if iz < k else -Fn  # slope of F+ max(v, 0) + F- max(-v, 0)
+        drive = (L_i if iv < k else -L_i) if hybrid else -tauc_i  # of L |v - v_des|, or -tau v
+        sl[k, i] = drive + fric
+    return nb_
+
+
+@nb.njit(**INLINE)
+def _start(v0, nb_, i, bp):
+    """Pattern of a joint at v0: held (2k + 1) on breakpoint k, else free (2k) on piece k."""
+    k = 0
+    for j in range(nb_):
+        if v0 == bp[j, i]:
+            return 2 * j + 1
+        if v0 > bp[j, i]:
+            k = j + 1
+    return 2 * k
+
+
+@nb.njit(**INTO)
+def solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req, sat,
+                stuck, ws):
+    """Solve one cycle exactly (module docstring). Returns OK, the joint index of a failed
+    pivot of a free block of H_a (singular), or CYCLE_LIMIT.
+
+    Parameters
+    ----------
+    Ha : (n, n) H_a = H + diag(G^2 J_m) [kg m^2 | kg], symmetric positive definite.
+    ua : (n,) u'_a without its Coulomb term: u' (Coriolis, gravity, wrench) + F_v qd [N m | N].
+    qd : (n,) velocity at the start of the cycle [rad/s | m/s].
+    v_des : (n,) velocity the program wants over the next interval (qd + qdd_des dt).
+    dt : cycle time [s] > 0.
+    L : (n,) effort limits at speed qd [N m | N]; inf = no limit (HYBRID: the joint is fixed to
+        the program; PAPER: not clamped); 0 = no drive.
+    Fpos, Fneg : (n,) Coulomb friction magnitudes >= 0 against positive / negative motion.
+    mode : PAPER or HYBRID.
+    v, qdd, tau, phi, tau_req : (n,) out: new velocity (exactly 0 for a stuck joint, exactly
+        v_des_i for a joint on program), acceleration (v - qd) / dt, drive effort, Coulomb
+        friction, the program's requirement (joint side; tau - phi = H_a qdd + u'_a).
+    sat, stuck : (n,) bool out: saturated, stuck (v == 0 exactly).
+    ws : an ACHIEVABLE scratch (its ``drive_solve_buffers``); the arrays above are not in it.
+    """
+    n = qd.shape[0]
+    # 0. tau_req = H_a qdd_des + u'_a + phi_des (Eq. 42 at the program's motion), and the
+    # on-program answer v = v_des, tau = tau_req, kept if it is optimal
+    fast = mode == HYBRID
+    for i in range(n):
+        qdd[i] = (v_des[i] - qd[i]) / dt
+    for i in range(n):
+        phi[i], tau_req[i] = _required(Ha, ua, qdd, i, v_des[i], Fpos[i], Fneg[i])
+        tau[i] = tau_req[i]
+        v[i] = v_des[i]
+        sat[i] = False
+        stuck[i] = v_des[i] == 0.0
+        fast = fast and abs(tau_req[i]) <= L[i]
+    if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
+        return OK
+    return _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
+                       sat, stuck, ws)
+
+
+@nb.njit(**INTO)
+def _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req, sat,
+                stuck, ws):
+    """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`; tau_req filled)."""
+    n = qd.shape[0]
+    hybrid = mode == HYBRID
+    Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)
+
+    # 1. breakpoints, slopes and the start point
+    max_iter = 1
+    for i in range(n):
+        tauc[i] = min(max(tau_req[i], -L[i]), L[i])  # Eq. 44's clamp (PAPER)
+        nbp[i] = _setup_joint(i, hybrid, v_des[i], L[i], Fpos[i], Fneg[i], tauc[i], bp, sl)
+        v[i] = v_des[i] if hybrid and L[i] > 0.0 else qd[i]
+        pat[i] = _start(v[i], nbp[i], i, bp)
+        if pat[i] % 2 == 1:
+            qdd[i] = (v[i] - qd[i]) / dt
+        tabu[i] = 0
+        max_iter = min(max_iter * (2 * nbp[i] + 1), 1 << 40)
+    max_iter *= n + 1  # the exact-arithmetic bound (module docstring)
+
+    released, side, pat_from = -1, 0, 0  # joint released last, to which side (+1 up, -1 down),
+    # and its pattern before
+    for _ in range(max_iter):
+        # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
+        m = 0
+        for i in range(n):
+            if pat[i] % 2 == 0:
+                idx[m] = i
+                m += 1
+        for a in range(m):
+            i = idx[a]
+            r = -ua[i] - sl[pat[i] // 2, i]
+            for j in range(n):
+                if pat[j] % 2 == 1:
+                    r -= Ha[i, j] * qdd[j]
+            rhs[a] = r
+            for c in range(m):
+                Hs[a, c] = Ha[i, idx[c]]
+        if m > 0:
+            status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
+            if status != OK:
+                return idx[status]
+        for a in range(m):
+            vstar[idx[a]] = qd[idx[a]] + dt * x[a]
+        if released >= 0 and (vstar[released] - v[released]) * side <= 0.0:
+            # rounding sent the released joint the wrong way: hold it again
+            pat[released] -= side
+            tabu[released] = 1
+            released = -1
+        else:
+            # 3. step towards v*; the first free joint to reach a breakpoint blocks it
+            alpha, block = 1.0, -1
+            for a in range(m):
+                i = idx[a]
+                d = vstar[i] - v[i]
+                k = pat[i] // 2
+                if d > 0.0 and k < nbp[i] and (bp[k, i] - v[i]) / d < alpha:
+                    alpha, block = (bp[k, i] - v[i]) / d, i
+                elif d < 0.0 and k > 0 and (bp[k - 1, i] - v[i]) / d < alpha:
+                    alpha, block = (bp[k - 1, i] - v[i]) / d, i
+            held_new = False
+            for a in range(m):
+                i = idx[a]
+                d = vstar[i] - v[i]
+                tol = SNAP_TOL * (abs(qd[i]) + abs(v[i]) + abs(vstar[i]))  # rounding of v
+                v[i] = vstar[i] if block < 0 else v[i] + alpha * d
+                k = pat[i] // 2
+                if k < nbp[i] and (v[i] >= bp[k, i] - tol or (i == block and d > 0.0)):
+                    v[i] = bp[k, i]  # held at the breakpoint above, exactly
+                    pat[i] += 1
+                elif k > 0 and (v[i] <= bp[k - 1, i] + tol or (i == block and d < 0.0)):
+                    v[i] = bp[k - 1, i]  # held at the breakpoint below, exactly
+                    pat[i] -= 1
+                else:
+                    qdd[i] = x[a]
+                    continue
+                qdd[i] = (v[i] - qd[i]) / dt
+                held_new = True
+            if released >= 0:
+                if pat[released] == pat_from:  # back on its breakpoint at once: rounding
+                    tabu[released] = 1
+                else:  # the release succeeded: every joint may be released again
+                    for i in range(n):
+                        tabu[i] = 0
+                released = -1
+            if held_new:
+                continue
+        # 4. multipliers of the held joints, s = -(H_a qdd + u'_a), against their intervals
+        worst, worst_gain, worst_side = -1, 0.0, 0
+        for i in range(n):
+            if pat[i] % 2 == 0 or tabu[i] == 1:
+                continue
+            k = pat[i] // 2
+            h = ua[i]
+            scale = abs(ua[i])
+            for j in range(n):
+                t = Ha[i, j] * qdd[j]
+                h += t
+                scale += abs(t)
+            lo, hi = sl[k, i], sl[k + 1, i]
+            scale += (abs(lo) if lo > -math.inf else 0.0) + (abs(hi) if hi < math.inf else 0.0)
+            if -h > hi + MULT_TOL * scale:
+                viol, dirn = -h - hi, 1
+            elif -h < lo - MULT_TOL * scale:
+                viol, dirn = lo + h, -1
+            else:
+                continue
+            gain = viol * viol / Ha[i, i]  # predicted decrease of f (times 2 / dt)
+            if gain > worst_gain:
+                worst, worst_gain, worst_side = i, gain, dirn
+        if worst < 0:
+            _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sat,
+                     stuck, tauc, pat)
+            return OK
+        released, side, pat_from = worst, worst_side, pat[worst]
+        pat[worst] += worst_side  # onto the piece its multiplier points to
+    return CYCLE_LIMIT
+
+
+@nb.njit(**INLINE)
+def _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sat, stuck, tauc,
+             pat):
+    """tau, phi and the flags at the solution (module docstring, 'Efforts')."""
+    n = v.shape[0]
+    for i in range(n):
+        h = 0.0
+        if pat[i] % 2 == 1:  # held: tau - phi = h_i = (H_a qdd + u'_a)_i
+            h = ua[i]
+            for j in range(n):
+                h += Ha[i, j] * qdd[j]
+        if not hybrid:
+            tau[i] = tauc[i]
+        elif v[i] != v_des[i]:
+            tau[i] = L[i] if v[i] < v_des[i] else 0.0 - L[i]
+        if v[i] != 0.0:
+            phi[i] = coulomb(v[i], Fpos[i], Fneg[i])
+        elif not hybrid or v[i] != v_des[i]:  # stuck, the drive's effort known
+            phi[i] = min(max(tau[i] - h, -Fneg[i]), Fpos[i])
+        else:  # stuck on program: friction first, the drive the rest
+            phi[i] = holding_friction(h, Fpos[i], Fneg[i])
+        if hybrid and v[i] == v_des[i]:  # on program: the drive gives what it takes
+            tau[i] = min(max(h + phi[i], -L[i]), L[i])
+        sat[i] = v[i] != v_des[i] if hybrid else abs(tau_req[i]) > L[i]
+        stuck[i] = v[i] == 0.0

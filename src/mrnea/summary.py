@@ -1,0 +1,244 @@
+"""What a simulation run answers: the summary a designer reads and the one-line verdict.
+
+:func:`summarize` makes :meth:`mrnea.simulate.SimulationResult.summary` (strict JSON data: no
+NaN or infinity, an unlimited value is ``None``, JSON ``null``), :func:`verdict` the line the
+command line prints. Two things are kept apart: the **simulated response** (what the robot
+really did: saturation, lag, tracking error, the efforts the drives applied; it decides
+achievable or not) and the **program's requirement** (what the commanded motion itself needs,
+cycle by cycle, before any lag: it says by how much a drive falls short).
+
+Units: efforts in N m (revolute joints) or N (prismatic), motor torques in N m, positions in
+rad or m, velocities in rad/s or m/s, times in s.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from mrnea.simulate import SimulationResult
+
+EFFORT_UNIT = {False: "N m", True: "N"}  # by is_prismatic
+TIMES = "\u00d7"  # the multiplication sign of "1.62 × its limit"
+POSITION_UNIT = {False: "rad", True: "m"}
+
+
+def finite_or_none(x: float) -> float | None:
+    """``x`` as a float, or None (JSON ``null``) when it is infinite or NaN (an unlimited
+    value)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def start_violations(r: SimulationResult) -> list[dict[str, Any]]:
+    """The joints whose start state is outside their limits: a position outside [lower, upper]
+    or a speed above the velocity limit (each a dict: joint, reason, value, limits)."""
+    if r.K == 0:
+        return []
+    out = []
+    rob = r.robot
+    for i, j in enumerate(rob.joints):
+        q, qd = float(r.q[0, i]), float(r.qd[0, i])
+        if not j.lower <= q <= j.upper:
+            out.append({"joint": j.name, "reason": "start outside the position limits",
+                        "value": q, "limits": [finite_or_none(j.lower), finite_or_none(j.upper)]})
+        if abs(qd) > j.velocity_limit:
+            out.append({"joint": j.name, "reason": "start faster than the velocity limit",
+                        "value": qd, "limits": [finite_or_none(-j.velocity_limit),
+                                                finite_or_none(j.velocity_limit)]})
+    return out
+
+
+def _program(r: SimulationResult, i: int) -> dict[str, Any]:
+    """Joint i's program requirement (module docstring): peak, RMS, motor side, and the peak
+    ratio to the limit at the program's speed."""
+    j = r.robot.joints[i]
+    req, lim, t = np.abs(r.program_effort[:, i]), r.program_limit[:, i], r.t
+    k = int(np.argmax(req))
+    rms = float(np.sqrt(np.mean(r.program_effort[:, i] ** 2)))
+    out: dict[str, Any] = {
+        "program_peak_effort": float(req[k]), "program_peak_time": float(t[k]),
+        "program_rms_effort": rms,
+        "program_peak_motor_torque": float(req[k]) / j.gear_ratio,
+        "program_rms_motor_torque": rms / j.gear_ratio,
+    }
+    drive = ("unpowered" if j.effort_limit == 0 else
+             "unlimited" if math.isinf(j.effort_limit) else "limited")
+    ratio: NDArray = np.zeros_like(req)
+    if drive == "limited":
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf (or 0 / 0)
+            ratio = np.where(req > 0.0, req / lim, 0.0)
+    kr = int(np.argmax(ratio))
+    over = np.flatnonzero(req > lim)
+    out.update({
+        "drive": drive,
+        # peak of |required| / limit at the program's speed; null: no limit to compare with
+        # (unpowered, unlimited), or a zero limit (commanded beyond the no-load speed)
+        "program_effort_ratio": finite_or_none(ratio[kr]) if drive == "limited" else None,
+        "program_ratio_time": float(t[kr]) if drive == "limited" else None,
+        "program_effort_at_ratio": float(req[kr]) if drive == "limited" else None,
+        "program_limit_at_ratio": float(lim[kr]) if drive == "limited" else None,
+        "program_beyond_no_load_speed": bool(drive == "limited" and math.isinf(ratio[kr])),
+        "program_first_over_time": float(t[over[0]]) if over.size else None,
+    })
+    return out
+
+
+def _first_infeasible(r: SimulationResult) -> dict[str, Any] | None:
+    """The first cycle and joint the simulated robot did not follow, or None."""
+    start = start_violations(r)
+    if start:
+        return {"time": 0.0, "cycle": 0, **start[0]}
+    infeasible = r.saturated | r.position_clamped | r.velocity_clamped
+    if not infeasible.any():
+        return None
+    k, i = (int(x) for x in np.argwhere(infeasible)[0])
+    j = r.robot.joints[i]
+    reasons = [name for name, m in (("effort saturated", r.saturated),
+                                    ("position limit", r.position_clamped),
+                                    ("velocity limit", r.velocity_clamped)) if m[k, i]]
+    nxt = min(k + 1, r.K - 1)
+    return {
+        "time": float(r.t[k]), "cycle": k, "joint": j.name, "reason": ", ".join(reasons),
+        "required_effort": float(r.tau_required[k, i]),
+        "available_effort": finite_or_none(r.limit[k, i]),
+        "commanded_velocity": float(r.qd_cmd[nxt, i]),
+        "velocity_limit": finite_or_none(j.velocity_limit),
+        "commanded_position": float(r.q_cmd[nxt, i]),
+        "position_limits": [finite_or_none(j.lower), finite_or_none(j.upper)],
+    }
+
+
+def summarize(r: SimulationResult) -> dict[str, Any]:
+    """The summary of a run (:meth:`mrnea.simulate.SimulationResult.summary`)."""
+    head = {"robot": r.robot.name, "achievable": r.achievable, "mode": r.mode, "fd": r.fd,
+            "dt": r.dt, "cycles": r.K, "duration": float(r.K * r.dt), "completed": r.completed,
+            "interrupted_after_cycles": None if r.completed else r.K}
+    if r.K == 0:  # interrupted before the first chunk ended
+        return {**head, "first_infeasible": None, "start_infeasible": [],
+                "max_tracking_error": 0.0, "worst_joint": None, "worst_effort_ratio": None,
+                "joints": []}
+    loads = r.bearing_loads()
+    err = np.abs(r.tracking_error)
+    joints = []
+    for i, j in enumerate(r.robot.joints):
+        ke = int(np.argmax(err[:, i]))
+        joints.append({
+            "joint": j.name,
+            "effort_unit": EFFORT_UNIT[j.is_prismatic],
+            "effort_limit": finite_or_none(j.effort_limit),
+            **_program(r, i),
+            # the simulated response
+            "time_saturated": float(r.saturated[:, i].sum() * r.dt),
+            "time_stuck": float(r.stuck[:, i].sum() * r.dt),
+            "peak_motor_torque": float(np.abs(r.tau_motor[:, i]).max()),
+            "rms_motor_torque": float(np.sqrt(np.mean(r.tau_motor[:, i] ** 2))),
+            "peak_effort": float(np.abs(r.tau[:, i]).max()),
+            "peak_speed": float(np.abs(r.qd[:, i]).max()),
+            "peak_reaction_force": float(loads.force[:, i].max()),
+            "peak_axial_force": float(loads.axial_force[:, i].max()),
+            "peak_radial_force": float(loads.radial_force[:, i].max()),
+            "peak_reaction_moment": float(loads.moment[:, i].max()),
+            "peak_bending_moment": float(loads.bending_moment[:, i].max()),
+            "max_tracking_error": float(err[ke, i]),
+            "max_tracking_error_time": float(r.t[ke]),
+            "final_position_error": float(r.tracking_error[-1, i]),
+        })
+    worst = _worst(joints)
+    return {**head, "first_infeasible": _first_infeasible(r),
+            "start_infeasible": start_violations(r),
+            "max_tracking_error": float(err.max()) if err.size else 0.0,
+            "worst_joint": None if worst is None else worst["joint"],
+            "worst_effort_ratio": None if worst is None else worst["program_effort_ratio"],
+            "joints": joints}
+
+
+def _worst(joints: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The limited joint with the largest program effort ratio (one commanded beyond its
+    no-load speed first), or None if no joint has a finite effort limit."""
+    limited = [jd for jd in joints if jd["drive"] == "limited"]
+    if not limited:
+        return None
+    return max(limited, key=lambda jd: (jd["program_beyond_no_load_speed"],
+                                        jd["program_effort_ratio"] or 0.0))
+
+
+def _g(x: float) -> str:
+    """A number as the verdict prints it: 4 significant digits, no exponent below 1e6."""
+    return f"{x:.4g}" if abs(x) < 1e6 else f"{x:.3e}"
+
+
+def verdict(r: SimulationResult) -> str:
+    """One line (:meth:`mrnea.simulate.SimulationResult.verdict`): achievable with the headroom
+    of the worst joint, or where and by how much not; an interrupted run says after how many
+    cycles, and is never called achievable."""
+    s = r.summary()
+    head = ("" if r.completed else
+            f"INTERRUPTED (partial result): interrupted after {r.K} cycles; ")
+    if r.K == 0:
+        return f"{head}no cycle was completed."
+    by_name = {jd["joint"]: jd for jd in s["joints"]}
+    worst = by_name.get(s["worst_joint"]) if s["worst_joint"] else None
+    if s["achievable"] is None:
+        return (f"{head}no limit exceeded in the {s['duration']:.3f} s simulated; whether the "
+                "rest of the program is achievable is unknown.")
+    if s["achievable"]:
+        room = ("no joint has a finite effort limit" if worst is None else
+                f"worst joint {worst['joint']} at {worst['program_effort_ratio']:.2f} of its "
+                f"limit (t = {worst['program_ratio_time']:.3f} s)")
+        return (f"{head}ACHIEVABLE: {r.robot.name} follows the program ({r.K} cycles, "
+                f"{s['duration']:.3f} s) within every limit; {room}.")
+    return f"{head}NOT ACHIEVABLE: {_shortfall(r, s, worst)}"
+
+
+def _shortfall(r: SimulationResult, s: dict[str, Any], worst: dict[str, Any] | None) -> str:
+    """Why the run is not achievable: the start, the worst effort ratio, an unpowered joint
+    that must carry a load, or the first clamp or saturation of the simulated robot."""
+    fi = s["first_infeasible"]
+    units = {j.name: j.is_prismatic for j in r.robot.joints}
+    if s["start_infeasible"]:
+        v = s["start_infeasible"][0]
+        lo, hi = v["limits"]
+        unit = POSITION_UNIT[units[v["joint"]]] + ("/s" if "velocity" in v["reason"] else "")
+        return (f"{v['joint']}: {v['reason']} ({_g(v['value'])} {unit}, limits "
+                f"[{_g(lo) if lo is not None else '-inf'}, {_g(hi) if hi is not None else 'inf'}])")
+    if worst is not None and worst["program_beyond_no_load_speed"]:
+        u = EFFORT_UNIT[units[worst["joint"]]]
+        return (f"{worst['joint']} needs {_g(worst['program_effort_at_ratio'])} {u} at t = "
+                f"{worst['program_ratio_time']:.3f} s, where the program drives it beyond its "
+                "no-load speed (no effort left)")
+    if worst is not None and worst["program_effort_ratio"] > 1.0:
+        u = EFFORT_UNIT[units[worst["joint"]]]
+        return (f"{worst['joint']} needs {_g(worst['program_effort_at_ratio'])} {u}, "
+                f"{worst['program_effort_ratio']:.2f} {TIMES} its "
+                f"{_g(worst['program_limit_at_ratio'])} {u} limit, at t = "
+                f"{worst['program_ratio_time']:.3f} s (first over the limit at t = "
+                f"{worst['program_first_over_time']:.3f} s)")
+    for jd in s["joints"]:
+        if jd["drive"] == "unpowered" and jd["program_peak_effort"] > 0.0:
+            u = EFFORT_UNIT[units[jd["joint"]]]
+            return (f"{jd['joint']} has no drive (effort limit 0) and the program needs "
+                    f"{_g(jd['program_peak_effort'])} {u} at t = "
+                    f"{jd['program_peak_time']:.3f} s")
+    prismatic = units[fi["joint"]]
+    if fi["reason"].startswith("effort"):
+        u = EFFORT_UNIT[prismatic]
+        what = (f"the robot, lagging its program, needs {_g(fi['required_effort'])} {u} "
+                f"against {_g(fi['available_effort'])} {u} available")
+    elif fi["reason"].startswith("position"):
+        lo, hi = fi["position_limits"]
+        what = (f"position commanded {_g(fi['commanded_position'])} "
+                f"{POSITION_UNIT[prismatic]}, range [{_g(lo) if lo is not None else '-inf'}, "
+                f"{_g(hi) if hi is not None else 'inf'}] {POSITION_UNIT[prismatic]}")
+    else:
+        what = (f"velocity commanded {_g(fi['commanded_velocity'])} "
+                f"{POSITION_UNIT[prismatic]}/s, limit {_g(fi['velocity_limit'])} "
+                f"{POSITION_UNIT[prismatic]}/s")
+    worst_err = max(s["joints"], key=lambda jd: jd["max_tracking_error"])
+    return (f"first at t = {fi['time']:.3f} s, joint '{fi['joint']}' ({fi['reason']}): {what}; "
+            f"worst tracking error {_g(worst_err['max_tracking_error'])} "
+            f"{POSITION_UNIT[units[worst_err['joint']]]} ('{worst_err['joint']}').")
