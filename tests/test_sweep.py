@@ -93,6 +93,8 @@ def test_local_cluster_equals_serial_loop(demo, sdt_serial):
     assert df.attrs["completed"] and df.attrs["threads"] >= 1 and df.attrs["cases"] == 16
     assert list(df.columns[:6]) == [*SDT_GRID, "program", "error"]
     assert df.index.name == "case" and df.index.tolist() == list(range(16))
+    assert df.attrs["units"] == {"gear_ratio.cab_yaw": "", "motor_torque_limit.cab_yaw": "N m",
+                                 "payload": "kg", "time_scale": ""}
     check_rows(df, sdt_serial, "sdt_training")
     # the designer's question has an answer here: some variants make it, some do not
     assert df["achievable"].any() and not df["achievable"].all()

@@ -14,7 +14,7 @@ from mrnea.errors import StateError
 from mrnea.io import load_program
 from mrnea.report.sweep import feasibility_map, load_curves, write_sweep_html
 from mrnea.robots import puma560
-from mrnea.sweep import check_grid, time_scaled
+from mrnea.sweep import check_grid, time_scaled, units
 from mrnea.sweep.engine import _frame
 from mrnea.sweep.rows import run_case
 
@@ -27,8 +27,10 @@ def rows():
     keys, cases = check_grid(robot, GRID)
     out = {k: run_case(robot, time_scaled(prog, c["time_scale"]), c)
            for k, c in enumerate(cases)}
-    return _frame(keys, [prog.name], [(k, (0, c["time_scale"]), c)
-                                      for k, c in enumerate(cases)], out, False)
+    df = _frame(keys, [prog.name], [(k, (0, c["time_scale"]), c)
+                                    for k, c in enumerate(cases)], out, False)
+    df.attrs["units"] = units(robot, keys)  # as mrnea.sweep sets it
+    return df
 
 
 def test_the_map_draws_each_variant(rows):
@@ -45,6 +47,7 @@ def test_the_map_draws_each_variant(rows):
                  else r["worst_joint"])
         assert texts[cell] == f"{limit}\n{r['worst_effort_ratio']:.2f}"
         assert (cell in hatched) is (not r["achievable"])
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("payload [kg]", "time_scale")
     image = ax.images[0].get_array()
     assert image[1, 2] == rows.loc[5, "worst_effort_ratio"]  # y = time_scale 1.0, x = 15 kg
 

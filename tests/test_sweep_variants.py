@@ -24,7 +24,7 @@ from mrnea.robots import puma560, sdt
 from mrnea.sweep import check_grid, time_scaled, variant
 from mrnea.sweep.engine import _frame
 from mrnea.sweep.rows import run_case
-from mrnea.sweep.variants import ROW_BYTES, ROW_BYTES_PER_JOINT
+from mrnea.sweep.variants import ROW_BYTES, ROW_BYTES_PER_JOINT, units
 from mrnea.trajectory import quintic
 
 CURVE = (4000.0, 1.0, 3.5)  # peak [N m], corner and no-load speed [rad/s], joint side
@@ -181,6 +181,19 @@ def test_time_scaled_refuses(factor):
 
 
 # --- the grid check: one clear error naming the entry, before any work -----------------------
+
+def test_units_follow_the_joint_type():
+    """A prismatic joint's effort is a force: N, not N m; a ratio has no unit."""
+    j = [Joint("turn", "revolute", "base", "a"), Joint("slide", "prismatic", "a", "b")]
+    arm = Robot(j, [Link("a", 1.0, (0, 0, 0), np.eye(3) * 0.01),
+                    Link("b", 1.0, (0, 0, 0), np.eye(3) * 0.01)], name="rp")
+    assert units(arm, ["effort_limit.turn", "effort_limit.slide", "effort_limit",
+                       "motor_torque_limit.slide", "viscous_friction.slide", "gear_ratio",
+                       "payload", "time_scale"]) == {
+        "effort_limit.turn": "N m", "effort_limit.slide": "N", "effort_limit": "N m | N",
+        "motor_torque_limit.slide": "N m", "viscous_friction.slide": "N s/m",
+        "gear_ratio": "", "payload": "kg", "time_scale": ""}
+
 
 @pytest.mark.parametrize("grid, words", [
     ({"gear_ratio.cab_yow": [100]}, ["'gear_ratio.cab_yow'", "no joint 'cab_yow'",

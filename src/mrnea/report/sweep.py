@@ -86,6 +86,12 @@ def swept_parameters(df: pd.DataFrame, keys: Sequence[str] | None = None) -> lis
             and df[k].nunique() > 1]
 
 
+def _axis(df: pd.DataFrame, key: str) -> str:
+    """A parameter's axis label: its name and unit (``df.attrs["units"]``, set by the sweep)."""
+    unit = df.attrs.get("units", {}).get(key, "")
+    return f"{label(key)} [{unit}]" if unit else label(key)
+
+
 def _per_variant(df: pd.DataFrame, keys: Sequence[str]) -> pd.DataFrame:
     """One row per variant (over its programs): ``achievable`` (all), ``failed`` (any error),
     ``ratio`` (the largest worst effort ratio), ``limit`` (the limiting joint of the worst
@@ -181,8 +187,8 @@ def feasibility_map(df: pd.DataFrame, x: str, y: str, keys: Sequence[str] | None
         step_x, step_y = max(1, len(xs) // 12), max(1, len(ys) // 12)
         ax.set_xticks(range(0, len(xs), step_x), [f"{a:g}" for a in xs[::step_x]], fontsize=8)
         ax.set_yticks(range(0, len(ys), step_y), [f"{a:g}" for a in ys[::step_y]], fontsize=8)
-        ax.set_xlabel(label(x))
-        ax.set_ylabel(label(y))
+        ax.set_xlabel(_axis(df, x))
+        ax.set_ylabel(_axis(df, y))
         ax.set_title(title, fontsize=9)
     for ax in axes.flat[len(panels):]:
         ax.set_visible(False)
@@ -267,7 +273,7 @@ def load_curves(df: pd.DataFrame, x: str, keys: Sequence[str] | None = None) -> 
         for k in np.flatnonzero(~ok.to_numpy()):
             ax.axvspan(xs[k] - half, xs[k] + half, color="#d62728", alpha=0.12, lw=0)
         ax.set_title(f"{name} [{unit}]", fontsize=9)
-        ax.set_xlabel(label(x))
+        ax.set_xlabel(_axis(df, x))
         ax.grid(alpha=0.3)
         low = [ln.get_ydata().min() for ln in ax.get_lines()]
         if name.endswith("motor_torque") and low and min(low) > 0 and top > 30 * min(low):

@@ -14,11 +14,11 @@ mrnea.
 """
 
 from mrnea.sweep.engine import DEMO_PROGRAM, load_programs, sweep
-from mrnea.sweep.variants import PARAMETERS, check_grid, time_scaled, variant
+from mrnea.sweep.variants import PARAMETERS, check_grid, time_scaled, units, variant
 
 sweep.variant = variant  # type: ignore[attr-defined]
 sweep.time_scaled = time_scaled  # type: ignore[attr-defined]
 sweep.check_grid = check_grid  # type: ignore[attr-defined]
 
 __all__ = ["DEMO_PROGRAM", "PARAMETERS", "check_grid", "load_programs", "sweep", "time_scaled",
-           "variant"]
+           "units", "variant"]

@@ -54,7 +54,7 @@ from mrnea.sweep.rows import (
     run_batch,
     warm,
 )
-from mrnea.sweep.variants import check_grid, time_scaled
+from mrnea.sweep.variants import check_grid, time_scaled, units
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -292,7 +292,8 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
         ``simulate(variant(robot, **params), program.q_cmd, ...).summary()`` of the
         time-scaled program. ``attrs``: ``completed`` (False after an interrupt: the rows
         done), ``cases`` (rows asked for), ``threads`` (worker threads), ``tasks``, ``batch``
-        (runs per task), ``seconds`` (prepare, cluster, warm, run, total: wall time).
+        (runs per task), ``seconds`` (prepare, cluster, warm, run, total: wall time),
+        ``units`` (each parameter's unit, "" for a ratio).
 
     Raises
     ------
@@ -340,7 +341,8 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
             bar.close()
     df = _frame(keys, labels, jobs, rows, retime)
     clock["total"] = time.perf_counter() - t0
-    df.attrs.update(completed=completed, cases=len(jobs), seconds=clock, **info)
+    df.attrs.update(completed=completed, cases=len(jobs), seconds=clock,
+                    units=units(robot, keys), **info)
     if bar is not None and not completed:
         bar.say(f"mrnea sweep: interrupted; {len(rows)} of {len(jobs)} rows done.")
     return df

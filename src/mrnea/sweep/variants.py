@@ -68,13 +68,19 @@ from mrnea.io.tomlcheck import did_you_mean
 from mrnea.model import Robot
 from mrnea.resources import require_memory
 
-__all__ = ["JOINT_PARAMETERS", "PARAMETERS", "check_grid", "time_scaled", "variant"]
+__all__ = ["JOINT_PARAMETERS", "PARAMETERS", "check_grid", "time_scaled", "units", "variant"]
 
 JOINT_PARAMETERS = ("gear_ratio", "effort_limit", "motor_torque_limit", "rotor_inertia",
                     "viscous_friction", "coulomb_friction", "velocity_limit")
 ROBOT_PARAMETERS = ("payload", "payload_point")
 PROGRAM_PARAMETERS = ("time_scale",)
 PARAMETERS = (*ROBOT_PARAMETERS, *JOINT_PARAMETERS, *PROGRAM_PARAMETERS)
+#: Each parameter's unit, (revolute joint, prismatic joint); "" for a pure number.
+UNITS = {"payload": ("kg", "kg"), "payload_point": ("m", "m"), "gear_ratio": ("", ""),
+         "effort_limit": ("N m", "N"), "motor_torque_limit": ("N m", "N m"),
+         "rotor_inertia": ("kg m^2", "kg m^2"), "viscous_friction": ("N m s/rad", "N s/m"),
+         "coulomb_friction": ("N m", "N"), "velocity_limit": ("rad/s", "m/s"),
+         "time_scale": ("", "")}
 _UNBOUNDED = ("effort_limit", "motor_torque_limit", "velocity_limit")  # inf: unlimited
 _REPLACED = ("rotor_inertia", "viscous_friction", "coulomb_friction", "velocity_limit")
 #: Peak memory per row in the client [bytes], ROW_BYTES + ROW_BYTES_PER_JOINT n: the case's
@@ -106,6 +112,18 @@ def _split(robot: Robot, key: str) -> tuple[str, int | None]:
                          f"{quote(joint)}{did_you_mean(joint, robot.joint_names)}; its joints: "
                          f"{listing(robot.joint_names)}")
     return param, robot.joint_names.index(joint)
+
+
+def units(robot: Robot, keys: Sequence[str]) -> dict[str, str]:
+    """Each grid key's unit on ``robot`` ("" for a ratio; ``"N m | N"`` for an all-joints key
+    on a robot with both kinds of joint), e.g. for a figure's axis."""
+    out = {}
+    for key in keys:
+        param, i = _split(robot, key)
+        kinds = {robot.joints[k].is_prismatic for k in ([i] if i is not None
+                                                         else range(robot.n))}
+        out[key] = " | ".join(dict.fromkeys(UNITS[param][p] for p in sorted(kinds)))
+    return out
 
 
 def _number(key: str, value: Any, allow_inf: bool) -> float:
