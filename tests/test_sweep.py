@@ -10,6 +10,7 @@ the separate scheduler and worker); the interrupt and the larger grids are ``slo
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import math
 import struct
 import subprocess
@@ -227,6 +228,37 @@ def test_an_unreachable_scheduler_is_one_error(monkeypatch):
     with pytest.raises(SweepError, match=r"scheduler 'tcp://127\.0\.0\.1:9': cannot connect"):
         mrnea.sweep(sdt(), "demo", {"payload": [1.0]}, client="tcp://127.0.0.1:9",
                     progress=False)
+
+
+def without_retime(monkeypatch) -> None:
+    """This process as an mrnea without mrnea.retime (before issue 14 lands)."""
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "mrnea.retime" else real(name, *a))
+
+
+def test_retime_unavailable_is_one_error_before_any_work(monkeypatch):
+    without_retime(monkeypatch)
+    with pytest.raises(SweepError, match=r"retime: unavailable, this mrnea has no mrnea\.retime"):
+        mrnea.sweep(sdt(), "demo", {"payload": [1.0]}, client=_NoWork(), retime=True,
+                    progress=False)
+
+
+def test_retime_columns_are_mrnea_retime(scheduler_address):
+    """retime=True: each row's retimed_duration is mrnea.retime's on that row's variant and
+    time-scaled program, bit for bit, from a cluster in processes of its own."""
+    if importlib.util.find_spec("mrnea.retime") is None:
+        pytest.skip("mrnea.retime (issue 14) is not in this mrnea yet")
+    from mrnea.retime import retime
+
+    robot, pick = puma560(), load_program(EXAMPLES / "puma_pick.toml")
+    grid = {"payload": [0.0, 5.0], "time_scale": [1.0, 1.5]}
+    df = mrnea.sweep(robot, pick, grid, client=scheduler_address, retime=True, progress=False)
+    assert len(df) == 4
+    for (_, row), params in zip(df.iterrows(), check_grid(robot, grid)[1], strict=True):
+        res = retime(variant(robot, **params), time_scaled(pick, params["time_scale"]))
+        assert pd.isna(row["retime_error"]), row["retime_error"]
+        assert same(row["retimed_duration"], float(res.duration))
 
 
 @pytest.mark.slow

@@ -17,7 +17,7 @@ import pytest
 from conftest import environment
 from test_cli import EXAMPLES, html_text
 from test_cli import run as run_in_process
-from test_sweep import serial
+from test_sweep import serial, without_retime
 
 from mrnea.io import load_program
 from mrnea.robots import puma560
@@ -118,6 +118,16 @@ def test_bad_input_is_one_line_before_any_work(tmp_path, text, args, words):
     assert len(lines) == 1 and lines[0].startswith("mrnea: error: "), r.stderr
     for w in words:
         assert w in lines[0], (w, lines[0])
+    assert not (tmp_path / "o").exists()
+
+
+def test_retime_unavailable_is_one_line_before_any_work(tmp_path, monkeypatch):
+    without_retime(monkeypatch)
+    (tmp_path / "g.toml").write_text("[grid]\npayload = [1]\n")
+    r = run_in_process("sweep", "sdt", "demo", "--grid", str(tmp_path / "g.toml"), "--out",
+                       str(tmp_path / "o"), "--retime")
+    assert r.exit_code == 2 and r.stdout == "", r.output
+    assert r.stderr.startswith("mrnea: error: retime: unavailable") and r.stderr.count("\n") == 1
     assert not (tmp_path / "o").exists()
 
 

@@ -59,7 +59,8 @@ from mrnea.sweep.variants import check_grid, time_scaled, units
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["DEMO_PROGRAM", "TARGET_CYCLES", "batch_size", "load_programs", "sweep"]
+__all__ = ["DEMO_PROGRAM", "TARGET_CYCLES", "batch_size", "load_programs", "require_retime",
+           "sweep"]
 
 #: Cycles one task should simulate: 29 runs of the SDT demo program, about 0.6 s of CPU.
 TARGET_CYCLES = 250_000
@@ -109,6 +110,14 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
         out.append(prog)
     return out
+
+
+def require_retime() -> None:
+    """``retime=True`` needs :func:`mrnea.retime` (issue 14); without it, one error before any
+    work."""
+    if importlib.util.find_spec("mrnea.retime") is None:
+        raise SweepError("retime: unavailable, this mrnea has no mrnea.retime (retiming, issue "
+                         "14); sweep without retime=True (--retime)")
 
 
 def _labels(programs: Sequence[Program]) -> list[str]:
@@ -316,8 +325,8 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
     if not (client is None or isinstance(client, str) or hasattr(client, "submit")):
         raise SweepError(f"client: expected None, a distributed.Client or a scheduler address "
                          f"(str), got {type(client).__name__}")
-    if retime and importlib.util.find_spec("mrnea.retime") is None:
-        raise SweepError("retime: this mrnea has no mrnea.retime (issue 14); sweep without it")
+    if retime:
+        require_retime()
     progs = load_programs(programs, robot)
     labels = _labels(progs)
     keys, cases = check_grid(robot, grid, zip)

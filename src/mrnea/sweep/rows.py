@@ -89,6 +89,8 @@ def run_case(robot: Robot, program: Program, params: Mapping[str, Any], retime: 
 def retime_columns(robot: Robot, program: Program) -> dict[str, Any]:
     """:data:`RETIME_COLUMNS` of ``mrnea.retime(robot, program)``: its duration [s], or NaN and
     why it failed."""
+    # imported at the first retiming: an mrnea without mrnea.retime (issue 14) still sweeps,
+    # and sweep(retime=True) refuses at once there (engine.require_retime)
     from mrnea.retime import retime  # type: ignore[import-not-found]
 
     try:
