@@ -42,7 +42,8 @@ def one_error_line(res, *words: str) -> str:
 
 @pytest.mark.parametrize(("args", "words"), [
     (["simulate"], ["simulate", "Missing argument 'PROGRAM'", "'mrnea simulate --help'"]),
-    (["check", "sdt"], ["check", "Missing argument 'PROGRAM'", "--help"]),
+    (["check", "sdt"], ["check", "Missing argument 'PROGRAM'", "'sdt' is taken as ROBOT",
+                        "--help"]),
     (["info", "--gravity"], ["'--gravity' requires an argument"]),
     (["info", "sdt", "--foo"], ["No such option '--foo'", "'mrnea info --help'"]),
     (["info", "sdt", "extra"], ["unexpected extra argument", "--help"]),
@@ -65,7 +66,8 @@ def test_usage_errors_from_a_real_process_are_one_line() -> None:
                          text=True, timeout=120)
     assert res.returncode == 2
     assert res.stderr.splitlines() == [
-        "mrnea: error: simulate: Missing argument 'PROGRAM' (see 'mrnea simulate --help')"]
+        "mrnea: error: simulate: Missing argument 'PROGRAM' ('sdt' is taken as ROBOT: a program "
+        "is a .toml file with a [program] table or a path .csv) (see 'mrnea simulate --help')"]
 
 
 def test_help_and_version_exit_0() -> None:

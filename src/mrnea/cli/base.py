@@ -399,10 +399,12 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     if program is None:
         robot, program = None, robot
     suffix = "" if program is None else Path(program).suffix.lower()
-    if program is None or (robot is None and suffix not in (".csv", ".toml")) or (
-            robot is None and suffix == ".toml" and os.path.isfile(program)
-            and not is_program_file(program)):  # a robot alone
+    if program is None:
         raise click.UsageError("Missing argument 'PROGRAM'.")
+    if robot is None and (suffix not in (".csv", ".toml") or (
+            suffix == ".toml" and os.path.isfile(program) and not is_program_file(program))):
+        raise click.UsageError(f"Missing argument 'PROGRAM' ({quote(program)} is taken as ROBOT: a "
+                               f"program is a .toml file with a [program] table or a path .csv)")
     if suffix == ".csv":
         if dt is None:
             raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
