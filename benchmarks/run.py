@@ -23,7 +23,9 @@ Sections (each a Markdown table; ``--out`` writes them all):
 5. scaling with n on random chains (time and counted flops, fitted exponents);
 6. a physical reference: the counted flops of mRNEA forward dynamics (n = 6) against one core's
    scalar peak;
-7. start-up: first-call compile time, cached start, import time (fresh processes).
+7. start-up: first-call compile time, cached start, import time (fresh processes);
+8. retiming (``retime_bench.py``): ``mrnea.retime`` on a Puma 560 path of 400 grid points and the
+   SDT's training profile, the verifying simulation included, with the split of its time.
 
 ``--quick`` is a smoke run of about a minute (fewer rounds, smaller batches and chains).
 """
@@ -48,6 +50,8 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 import simloop
+from retime_bench import TARGET as RETIME_TARGET
+from retime_bench import retime_section, retime_table
 from timing import SPREAD, compare
 
 import mrnea
@@ -91,12 +95,15 @@ class Config:
     sim_rounds: int
     chain_sizes: tuple[int, ...]
     import_repeats: int
+    retime_repeats: int
 
 
 FULL = Config(rounds=21, batch_sizes=(10_000, 100_000), batch_rounds=9, pin_loop_states=10_000,
-              cycles=20_000, sim_rounds=7, chain_sizes=(2, 4, 8, 16, 32, 64), import_repeats=7)
+              cycles=20_000, sim_rounds=7, chain_sizes=(2, 4, 8, 16, 32, 64), import_repeats=7,
+              retime_repeats=15)
 QUICK = Config(rounds=3, batch_sizes=(10_000,), batch_rounds=2, pin_loop_states=2_000,
-               cycles=2_000, sim_rounds=2, chain_sizes=(2, 8, 32), import_repeats=2)
+               cycles=2_000, sim_rounds=2, chain_sizes=(2, 8, 32), import_repeats=2,
+              retime_repeats=3)
 
 
 # --- formatting ----------------------------------------------------------------------------------
@@ -754,7 +761,8 @@ def startup_table(res: dict, cfg: Config) -> str:
 
 # --- summary and main ----------------------------------------------------------------------------
 
-def summary(per: dict, bat: dict, sim: dict, sup: dict, cases: list[models.Case]) -> str:
+def summary(per: dict, bat: dict, sim: dict, sup: dict, cases: list[models.Case],
+            rt: list[dict]) -> str:
     rows = []
     for c in cases:
         t = per["times"][c.label]
@@ -783,6 +791,11 @@ def summary(per: dict, bat: dict, sim: dict, sup: dict, cases: list[models.Case]
         first = sup["cold"]["first_call"]
         rows.append(["first call after install (compiles), [s]", f"{first:.1f}",
                      f"<= {TARGETS['compile']:g}", "yes" if first <= TARGETS["compile"] else "no"])
+    for r in rt:
+        if r["label"].startswith("Puma"):
+            rows.append([f"retime, {r['label']}, 400 grid points, median [s]",
+                         f"{r['wall']:.3f}", f"< {RETIME_TARGET:g}",
+                         "yes" if r["wall"] < RETIME_TARGET else "no"])
     return table(["ratio", "measured", "target", "met"], rows)
 
 
@@ -818,9 +831,10 @@ def main() -> None:
     scl = scaling(cfg)
     kt = kernel_times(cases[0], cfg)
     sup = startup(cfg)
+    rt = retime_section(cfg.retime_repeats)
     argv = list(sys.argv[1:])
     sections = [
-        ("Summary: the issue's targets", summary(per, bat, sim, sup, cases)),
+        ("Summary: the issue's targets", summary(per, bat, sim, sup, cases, rt)),
         ("1. Per call, one state", per_call_tables(per, cases)),
         ("2. Per state, batches", batch_table(bat, cfg)),
         ("3. The simulation loop", simulation_table(sim, cfg)),
@@ -828,6 +842,7 @@ def main() -> None:
         ("5. Scaling with n", scaling_tables(scl, flops)),
         ("6. Flops and the machine's peak", flops_tables(flops, kt, info)),
         ("7. Start-up", startup_table(sup, cfg)),
+        ("8. Retiming", retime_table(rt, cfg.retime_repeats)),
     ]
     spread = np.percentile(SPREAD, [50, 90]) - 1.0
     text = header(info, argv, time.perf_counter() - t0) + (

@@ -1,9 +1,9 @@
 """Every public function refuses an argument of the wrong type with a MrneaError naming it.
 
 Each public function (the top-level exports, ``mrnea.io``, ``mrnea.trajectory``,
-``mrnea.simulate``, ``mrnea.report``, ``mrnea.robots``, ``mrnea.sweep``'s helpers (the sweep
-itself: tests/test_sweep.py), the methods of ``Robot`` and ``SimulationResult``) is called with
-valid arguments, then with each argument replaced in turn by
+``mrnea.simulate``, ``mrnea.report``, ``mrnea.robots``, ``mrnea.retime``, ``mrnea.sweep``'s
+helpers (the sweep itself: tests/test_sweep.py), the methods of ``Robot``, ``SimulationResult``
+and ``RetimeResult``) is called with valid arguments, then with each argument replaced in turn by
 None, an int, a str, a dict, a complex number, bytes and the path of a directory. Where a value
 is of an accepted type for that argument (an int for a time step, a str for a path, None for an
 optional argument, a folder for a base folder) it is skipped. Everything else must raise a
@@ -25,7 +25,9 @@ import mrnea.io
 import mrnea.report
 import mrnea.trajectory
 from mrnea.errors import MrneaError
+from mrnea.report.retime import write_retime_report
 from mrnea.report.sweep import write_sweep_html
+from mrnea.retime import scale_estimate
 from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import simulate
 from mrnea.sweep import check_grid, time_scaled, variant
@@ -36,8 +38,8 @@ MALFORMED = Path(__file__).resolve().parent / "malformed"
 BAD = ("None", "int", "str", "dict", "complex", "bytes", "dir")
 
 # kinds of argument, and the bad values that are of an accepted type for each ("?": None too)
-PATH, OUT, FOLDER, NAME, NUMBER, ARRAY, FLAG, OPTIONAL = (
-    "path", "out", "folder", "name", "number", "array", "flag", "?")
+PATH, OUT, FOLDER, NAME, NUMBER, ARRAY, FLAG, MAPPING, OPTIONAL = (
+    "path", "out", "folder", "name", "number", "array", "flag", "mapping", "?")
 ACCEPTED = {
     PATH: {"str"},  # "abc" is a (missing) file: a ProgramFileError, not about the type
     OUT: {"str"},  # a file to write: "abc" is fine
@@ -46,6 +48,7 @@ ACCEPTED = {
     NUMBER: {"int"},
     ARRAY: {"int"},  # a scalar where a scalar or an array is allowed
     FLAG: set(),
+    MAPPING: {"dict"},
 }
 
 
@@ -64,12 +67,14 @@ def env(tmp_path_factory) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = simulate(robot, np.zeros((3, 4)), 0.01)
+        retimed = mrnea.retime(robot, mrnea.load_program(d / "prog.toml"))
     (d / "g.toml").write_text("[grid]\npayload = [0.0]\n")
     program = training_program(0.5)
     rows = {0: run_case(robot, program, {"payload": 0.0})}
     sweep_rows = _frame(("payload",), [program.name], [(0, (0, 1.0), {"payload": 0.0})], rows,
                         False)
-    return {"dir": d, "robot": robot, "result": result, "program": program, "rows": sweep_rows,
+    return {"dir": d, "robot": robot, "result": result, "retimed": retimed, "program": program,
+            "rows": sweep_rows,
             "bad": {"None": None, "int": 123, "str": "abc", "dict": {"a": 1}, "complex": 1 + 2j,
                     "bytes": b"x", "dir": d / "a_folder"}}
 
@@ -145,6 +150,28 @@ def _cases(e: dict) -> list[tuple[str, object, dict, dict]]:
         ("Robot.with_gravity", robot.with_gravity, {"gravity": (0.0, 0.0, -9.81)},
          {"gravity": ""}),
         ("Robot.to_urdf", robot.to_urdf, {"path": d / "w.urdf"}, {"path": OUT}),
+        ("retime", mrnea.retime,
+         {"robot": robot, "program": np.linspace(np.zeros(4), np.full(4, 0.1), 20), "dt": 0.1,
+          "method": "scale", "margin": 0.9, "f_ext": None, "f_ext_point": None},
+         {"robot": "", "program": "", "dt": NUMBER + "?", "method": NAME, "margin": NUMBER,
+          "f_ext": OPTIONAL, "f_ext_point": OPTIONAL}),
+        ("scale_estimate", scale_estimate,
+         {"robot": robot, "q": np.linspace(np.zeros(4), np.full(4, 0.1), 20), "dt": 0.1,
+          "f_ext": None, "f_ext_point": None},
+         {"robot": "", "q": "", "dt": NUMBER, "f_ext": OPTIONAL, "f_ext_point": OPTIONAL}),
+        ("RetimeResult.save_csv", e["retimed"].save_csv, {"path": d / "r.csv", "overwrite": True},
+         {"path": OUT, "overwrite": FLAG}),
+        ("RetimeResult.save_program", e["retimed"].save_program,
+         {"path": d / "rp.toml", "robot": "sdt", "csv": "r.csv", "name": "x",
+          "program_keys": None, "overwrite": True},
+         {"path": OUT, "robot": NAME, "csv": NAME, "name": NAME, "program_keys": MAPPING + "?",
+          "overwrite": FLAG}),
+        ("RetimeResult.save_summary", e["retimed"].save_summary,
+         {"path": d / "rs.json", "overwrite": True}, {"path": OUT, "overwrite": FLAG}),
+        ("write_retime_report", write_retime_report,
+         {"result": e["retimed"], "path": d / "rr.html", "overwrite": True, "files": None,
+          "view3d": False},
+         {"result": "", "path": OUT, "overwrite": FLAG, "files": MAPPING + "?", "view3d": FLAG}),
         ("variant", variant, {"robot": robot, "payload": 1.0}, {"robot": "", "payload": NUMBER}),
         ("time_scaled", time_scaled, {"program": e["program"], "factor": 2.0},
          {"program": "", "factor": NUMBER}),
@@ -193,8 +220,10 @@ NAMES = ("forward_dynamics", "inverse_dynamics", "mass_matrix_and_bias", "joint_
          "SimulationResult.to_csv", "SimulationResult.save_summary", "plot_result",
          "write_report", "fig3", "Robot.with_actuators(gear_ratio)",
          "Robot.with_actuators(rotor_inertia)", "Robot.with_actuators(effort_limit)",
-         "Robot.with_actuators(torque_speed)", "Robot.with_gravity", "Robot.to_urdf",
-         "variant", "time_scaled", "check_grid", "load_grid_file", "write_sweep_html")
+         "Robot.with_actuators(torque_speed)", "Robot.with_gravity", "Robot.to_urdf", "retime",
+         "scale_estimate", "RetimeResult.save_csv", "RetimeResult.save_program",
+         "RetimeResult.save_summary", "write_retime_report", "variant", "time_scaled",
+         "check_grid", "load_grid_file", "write_sweep_html")
 
 
 def test_every_case_is_named(env) -> None:

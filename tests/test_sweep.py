@@ -10,7 +10,6 @@ the separate scheduler and worker); the interrupt and the larger grids are ``slo
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import math
 import struct
 import subprocess
@@ -27,6 +26,7 @@ import mrnea
 from mrnea.errors import SweepError
 from mrnea.io import load_program
 from mrnea.io.program import Program
+from mrnea.retime import retime
 from mrnea.robots import puma560, sdt
 from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import simulate
@@ -230,27 +230,9 @@ def test_an_unreachable_scheduler_is_one_error(monkeypatch):
                     progress=False)
 
 
-def without_retime(monkeypatch) -> None:
-    """This process as an mrnea without mrnea.retime (before issue 14 lands)."""
-    real = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec",
-                        lambda name, *a: None if name == "mrnea.retime" else real(name, *a))
-
-
-def test_retime_unavailable_is_one_error_before_any_work(monkeypatch):
-    without_retime(monkeypatch)
-    with pytest.raises(SweepError, match=r"retime: unavailable, this mrnea has no mrnea\.retime"):
-        mrnea.sweep(sdt(), "demo", {"payload": [1.0]}, client=_NoWork(), retime=True,
-                    progress=False)
-
-
 def test_retime_columns_are_mrnea_retime(scheduler_address):
     """retime=True: each row's retimed_duration is mrnea.retime's on that row's variant and
     time-scaled program, bit for bit, from a cluster in processes of its own."""
-    if importlib.util.find_spec("mrnea.retime") is None:
-        pytest.skip("mrnea.retime (issue 14) is not in this mrnea yet")
-    from mrnea.retime import retime
-
     robot, pick = puma560(), load_program(EXAMPLES / "puma_pick.toml")
     grid = {"payload": [0.0, 5.0], "time_scale": [1.0, 1.5]}
     df = mrnea.sweep(robot, pick, grid, client=scheduler_address, retime=True, progress=False)

@@ -17,10 +17,12 @@ import pytest
 from conftest import environment
 from test_cli import EXAMPLES, html_text
 from test_cli import run as run_in_process
-from test_sweep import serial, without_retime
+from test_sweep import serial
 
+import mrnea
 from mrnea.io import load_program
 from mrnea.robots import puma560
+from mrnea.sweep import time_scaled, variant
 
 
 def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
@@ -80,15 +82,21 @@ def test_sweep_writes_its_files_and_nothing_else_reaches_the_terminal(tmp_path, 
 
 def test_scheduler_option_runs_on_that_cluster(tmp_path, puma_grid, scheduler_address):
     """--scheduler: the rows of a cluster in processes of its own (one worker) are the serial
-    loop's."""
+    loop's; --retime adds each row's retimed duration, mrnea.retime's."""
     r = run_in_process("sweep", "puma560", "--grid", str(puma_grid), "--out",
-                       str(tmp_path / "o"), "--scheduler", scheduler_address, "--quiet")
+                       str(tmp_path / "o"), "--scheduler", scheduler_address, "--quiet",
+                       "--retime")
     assert r.exit_code == 0 and r.stdout == "" and r.stderr == "", r.stderr
     csv = pd.read_csv(tmp_path / "o/sweep.csv", index_col="case")
-    expected = serial(puma560(), load_program(EXAMPLES / "puma_pick.toml"),
-                      {"payload": [0.0, 15.0], "time_scale": [0.5, 1.0]})
+    pick, grid = load_program(EXAMPLES / "puma_pick.toml"), {"payload": [0.0, 15.0],
+                                                            "time_scale": [0.5, 1.0]}
+    expected = serial(puma560(), pick, grid)
     assert csv["worst_effort_ratio"].tolist() == [s["worst_effort_ratio"] for _, s in expected]
     assert csv["achievable"].tolist() == [s["achievable"] for _, s in expected]
+    assert csv["retimed_duration"].tolist() == [
+        mrnea.retime(variant(puma560(), **p), time_scaled(pick, p["time_scale"])).duration
+        for p, _ in expected]
+    assert csv["retime_error"].isna().all()
 
 
 @pytest.mark.parametrize("text, args, words", [
@@ -118,16 +126,6 @@ def test_bad_input_is_one_line_before_any_work(tmp_path, text, args, words):
     assert len(lines) == 1 and lines[0].startswith("mrnea: error: "), r.stderr
     for w in words:
         assert w in lines[0], (w, lines[0])
-    assert not (tmp_path / "o").exists()
-
-
-def test_retime_unavailable_is_one_line_before_any_work(tmp_path, monkeypatch):
-    without_retime(monkeypatch)
-    (tmp_path / "g.toml").write_text("[grid]\npayload = [1]\n")
-    r = run_in_process("sweep", "sdt", "demo", "--grid", str(tmp_path / "g.toml"), "--out",
-                       str(tmp_path / "o"), "--retime")
-    assert r.exit_code == 2 and r.stdout == "", r.output
-    assert r.stderr.startswith("mrnea: error: retime: unavailable") and r.stderr.count("\n") == 1
     assert not (tmp_path / "o").exists()
 
 

@@ -15,6 +15,7 @@ from conftest import pin_fext, to_pinocchio
 
 import mrnea
 from mrnea import Joint, Link, Robot, SingularMassMatrixError
+from mrnea.actuators import program_requirement
 from mrnea.cli import main
 from mrnea.robots.sdt_profile import training_profile
 from mrnea.simulate import simulate
@@ -55,7 +56,7 @@ def test_program_requirement_against_pinocchio():
     K = q_cmd.shape[0]
     qd_cmd = np.vstack([np.zeros(6), np.diff(q_cmd, axis=0) / dt])
     Fp, Fn = robot.coulomb_friction[:, 0], robot.coulomb_friction[:, 1]
-    expect = np.empty((K, 6))
+    expect, rigid = np.empty((K, 6)), np.empty((K, 6))
     for k in range(K):
         v = qd_cmd[k + 1] if k + 1 < K else np.zeros(6)
         qdd = (v - qd_cmd[k]) / dt
@@ -63,13 +64,20 @@ def test_program_requirement_against_pinocchio():
         h = pin.rnea(model, data, q_cmd[k], qd_cmd[k], qdd, fext)
         h = np.array(h) + robot.viscous_friction * qd_cmd[k]
         expect[k] = h + np.where(v > 0, Fp, np.where(v < 0, -Fn, np.clip(-h, -Fn, Fp)))
+        rigid[k] = h
     scale = np.abs(expect).max(axis=0)
     assert np.all(np.abs(res.program_effort - expect) <= 1e-9 * scale)
+    # the same without a run (mrnea.retime's Hollerbach estimate), and without Coulomb friction
+    req, lim = program_requirement(robot, q_cmd, dt, fe, pe)
+    assert np.all(np.abs(req - expect) <= 1e-9 * scale)
+    req, _ = program_requirement(robot, q_cmd, dt, fe, pe, friction=False)
+    assert np.all(np.abs(req - rigid) <= 1e-9 * scale)
     peak, corner, no_load = (np.array(c) for c in zip(*curves, strict=True))
     w = np.abs(qd_cmd)
     limit = np.where(w <= corner, peak, np.minimum(peak * corner / np.maximum(w, corner),
                                                    peak * (no_load - w) / (no_load - corner)))
     np.testing.assert_allclose(res.program_limit, np.where(w >= no_load, 0.0, limit), rtol=1e-14)
+    np.testing.assert_allclose(lim, np.where(w >= no_load, 0.0, limit), rtol=1e-14)
     beyond = 0
     for i, jd in enumerate(res.summary()["joints"]):
         with np.errstate(divide="ignore"):  # zero limit beyond the no-load speed: no ratio

@@ -27,6 +27,7 @@ from mrnea.errors import (
     OutputError,
     PathWarning,
     ProgramFileError,
+    RetimeError,
     RobotFileError,
     SingularMassMatrixError,
     StateError,
@@ -34,6 +35,7 @@ from mrnea.errors import (
 )
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot, transform
+from mrnea.retime import RetimeResult, retime
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
 from mrnea.sweep import sweep  # the function, as simulate (above)
 
@@ -48,6 +50,8 @@ __all__ = [
     "OutputError",
     "PathWarning",
     "ProgramFileError",
+    "RetimeError",
+    "RetimeResult",
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
@@ -64,6 +68,7 @@ __all__ = [
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "retime",
     "robots",
     "simulate",
     "sweep",

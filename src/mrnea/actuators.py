@@ -23,8 +23,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
-from mrnea.kernels.drive import actuator_terms_batch, effort_limit
+from mrnea.errors import StateError
+from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents
 from mrnea.kernels.engines import ENGINE_MRNEA
+from mrnea.kernels.simulate import program_requirement as requirement_kernel
+from mrnea.kernels.status import OK
 from mrnea.model import Robot
 
 
@@ -69,12 +72,63 @@ def actuator_efforts(
 
 
 def effort_limits_at(robot: Robot, qd: ArrayLike) -> NDArray[np.float64]:
-    """Each joint's effort limit [N m | N] at joint speed qd, (n,) or (B, n)."""
+    """Each joint's effort limit [N m | N] at joint speed qd [rad/s | m/s], (n,) or (B, n):
+    the torque-speed curve of :mod:`mrnea.kernels.drive`, one compiled loop over the batch."""
     _, (qd,), _, _ = validate.inputs(robot, {"qd": qd}, None, None)
-    act = compiled.of(robot)[3]
-    flat = np.atleast_2d(qd)
-    out = np.array([[effort_limit(act, i, row[i]) for i in range(robot.n)] for row in flat])
+    flat = np.ascontiguousarray(np.atleast_2d(qd))
+    out = np.empty_like(flat)
+    effort_limits(compiled.of(robot)[3], flat, out)
     return out.reshape(np.shape(qd))
+
+
+def effort_limit_branches(robot: Robot, speed: ArrayLike) -> NDArray[np.float64]:
+    """The falling branches of each joint's torque-speed curve at ``speed`` >= 0 [rad/s | m/s],
+    (n,) or (B, n), with their slopes: (..., n, 4) ``[P / w, -P / w^2, line, -gamma]`` (constant
+    power ``P = peak corner``; the line ``gamma (no_load - w)`` down to the no-load speed,
+    ``gamma = peak / (no_load - corner)``). A joint with a constant limit gets
+    ``[inf, 0, inf, 0]``. The limit is ``max(0, min(peak, P / w, line))`` (each branch is convex
+    in w: a tangent is a lower bound), for linearising it, as :mod:`mrnea.retime` does."""
+    _, (w,), _, _ = validate.inputs(robot, {"speed": speed}, None, None)
+    flat = np.ascontiguousarray(np.abs(np.atleast_2d(w)))
+    out = np.empty((*flat.shape, 4))
+    limit_tangents(compiled.of(robot)[3], flat, out)
+    return out.reshape((*np.shape(w), 4))
+
+
+def program_requirement(
+    robot: Robot,
+    q_cmd: ArrayLike,
+    dt: float,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    friction: bool = True,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A program's own requirement, as :func:`mrnea.simulate` computes it
+    (``SimulationResult.program_effort`` and ``program_limit``; kernels/simulate.py): the
+    effort (K, n) [N m | N], joint side, each cycle k needs at the program's state q_cmd[k],
+    qd_cmd[k] (backward differences at dt [s], starting from rest) to make the program's next
+    velocity (0 after the last row), with the full actuator model; and each joint's effort
+    limit at the program's speed (K, n). f_ext (6,) or (K, 6), f_ext_point (3,) or (K, 3) as
+    :func:`mrnea.simulate`. ``friction=False`` leaves Coulomb friction out (its share at rest
+    is set-valued: the drive and static friction share the holding effort)."""
+    validate.require_robot(robot)
+    dt = validate.time_step(dt)
+    friction = validate.flag(friction, "friction")
+    Q = validate.array(q_cmd, "q_cmd", robot.n)
+    if Q.ndim != 2 or Q.shape[0] < 2:
+        raise StateError(f"q_cmd: expected (K, {robot.n}) with K >= 2 cycles, got {Q.shape}")
+    Q = np.ascontiguousarray(Q)
+    K = Q.shape[0]
+    V = np.zeros_like(Q)
+    V[1:] = np.diff(Q, axis=0) / dt
+    program = (Q, V, validate.per_cycle(f_ext, K, 6, "f_ext"),
+               validate.per_cycle(f_ext_point, K, 3, "f_ext_point"))
+    m, _, _, act = compiled.of(robot)
+    req, limit, status = np.empty_like(Q), np.empty_like(Q), np.empty(K, dtype=np.int64)
+    requirement_kernel((m, act), program, dt, friction, 0, K, (req, limit), status)
+    for k in np.flatnonzero(status != OK):
+        validate.check_cycle(robot, int(k), int(status[k]), Q[k], V[k], dt)
+    return req, limit
 
 
 def motor_torque(robot: Robot, tau: ArrayLike) -> NDArray[np.float64]:

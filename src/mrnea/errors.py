@@ -101,6 +101,13 @@ class SingularMassMatrixError(MrneaError):
     """
 
 
+class RetimeError(MrneaError):
+    """A program cannot be retimed: its path cannot be followed at any speed (a pose the robot
+    cannot hold against gravity or a wrench; the message names the joint, the instant and the
+    ratio of need to limit), it leaves the joint's position limits, or no planning margin gives a
+    program the verifying simulation accepts."""
+
+
 class OutputError(MrneaError):
     """An output file cannot be written: it exists (and replacing it was not allowed), its place
     is a directory, its folder is missing or not writable, or another run owns the folder."""

@@ -25,6 +25,11 @@ if TYPE_CHECKING:
 EFFORT_UNIT = {False: "N m", True: "N"}  # by is_prismatic
 TIMES = "\u00d7"  # the multiplication sign of "1.62 × its limit"
 POSITION_UNIT = {False: "rad", True: "m"}
+# summary keys of the per-joint peak reaction loads (null for a run without reactions), and the
+# BearingLoads field of each
+PEAK_LOADS = (("peak_reaction_force", "force"), ("peak_axial_force", "axial_force"),
+              ("peak_radial_force", "radial_force"), ("peak_reaction_moment", "moment"),
+              ("peak_bending_moment", "bending_moment"))
 
 
 def finite_or_none(x: float) -> float | None:
@@ -122,7 +127,7 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
         return {**head, "first_infeasible": None, "start_infeasible": [],
                 "max_tracking_error": 0.0, "worst_joint": None, "worst_effort_ratio": None,
                 "joints": []}
-    loads = r.bearing_loads()
+    loads = None if r.reaction is None else r.bearing_loads()  # simulate(reactions=False)
     err = np.abs(r.tracking_error)
     joints = []
     for i, j in enumerate(r.robot.joints):
@@ -139,11 +144,8 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             "rms_motor_torque": float(np.sqrt(np.mean(r.tau_motor[:, i] ** 2))),
             "peak_effort": float(np.abs(r.tau[:, i]).max()),
             "peak_speed": float(np.abs(r.qd[:, i]).max()),
-            "peak_reaction_force": float(loads.force[:, i].max()),
-            "peak_axial_force": float(loads.axial_force[:, i].max()),
-            "peak_radial_force": float(loads.radial_force[:, i].max()),
-            "peak_reaction_moment": float(loads.moment[:, i].max()),
-            "peak_bending_moment": float(loads.bending_moment[:, i].max()),
+            **{key: None if loads is None else float(getattr(loads, part)[:, i].max())
+               for key, part in PEAK_LOADS},
             "max_tracking_error": float(err[ke, i]),
             "max_tracking_error_time": float(r.t[ke]),
             "final_position_error": float(r.tracking_error[-1, i]),

@@ -48,6 +48,21 @@ def time_step(dt: object, name: str = "dt") -> float:
     return dt
 
 
+def flag(x: object, name: str) -> bool:
+    """``x`` as a bool: True or False (NumPy's included), nothing else."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise StateError(f"{name}: expected True or False, got {x!r}")
+    return bool(x)
+
+
+def fraction(x: object, name: str) -> float:
+    """A real number in (0, 1] (:func:`real`), e.g. the planning margin of :func:`mrnea.retime`."""
+    x = real(x, name)
+    if not 0 < x <= 1:
+        raise StateError(f"{name}: must be in (0, 1], got {x}")
+    return x
+
+
 def catch_up(gain: object, dt: float) -> float:
     """The position-loop gain [1/s] of :func:`mrnea.simulate.simulate`: 0 <= gain < 1/dt."""
     gain = real(gain, "catch_up")
@@ -87,6 +102,15 @@ def array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
         bad = np.argwhere(~np.isfinite(a))[0]
         raise StateError(f"{name}: contains NaN or inf (first at index {tuple(bad.tolist())})")
     return a
+
+
+def per_joint(x: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
+    """A value per joint, (n,): one number for every joint or n numbers (:func:`array`)."""
+    scalar = np.ndim(x) == 0
+    a = array(np.atleast_1d(x) if scalar else x, name, 1 if scalar else n)
+    if a.ndim != 1:
+        raise StateError(f"{name}: expected one number or ({n},), got shape {a.shape}")
+    return np.full(n, a[0]) if scalar else a
 
 
 def per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray[np.float64]:

@@ -146,6 +146,23 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
         exit_interrupted()
 
 
+def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
+             run: tuple, interpolation: str | None, mode: str, quiet: bool,
+             as_json: bool) -> None:
+    """Under a completed run that is not achievable: the retime command and the duration
+    uniform scaling would give (:func:`mrnea.cli.retime.suggestion`); command line only (stderr
+    with --json), never in the summary. ``run``: what :func:`load_run` returned;
+    ``interpolation``, ``mode``: the command's options."""
+    if quiet or not res.completed or res.achievable is not False:
+        return
+    from mrnea.cli.retime import suggestion
+
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode = run[:6]
+    click.echo(suggestion(rob, robot, program, options, np.asarray(q_cmd), dt, f_ext, f_pt,
+                          interpolation, None if prog_mode or mode == "hybrid" else mode),
+               err=as_json)
+
+
 @main.command()
 @program_args
 @fd_opt
@@ -164,14 +181,15 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
     ROBOT may be left out when the program file names its robot; given, it must be that robot.
     The robot options override the program's keys of the same names.
     """
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = load_run(robot, program, dt, interpolation,
-                                                              robot_options)
+    run = load_run(robot, program, dt, interpolation, robot_options)
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
                    force)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
     if not res.completed:
         exit_interrupted()
 
@@ -187,10 +205,11 @@ def check(robot: str | None, program: str | None, dt: float | None,
 
     ROBOT may be left out when the program file names its robot (as for simulate).
     """
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = load_run(robot, program, dt, interpolation,
-                                                         robot_options)
+    run = load_run(robot, program, dt, interpolation, robot_options)
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
     if not res.completed:
         exit_interrupted()
     checkpoint()

@@ -142,10 +142,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     from mrnea.report.sweep import write_sweep_html
     from mrnea.sweep import check_grid, load_programs
     from mrnea.sweep import sweep as run_sweep
-    from mrnea.sweep.engine import require_retime
 
-    if retime:
-        require_retime()
     spec = load_grid_file(grid_file)
     robot_arg = args[0] if args and _is_robot(args[0]) else None
     names = list(args[1:] if robot_arg is not None else args) or spec.programs

@@ -25,6 +25,7 @@ import io
 import os
 import warnings
 from array import array
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -32,12 +33,13 @@ from numpy.typing import NDArray
 
 from mrnea.errors import PathWarning, ProgramFileError, StateError, quote
 from mrnea.io.source import MAX_CSV_SIZE, as_path, parse_number, read_text
+from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.resources import format_bytes, require_memory
 from mrnea.trajectory import cycles, require_path_memory
 from mrnea.validate import choice, time_step
 
-__all__ = ["INTERPOLATIONS", "from_csv", "limit_warnings", "read_table", "resample"]
+__all__ = ["INTERPOLATIONS", "from_csv", "limit_warnings", "read_table", "resample", "save_csv"]
 
 #: The interpolations of a path CSV's rows, by name, and what each one is (the report says it).
 INTERPOLATIONS = {
@@ -309,3 +311,24 @@ def limit_warnings(robot: Robot, t: NDArray, q: NDArray, rows: NDArray, interpol
             f"within them; the simulator would clamp the command there, a saturation the rows "
             f"do not ask for: give rows closer together or interpolation \"linear\"",
             PathWarning, stacklevel=3)
+
+
+def save_csv(path: str | os.PathLike[str], t: NDArray, q: NDArray, names: Sequence[str],
+             overwrite: bool = False) -> Path:
+    """Write a path CSV (the format :func:`from_csv` reads): a header ``t, <names>``, then one
+    row per sample, time [s] and positions [rad | m], every number as Python's shortest repr
+    (it reads back bit for bit). Through :func:`mrnea.io.writer.create`: whole or not at all,
+    never through a link, an existing file replaced only with ``overwrite``.
+
+    Parameters
+    ----------
+    t : (K,) time [s]. q : (K, n) positions. names : the n joint column names.
+    """
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["t", *names])
+    writer.writerows([repr(float(a)), *map(repr, row)] for a, row in zip(
+        np.asarray(t, dtype=float).tolist(), np.asarray(q, dtype=float).tolist(), strict=True))
+    with create(path, overwrite) as fh:
+        fh.write(buf.getvalue())
+    return Path(path)

@@ -9,6 +9,7 @@ CSV path by :mod:`mrnea.io.pathcsv`; the robot is a built-in name or a robot fil
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from collections.abc import Mapping
@@ -32,10 +33,12 @@ from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resampl
 from mrnea.io.payload import parse_payload
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
+from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
 
-__all__ = ["Program", "is_program_file", "load_program", "loads_program"]
+__all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
+           "save_program"]
 
 #: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
 #: and ``[path] units``.
@@ -391,6 +394,62 @@ def load_program(path: str | Path) -> Program:
     p = as_path(path, "path", ProgramFileError)
     return loads_program(read_text(p, "program file", ProgramFileError), source=str(p),
                          base_dir=p.parent)
+
+
+def _toml_value(v: Any) -> str:
+    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit) or
+    a (nested) list of them."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, str):
+        return json.dumps(v)  # a TOML basic string: JSON's escapes are TOML's
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        x = float(v)
+        return repr(x) if math.isfinite(x) else ("nan" if x != x else "inf" if x > 0 else "-inf")
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} to a program file")
+
+
+def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
+                  wrench: Mapping[str, Any] | None = None, comment: str = "") -> str:
+    """The text of a program file (the format :func:`loads_program` reads) from the keys of its
+    ``[program]``, ``[path]`` and optional ``[wrench]`` tables; ``comment``: lines put first as
+    TOML comments. Numbers are written as their shortest repr, so they read back bit for bit.
+    A list of rows (the wrench's values) gets one row per line. A key the table does not know
+    is a StateError (the file would not load)."""
+    lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
+    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": _WRENCH_KEYS}
+    for table, keys in (("program", program), ("path", path), ("wrench", wrench)):
+        if keys is None:
+            continue
+        unknown = [k for k in keys if k not in allowed[table]]
+        if unknown:
+            raise StateError(f"{table}: unknown key {quote(unknown[0])} for a program file's "
+                             f"[{table}]; allowed keys: {', '.join(allowed[table])}")
+        lines += ["" if lines else None, f"[{table}]"]
+        for k, v in keys.items():
+            rows = np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
+            if isinstance(rows, list) and rows and isinstance(rows[0], list):
+                lines += [f"{k} = ["] + [f"    {_toml_value(r)}," for r in rows] + ["]"]
+            else:
+                lines.append(f"{k} = {_toml_value(v)}")
+    return "\n".join(x for x in lines if x is not None) + "\n"
+
+
+def save_program(path: str | os.PathLike[str], program: Mapping[str, Any],
+                 path_table: Mapping[str, Any], wrench: Mapping[str, Any] | None = None,
+                 comment: str = "", overwrite: bool = False) -> Path:
+    """Write :func:`dumps_program`'s text to ``path`` through :func:`mrnea.io.writer.create`
+    (whole or not at all, never through a link, an existing file replaced only with
+    ``overwrite``)."""
+    with create(path, overwrite) as fh:
+        fh.write(dumps_program(program, path_table, wrench, comment))
+    return Path(path)
 
 
 def is_program_file(path: str | Path) -> bool:

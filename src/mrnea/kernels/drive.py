@@ -3,12 +3,13 @@
 Usage: ``status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)`` fills H_a
 (n, n) and u'_a (n,) without the Coulomb term (``actuator_terms_batch(compiled, ...)``,
 ``compiled = (model, act)``, over a batch, with it); ``drive_effort(act, i, qd_i, qdd_i)``, the
-same terms of one joint; ``effort_limit(act, i, qd_i)``; the Coulomb friction law, ``coulomb`` (a
-moving joint), ``holding_friction`` (a joint held at rest) and ``wanted_friction`` (a wanted
-motion). The
-actuator array ``act`` (n, NACT) as kernels/layout.py describes it: per joint, joint side, gear
-ratio G (motor turns per joint turn), rotor inertia J_m (motor side), viscous friction F_v,
-Coulomb friction F+ and F- (the magnitudes opposing positive and negative motion), the
+same terms of one joint; ``effort_limit(act, i, qd_i)`` (``effort_limits`` over a batch,
+``limit_tangents`` the curve's branches and slopes for a linearisation); the Coulomb friction
+law, ``coulomb`` (a moving joint), ``holding_friction`` (a joint held at rest) and
+``wanted_friction`` (a wanted motion). The actuator array ``act`` (n, NACT) as
+kernels/layout.py describes it: per joint, joint side, gear ratio G (motor turns per joint
+turn), rotor inertia J_m (motor side), viscous friction F_v, Coulomb friction F+ and F- (the
+magnitudes opposing positive and negative motion), the
 torque-speed curve and the joint limits.
 
 Actuator equation (Eqs. 42-43), joint side, on the rigid-body H and u' of one engine
@@ -38,6 +39,7 @@ speed; zero beyond it. A constant limit has corner = no-load = inf.
 from __future__ import annotations
 
 import numba as nb
+import numpy as np
 
 from mrnea.kernels.common import chunk, n_chunks
 from mrnea.kernels.engines import mass_matrix_bias
@@ -59,6 +61,16 @@ from mrnea.kernels.layout import (
 from mrnea.kernels.status import OK
 
 
+@nb.njit(**INLINE)
+def curve_branches(act, i, w):
+    """The falling branches of joint i's torque-speed curve at speed w > 0, and their slopes:
+    ``(P / w, -P / w^2, gamma (no_load - w), -gamma)``, ``P = peak corner``,
+    ``gamma = peak / (no_load - corner)``. Only for a finite corner below the no-load speed."""
+    peak, corner, no_load = act[i, PEAK], act[i, CORNER], act[i, NOLOAD]
+    power = peak * corner / w
+    return power, -power / w, peak * (no_load - w) / (no_load - corner), -peak / (no_load - corner)
+
+
 @nb.njit(**JIT)
 def effort_limit(act, i, qd_i):
     """Effort limit of joint i at speed qd_i: torque-speed curve or constant (module docstring)."""
@@ -68,7 +80,32 @@ def effort_limit(act, i, qd_i):
         return peak
     if w >= no_load:
         return 0.0
-    return min(peak * corner / w, peak * (no_load - w) / (no_load - corner))
+    power, _, line, _ = curve_branches(act, i, w)
+    return min(power, line)
+
+
+@nb.njit(**JIT)
+def effort_limits(act, QD, out):
+    """``effort_limit`` of every joint over a batch of speeds: out (B, n) from QD (B, n)."""
+    for b in range(QD.shape[0]):
+        for i in range(QD.shape[1]):
+            out[b, i] = effort_limit(act, i, QD[b, i])
+
+
+@nb.njit(**JIT)
+def limit_tangents(act, W, out):
+    """Each falling branch of the torque-speed curve at speeds W (B, n) >= 0, for a tangent:
+    out (B, n, 4) = ``curve_branches`` (values and slopes d/dw). A joint without a falling
+    branch (a constant limit, or corner = no-load speed: a step to zero, i.e. a speed limit)
+    gets (inf, 0, inf, 0). The limit is ``max(0, min(peak, P / w, line))``: each branch bounds
+    it from above wherever it is >= 0."""
+    for b in range(W.shape[0]):
+        for i in range(W.shape[1]):
+            if act[i, CORNER] < act[i, NOLOAD] and W[b, i] > 0.0:
+                out[b, i, 0], out[b, i, 1], out[b, i, 2], out[b, i, 3] = curve_branches(
+                    act, i, W[b, i])
+            else:
+                out[b, i, 0], out[b, i, 1], out[b, i, 2], out[b, i, 3] = np.inf, 0.0, np.inf, 0.0
 
 
 @nb.njit(**INLINE)

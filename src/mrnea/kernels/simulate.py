@@ -1,12 +1,13 @@
 """The simulation system's loop: the Sec. II cycle, k0 <= k < k1, in compiled code; and the
 program's own requirement, every cycle at once.
 
-Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run)``
+Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions,
+k0, k1, run)``
 with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
 ``run = (q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench)``, unpacked
 once per call: the per-cycle ``step`` takes its arrays one by one (docs/design.md).
-``program_requirement(compiled, program, dt, k0, k1, out, status)`` with ``out = (req, limit)``
-fills rows k0 <= k < k1.
+``program_requirement(compiled, program, dt, friction, k0, k1, out, status)`` with
+``out = (req, limit)`` fills rows k0 <= k < k1.
 
 Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
 at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
@@ -14,8 +15,8 @@ q[k], qd[k] (qd[k] is the velocity the drives held over that interval), and what
 qdd_des[k] = (v - qd[k]) / dt with v the velocity wanted over the next interval, the achievable
 qdd[k], the drives' efforts tau, the Coulomb friction phi, the requirement tau_req, the limits,
 saturation, stuck and clamp flags, and each joint's reaction wrench (kernels/rnea.py
-``reactions``) at q[k], qd[k], qdd[k]. Then q[k+1], qd[k+1] follow (kernels/achievable.py
-``step``).
+``reactions``) at q[k], qd[k], qdd[k] (only if ``reactions``: a check that needs the verdict
+alone skips that pass). Then q[k+1], qd[k+1] follow (kernels/achievable.py ``step``).
 
 v is the program's qd_cmd[k+1] (the paper's behaviour: after a saturation the robot lags its
 program and keeps the lag), plus, with a position-loop gain ``catch_up`` > 0 [1/s],
@@ -47,7 +48,7 @@ from mrnea.kernels.status import OK
 
 
 @nb.njit(**ALLOC)
-def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
+def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0, k1, run):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
@@ -66,11 +67,12 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
                       tau_req[k], limit[k], sat[k], stuck[k], q_next, qd_next, clamp[k], ws)
         if status != OK:
             return k, status
-        # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
-        status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws,
-                              engine == ENGINE_MRNEA)
-        if status != OK:
-            return k, status
+        if reactions:
+            # step's mRNEA pass (ENGINE_MRNEA) left the kinematics of q[k] in the scratch
+            status = reactions_ws(model, q[k], qd[k], qdd[k], fext[k], pe[k], wrench[k], ws,
+                                  engine == ENGINE_MRNEA)
+            if status != OK:
+                return k, status
         if not last:
             q[k + 1] = q_next
             qd[k + 1] = qd_next
@@ -78,10 +80,12 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, k0, k1, run):
 
 
 @nb.njit(**ALLOC)
-def program_requirement(compiled, program, dt, k0, k1, out, status):
+def program_requirement(compiled, program, dt, friction, k0, k1, out, status):
     """The program's own requirement (module docstring) in cycles k0 <= k < k1: out = (req,
-    limit), each (K, n) [N m | N], joint side; status (K,) per cycle. One thread, as the loop:
-    a parallel kernel's worker threads would compete with the loop for the cores."""
+    limit), each (K, n) [N m | N], joint side; status (K,) per cycle; ``friction`` False leaves
+    the Coulomb term out (its share is set-valued at rest: Hollerbach's time scaling,
+    mrnea.retime.scale, adds it itself). One thread, as the loop: a parallel kernel's worker
+    threads would compete with the loop for the cores."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
     req, limit = out
@@ -96,5 +100,5 @@ def program_requirement(compiled, program, dt, k0, k1, out, status):
         for i in range(n):
             v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
             h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])
-            req[k, i] = h + wanted_friction(h, v, act[i, FPOS], act[i, FNEG])
+            req[k, i] = h + wanted_friction(h, v, act[i, FPOS], act[i, FNEG]) if friction else h
             limit[k, i] = effort_limit(act, i, qd_cmd[k, i])

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import builtins
 import contextlib
-import importlib.util
 import logging
 import math
 import os
@@ -59,8 +58,7 @@ from mrnea.sweep.variants import check_grid, time_scaled, units
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["DEMO_PROGRAM", "TARGET_CYCLES", "batch_size", "load_programs", "require_retime",
-           "sweep"]
+__all__ = ["DEMO_PROGRAM", "TARGET_CYCLES", "batch_size", "load_programs", "sweep"]
 
 #: Cycles one task should simulate: 29 runs of the SDT demo program, about 0.6 s of CPU.
 TARGET_CYCLES = 250_000
@@ -110,14 +108,6 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
         out.append(prog)
     return out
-
-
-def require_retime() -> None:
-    """``retime=True`` needs :func:`mrnea.retime` (issue 14); without it, one error before any
-    work."""
-    if importlib.util.find_spec("mrnea.retime") is None:
-        raise SweepError("retime: unavailable, this mrnea has no mrnea.retime (retiming, issue "
-                         "14); sweep without retime=True (--retime)")
 
 
 def _labels(programs: Sequence[Program]) -> list[str]:
@@ -325,8 +315,6 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
     if not (client is None or isinstance(client, str) or hasattr(client, "submit")):
         raise SweepError(f"client: expected None, a distributed.Client or a scheduler address "
                          f"(str), got {type(client).__name__}")
-    if retime:
-        require_retime()
     progs = load_programs(programs, robot)
     labels = _labels(progs)
     keys, cases = check_grid(robot, grid, zip)

@@ -29,6 +29,7 @@ import numpy as np
 from mrnea.errors import ModelWarning, MrneaError
 from mrnea.io.program import Program
 from mrnea.model import Robot
+from mrnea.retime.core import retime as retime_program
 from mrnea.simulate import simulate
 from mrnea.sweep.variants import variant
 
@@ -89,12 +90,8 @@ def run_case(robot: Robot, program: Program, params: Mapping[str, Any], retime: 
 def retime_columns(robot: Robot, program: Program) -> dict[str, Any]:
     """:data:`RETIME_COLUMNS` of ``mrnea.retime(robot, program)``: its duration [s], or NaN and
     why it failed."""
-    # imported at the first retiming: an mrnea without mrnea.retime (issue 14) still sweeps,
-    # and sweep(retime=True) refuses at once there (engine.require_retime)
-    from mrnea.retime import retime  # type: ignore[import-not-found]
-
     try:
-        return {"retimed_duration": float(retime(robot, program).duration),
+        return {"retimed_duration": float(retime_program(robot, program).duration),
                 "retime_error": None}
     except Exception as exc:
         return {"retimed_duration": math.nan, "retime_error": _error(exc)}

@@ -1,0 +1,196 @@
+"""``mrnea retime [ROBOT] PROGRAM --out DIR``: the same path, the fastest timing the robot can make.
+
+Writes into DIR (its own for the run: :func:`mrnea.io.writer.own_folder`; existing files are
+refused without ``--force`` before any work): ``retimed.csv`` (time, q1..qn at dt: ``mrnea check
+ROBOT DIR/retimed.csv --dt DT`` reads it), ``retimed.toml`` (a program file naming the robot, the
+csv, dt, the mode, the retimed wrench and the robot options the run used: ``mrnea check
+DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia goes to
+``payload.toml`` beside it), ``summary.json`` (strict JSON:
+:meth:`mrnea.retime.RetimeResult.summary`) and ``report.html`` (the phase plane, the effort
+ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) during the retiming
+writes nothing; once it is done, the files are written together.
+
+Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
+achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
+estimate).
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+
+from mrnea.cli.base import (
+    POSITIVE,
+    checkpoint,
+    compile_notice,
+    force_opt,
+    json_opt,
+    load_run,
+    main,
+    mode_opt,
+    no_3d_opt,
+    quiet_opt,
+    robot_options,
+)
+from mrnea.errors import MrneaError
+from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_program, resolve_robot
+from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.writer import check_new, create, own_folder
+from mrnea.model import Robot
+
+CSV, PROGRAM, SUMMARY, REPORT, PAYLOAD = ("retimed.csv", "retimed.toml", "summary.json",
+                                          "report.html", "payload.toml")
+
+
+def _robot_spec(spec: str) -> str:
+    """What a program file names the robot by: a built-in name, or a robot file's absolute
+    path (the program file lives elsewhere)."""
+    source = resolve_robot(spec)
+    return source if source in BUILTIN_ROBOTS else str(Path(source).resolve())
+
+
+def _point_mass(options: RobotOptions) -> str | None:
+    """The payload as ``KG@X,Y,Z`` (shortest reprs), or None when it has an inertia."""
+    mass, com, inertia = options.payload
+    if np.any(inertia):
+        return None
+    return f"{float(mass)!r}@" + ",".join(repr(float(c)) for c in com)
+
+
+def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str, Any]:
+    """The [program] keys that give the retimed program the robot options the run used; a
+    payload with an inertia is written to ``folder``/payload.toml."""
+    keys: dict[str, Any] = {}
+    if options.actuators is not None:
+        keys["actuators"] = str(Path(options.actuators).resolve())
+    if options.tip is not None:
+        keys["tip"] = options.tip
+    if options.payload is not None:
+        keys["payload"] = _point_mass(options) or PAYLOAD
+        if keys["payload"] == PAYLOAD:
+            mass, com, inertia = options.payload
+            with create(folder / PAYLOAD, force) as fh:
+                fh.write(f"# The payload of the retimed program ({PROGRAM}).\n"
+                         f"mass = {float(mass)!r}\ncom = {[float(c) for c in com]!r}\n"
+                         f"inertia = {np.asarray(inertia, dtype=float).tolist()!r}\n")
+    if options.gravity is not None:
+        keys["gravity"] = [float(g) for g in options.gravity]
+    return keys
+
+
+@main.command()
+@click.argument("robot", required=False, metavar="[ROBOT]")
+@click.argument("program", required=False, metavar="PROGRAM", type=click.Path(dir_okay=False))
+@click.option("--out", type=click.Path(file_okay=False), required=True,
+              help="Output folder (created if missing).")
+@click.option("--method", type=click.Choice(["toppra", "scale"]), default="toppra",
+              show_default=True,
+              help="toppra: time-optimal along the path; scale: uniform time scaling.")
+@click.option("--margin", type=POSITIVE, default=0.98, show_default=True, metavar="M",
+              help="toppra: plan against M x every effort and velocity limit, 0 < M <= 1 "
+                   "(lowered until the simulation accepts the result).")
+@click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",
+              help="Cycle time [s] of the retimed program (default the program's; a CSV "
+                   "PROGRAM needs it).")
+@click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
+              help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic].")
+@mode_opt
+@robot_options
+@no_3d_opt
+@force_opt
+@quiet_opt
+@json_opt
+def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
+           dt: float | None, interpolation: str | None, mode: str, robot_options: RobotOptions,
+           no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
+    """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
+
+    ROBOT may be left out when PROGRAM is a program file that names its robot; the robot
+    options override the program's. Writes retimed.csv, retimed.toml, summary.json and
+    report.html into --out.
+    """
+    from mrnea.report.retime import write_retime_report
+    from mrnea.retime import retime as retime_program
+
+    robot_arg, program_arg = (None, robot) if program is None else (robot, program)
+    csv = (program_arg or "").lower().endswith(".csv")
+    run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options)
+    if csv:
+        spec, options = _robot_spec(robot_arg), robot_options
+    else:
+        prog = load_program(program_arg)
+        spec = _robot_spec(robot_arg or prog.robot)
+        options = robot_options.over(prog.options)
+    t = np.arange(run.q_cmd.shape[0]) * run.dt
+    with own_folder(Path(out)) as folder:
+        paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
+        check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
+        with compile_notice(quiet):
+            res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method, margin=margin,
+                                 f_ext=run.f_ext, f_ext_point=run.f_ext_point,
+                                 mode=run.mode or mode)
+        checkpoint()
+        name = f"{Path(program_arg).stem}-retimed"
+        res.save_csv(paths[CSV], force)
+        res.save_program(paths[PROGRAM], spec, CSV, name=name,
+                         program_keys=_program_keys(options, folder, force), overwrite=force)
+        res.save_summary(paths[SUMMARY], force)
+        write_retime_report(res, paths[REPORT], force, files={
+            "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
+            "summary": paths[SUMMARY]}, view3d=not no_3d)
+    if as_json:
+        click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
+                              allow_nan=False))
+    elif not quiet:
+        click.echo(res.verdict())
+        click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
+                   f"{paths[REPORT]}")
+        click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
+
+
+def _option_args(options: RobotOptions) -> list[str]:
+    """The robot options as command-line arguments (a payload with an inertia as its point
+    mass: its file's name is not kept)."""
+    args = []
+    if options.actuators is not None:
+        args += ["--actuators", options.actuators]
+    if options.tip is not None:
+        args += ["--tip", options.tip]
+    if options.payload is not None:
+        args += ["--payload", _point_mass(options) or "FILE"]
+    if options.gravity is not None:
+        args += ["--gravity", ",".join(repr(float(g)) for g in options.gravity)]
+    return args
+
+
+def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
+               options: RobotOptions, q_cmd: np.ndarray, dt: float, f_ext: np.ndarray | None,
+               f_ext_point: np.ndarray | None, interpolation: str | None = None,
+               mode: str | None = None) -> str:
+    """What ``check`` and ``simulate`` print under a program that is not achievable: the
+    ``retime`` command with the same robot, program, robot options and run (a CSV program's
+    --dt [s] and --interpolation, a --mode the program file does not set), and the duration
+    uniform time scaling would give by Hollerbach's closed-form estimate on the program's own
+    requirement (or why no timing can help)."""
+    from mrnea.retime import scale_estimate
+
+    program = program_arg or robot_arg or "PROGRAM"
+    run = ["--dt", repr(float(dt))] if program.lower().endswith(".csv") else []
+    run += [*(["--interpolation", interpolation] if interpolation else []),
+            *(["--mode", mode] if mode else [])]
+    args = [*([robot_arg] if robot_arg and program_arg else []), program, "--out",
+            f"{Path(program).stem}-retimed", *run, *_option_args(options)]
+    T = (q_cmd.shape[0] - 1) * dt
+    try:
+        f = scale_estimate(robot, q_cmd, dt, f_ext, f_ext_point)
+    except MrneaError as exc:
+        return f"No timing can make it achievable: {exc}"
+    return (f"Retime it: mrnea retime {shlex.join(args)}\n(uniform time scaling would take "
+            f"about {f * T:.4g} s instead of {T:.4g} s, {f:.3g} x, by Hollerbach's estimate; the "
+            "default method, toppra, is time-optimal along the path and usually faster)")

@@ -1,0 +1,255 @@
+"""``mrnea.retime``: the same path, the fastest timing the robot can make, verified.
+
+Usage: ``res = retime(robot, program, dt=None, method="toppra", margin=0.98)``; ``res.q_cmd``
+(M, n) at ``res.dt``, ``res.simulation`` the verifying run (docs/retime.md).
+"""
+
+from __future__ import annotations
+
+import numbers
+import time
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea import validate
+from mrnea.actuators import actuator_mass_matrix_and_bias
+from mrnea.errors import RetimeError, StateError
+from mrnea.model import Robot
+from mrnea.retime.job import Job, accelerations, peak_ratio
+from mrnea.retime.path import grid_points, path_coefficients, piece_rows, piece_spline
+from mrnea.retime.result import PhasePiece, RetimeResult
+from mrnea.retime.rows import Limits, holding_need, static_check
+from mrnea.retime.scale import retime_scale
+
+METHODS = {"toppra": "toppra", "scale": "scale"}
+MIN_MARGIN = 0.5  # the verification loop gives up below this planning margin
+GRID = (200, 1000)  # default grid intervals per moving piece: half its rows, clipped to this
+REFINE = 3  # grid refinements where the verification failed, before the margin is lowered
+
+
+def retime(
+    robot: Robot,
+    program: Any,
+    dt: float | None = None,
+    method: Literal["toppra", "scale"] = "toppra",
+    margin: float = 0.98,
+    f_ext: ArrayLike | None = None,
+    f_ext_point: ArrayLike | None = None,
+    *,
+    acceleration_limit: ArrayLike | None = None,
+    grid: int | None = None,
+    mode: Literal["hybrid", "paper"] | None = None,
+) -> RetimeResult:
+    """Retime a program: keep its path (the sequence of joint positions), change its timing to
+    the fastest the robot can make, and verify the result by simulation.
+
+    Parameters
+    ----------
+    robot : Robot
+        With its actuator model: friction, rotor inertia, torque-speed curves, limits.
+    program : Program, (t, q) pair, or (K, n) array
+        A :class:`mrnea.io.program.Program` (its dt, wrench, point and mode are used unless given
+        here), a ``(t, q)`` pair sampled at a constant step [s], [rad | m], or the rows (K, n)
+        of a program whose cycle is ``dt``.
+    dt : float, optional
+        The retimed program's cycle [s]; default the program's. (For a bare array: its cycle.)
+    method : ``"toppra"`` or ``"scale"``
+        ``"toppra"``: time-optimal along the path (TOPP-RA, with viscous friction and
+        torque-speed curves by safe tightening); ``"scale"``: uniform time scaling, the smallest
+        factor the verification accepts, to 0.5 %.
+    margin : float in (0, 1]
+        toppra's planning margin: it plans against margin x every effort limit (at speed) and
+        velocity limit; when the verifying simulation finds a limit exceeded, the margin shrinks
+        and the path is solved again (down to 0.5). ``scale`` does not plan with it: its factor
+        is the smallest the simulation accepts, and the result's ``margin`` is the largest
+        fraction of a limit it uses.
+    f_ext, f_ext_point : array_like, optional
+        The wrench the end effector exerts on its environment, (6,) or (K, 6) [N, N m], base
+        frame, on the program's clock, and its point in the last link's frame, (3,) or (K, 3)
+        [m]. It moves with the path position when the timing changes.
+    acceleration_limit : array_like, optional (keyword)
+        Joint acceleration limits (n,) or one for all [rad/s^2 | m/s^2] (toppra; the robot
+        model has none): the retimed program's accelerations, formed as the simulation forms
+        them, stay within them.
+    grid : int, optional (keyword)
+        Grid intervals per moving piece (default: half its rows, clipped to [200, 1000]).
+    mode : ``"hybrid"`` or ``"paper"``, optional (keyword)
+        The verifying simulation's mode; default the program's, else ``"hybrid"``.
+
+    Returns
+    -------
+    RetimeResult
+        ``t``, ``q_cmd`` (M, n) at ``dt``, ``f_ext``, ``duration``, ``original_duration``,
+        ``method``, ``margin``, ``achievable``, ``simulation``, the phase-plane data ``phase``,
+        ``summary()``.
+
+    Raises
+    ------
+    RetimeError
+        The path cannot be followed at any speed (a pose the robot cannot hold against gravity
+        or the wrench: the message names the joint, the program instant and the ratio of need
+        to limit), it leaves the position limits, or no margin down to 0.5 gives a program the
+        simulation accepts.
+    StateError
+        A bad argument.
+
+    Notes
+    -----
+    A dwell (the robot held still, identical rows) stays a hold of the same duration; each
+    moving piece between dwells is retimed from rest to rest. The import of ``mrnea.retime``
+    costs nothing extra: scipy and toppra are imported on the first call.
+    """
+    method = validate.choice("method", method, METHODS)
+    margin = validate.fraction(margin, "margin")
+    job = Job.of(robot, program, dt, f_ext, f_ext_point, mode)
+    acc = None
+    if acceleration_limit is not None:
+        acc = validate.per_joint(acceleration_limit, "acceleration_limit", robot.n)
+        if not np.all(acc > 0):
+            raise StateError(f"acceleration_limit: must be > 0, got {acc.tolist()}")
+    if grid is not None and (isinstance(grid, bool) or not isinstance(grid, numbers.Integral)
+                             or grid < 10):
+        raise StateError(f"grid: expected an int >= 10, got {grid!r}")
+    if method == "scale" and acc is not None:
+        raise StateError("acceleration_limit: only method 'toppra' takes it")
+    _check_holds(job, margin if method == "toppra" else 1.0)
+    if not job.moving:
+        raise RetimeError("the program never moves: there is nothing to retime")
+    if (acc is None and not np.isfinite(robot.effort_limit).any()
+            and not np.isfinite(robot.velocity_limit).any()):
+        raise RetimeError("no effort or velocity limit binds along this path: it can be made "
+                          "arbitrarily fast (give the robot its limits)")
+    if method == "scale":
+        f, used, (Q, FE, PE, _, sim), log = retime_scale(job)
+        paths = _pieces(job, grid, timed=False)
+        phase = _phase(job, paths, {j: np.full(v[1].s.size, 1.0 / f) for j, v in paths.items()})
+        return _result(job, Q, FE, PE, sim, "scale", used, phase, [log], f, log["estimate"])
+    m, phase, Q, FE, PE, sim, logs = _retime_toppra(job, margin, acc, grid)
+    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None)
+
+
+def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: Any,
+            method: str, margin: float, phase: tuple, log: list, factor: float | None,
+            estimate: float | None) -> RetimeResult:
+    M = Q.shape[0]
+    return RetimeResult(
+        t=np.arange(M) * job.dt, q_cmd=Q, f_ext=FE, f_ext_point=PE, dt=job.dt, mode=job.mode,
+        duration=(M - 1) * job.dt, original_duration=(job.K - 1) * job.program_dt,
+        method=method, margin=float(margin), achievable=bool(sim.achievable), simulation=sim,
+        factor=factor, estimate=estimate, phase=phase, original_q_cmd=job.q,
+        original_dt=job.program_dt, original_f_ext=job.f_ext,
+        original_f_ext_point=job.f_ext_point, log=log, timings=job.timings)
+
+
+def _check_holds(job: Job, margin: float) -> None:
+    """A dwell the robot cannot hold (beyond what static friction takes): RetimeError."""
+    rows = np.concatenate([np.arange(k0, k1 + 1) for kind, k0, k1 in job.runs
+                           if kind == "hold"] or [np.zeros(0, dtype=int)])
+    if rows.size == 0:
+        return
+    fe = None if job.f_ext is None else job.f_ext[rows]
+    pe = job.f_ext_point
+    pe = pe if pe is None or pe.ndim == 1 else pe[rows]
+    q = job.q[rows]
+    _, c = actuator_mass_matrix_and_bias(job.robot, q, np.zeros_like(q), fe, pe)
+    need = holding_need(job.robot, c, np.zeros_like(c), np.zeros(c.shape, dtype=bool))
+    static_check(job.robot, need, job.clock[rows], margin)
+
+
+def _piece(job: Job, j: int, s: NDArray | None, grid: int | None) -> tuple:
+    """Moving piece j: (spline, path coefficients, holding need) on the grid ``s`` (None: its
+    default grid, :func:`mrnea.retime.path.grid_points`)."""
+    k0, k1 = job.runs[j][1:]
+    qp = job.q[k0:k1 + 1]
+    spline = piece_spline(qp, job.program_dt)
+    if s is None:
+        N = int(grid) if grid else int(np.clip(qp.shape[0] // 2, *GRID))
+        knots = np.arange(qp.shape[0]) * job.program_dt
+        s = grid_points(knots, qp, N, spline(knots, 2))
+    pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
+    moving = (pc.qs != 0) | ~np.isfinite(pc.sign)
+    return spline, pc, holding_need(job.robot, pc.c, pc.sign, moving)
+
+
+def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
+    """Every moving piece j: :func:`_piece`; its time counts as the retiming's
+    ``coefficients`` if ``timed``."""
+    t0 = time.perf_counter()
+    out = {j: _piece(job, j, None, grid) for j, _, _ in job.moving}
+    if timed:
+        job.timings["coefficients"] += time.perf_counter() - t0
+    return out
+
+
+def _refine(job: Job, paths: dict[int, tuple], sim: Any, clock: NDArray) -> bool:
+    """Halve the grid intervals where the verification found a limit exceeded (the interval
+    of each failing cycle's path position, the next cycle's, and their neighbours), in place;
+    False if there is none to refine."""
+    bad = np.flatnonzero(np.any(sim.saturated | sim.position_clamped | sim.velocity_clamped,
+                                axis=1))
+    where = clock[np.unique(np.minimum(np.concatenate([bad, bad + 1]), clock.size - 1))]
+    t0, changed = time.perf_counter(), False
+    for j, (_, pc, _) in list(paths.items()):
+        local = where - job.clock[job.runs[j][1]]
+        local = local[(local >= pc.s[0]) & (local <= pc.s[-1])]
+        if local.size == 0:
+            continue
+        i = np.clip(np.searchsorted(pc.s, local) - 1, 0, pc.s.size - 2)
+        i = np.unique(np.clip(np.concatenate([i - 1, i, i + 1]), 0, pc.s.size - 2))
+        paths[j] = _piece(job, j, np.union1d(pc.s, (pc.s[i] + pc.s[i + 1]) / 2), None)
+        changed = True
+    job.timings["coefficients"] += time.perf_counter() - t0
+    return changed
+
+
+def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | None) -> tuple:
+    """The toppra method's verification loop: solve each piece (:mod:`mrnea.retime.toppra`),
+    assemble, simulate; where the simulation finds a limit exceeded, first refine the grid
+    there (up to :data:`REFINE` times: the constraints hold at the grid points only), then
+    lower the margin."""
+    from mrnea.retime.toppra import sample_profile, toppra_profile
+
+    paths = _pieces(job, grid)
+    m, logs, refined = margin, [], 0
+    while True:
+        lim = Limits.of(job.robot, m, acc)
+        retimed, speeds = {}, {}
+        for j, (spline, pc, need) in paths.items():
+            k0, k1 = job.runs[j][1:]
+            static_check(job.robot, need, job.clock[k0] + pc.s, m)
+            t0 = time.perf_counter()
+            sd, log = toppra_profile(pc, lim, job.dt)
+            t1 = time.perf_counter()
+            job.timings["toppra"] += log["solver_time"]
+            job.timings["rows"] += t1 - t0 - log["solver_time"]
+            retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt, job.robot.n),
+                                    job.q[k0], job.q[k1])
+            job.timings["sampling"] += time.perf_counter() - t1
+            speeds[j] = sd
+            logs.append({"margin": m, "piece": j, "grid": pc.s.size, **log})
+        Q, FE, PE, clock = job.assemble(retimed)
+        sim = job.verify(Q, FE, PE)
+        over_acc = 0.0 if acc is None else float(np.max(np.abs(accelerations(Q, job.dt)) / acc))
+        if sim.achievable and over_acc <= 1:
+            break
+        if not sim.achievable and refined < REFINE and _refine(job, paths, sim, clock):
+            refined += 1
+            continue
+        if m <= MIN_MARGIN:
+            raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
+                              f"simulation accepts; the last one: {sim.verdict()}")
+        m = max(MIN_MARGIN, m * min(0.99, 1 / max(peak_ratio(sim), over_acc, 1 + 1e-6)))
+    return m, _phase(job, paths, speeds, acc), Q, FE, PE, sim, logs
+
+
+def _phase(job: Job, paths: dict[int, tuple], speeds: dict[int, NDArray],
+           acc: NDArray | None = None) -> tuple[PhasePiece, ...]:
+    """The phase-plane data of every moving piece: its grid, the retimed path speed ``speeds[j]``
+    and what its limit curve at the true limits (margin 1) is computed from."""
+    lim = Limits.of(job.robot, 1.0, acc)
+    return tuple(PhasePiece(k0=job.runs[j][1], k1=job.runs[j][2],
+                            t0=float(job.clock[job.runs[j][1]]), s=pc.s, sd=speeds[j],
+                            coefficients=pc, limits=lim)
+                 for j, (_, pc, _) in paths.items())

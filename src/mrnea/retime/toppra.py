@@ -1,0 +1,241 @@
+"""Time-optimal path speed with TOPP-RA under mrnea's full actuator model (docs/retime.md).
+
+Usage: ``sd, log = toppra_profile(pc, lim, dt)``: the path speed at every grid point of a moving
+piece, rest to rest; ``s_t = sample_profile(pc.s, sd, dt, n)``: its path positions at the cycles.
+
+TOPP-RA (Pham and Pham 2018, the ``toppra`` package) solves the time-optimal problem for
+constraints linear in (sdd, sd^2) per grid point. Those come from :mod:`mrnea.retime.rows`
+(precomputed arrays: toppra calls no Python function per grid point). Without viscous friction
+and torque-speed curves one solve is exact. Otherwise the speed-dependent terms are linearised
+on the safe side at a previous profile and the problem solved again (:func:`toppra_profile`).
+The interpolation discretisation (constraints at both ends of each interval) is used: with
+collocation the Puma 560's first verification overshot so far that the margin fell from 0.98
+to 0.5 in one step. The solver is toppra's ``seidel`` (its 2-D LP), the one it ships compiled.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from toppra.algorithm import TOPPRA
+from toppra.constraint import LinearConstraint
+from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
+from toppra.interpolator import AbstractGeometricPath
+
+from mrnea.errors import RetimeError
+from mrnea.retime.path import PathCoefficients
+from mrnea.retime.rows import (
+    Limits,
+    acceleration_rows,
+    constraint_rows,
+    holdable,
+    speed_lag,
+    steady_speed,
+    utilisation,
+    velocity_cap,
+)
+from mrnea.trajectory import require_path_memory
+
+ROUNDS = 8  # linearisation rounds at most
+TOL = 0.002  # rounds stop when the duration changes by less than this fraction
+LAG_TOL = 1.001  # a round is accepted when, with its own speed lag, it is within margin x this
+REVERSAL_CYCLES = 1  # Coulomb friction both ways this many cycles before a change of direction
+
+
+class _Grid(AbstractGeometricPath):
+    """What toppra's algorithm reads from a path when the constraints bring their own arrays."""
+
+    def __init__(self, s: NDArray, n: int) -> None:
+        self._s, self._n = s, n
+
+    @property
+    def path_interval(self) -> NDArray:
+        return np.array([self._s[0], self._s[-1]])
+
+    @property
+    def dof(self) -> int:
+        return self._n
+
+    @property
+    def duration(self) -> float:
+        return float(self._s[-1] - self._s[0])
+
+    def get_duration(self) -> float:
+        return self.duration
+
+
+class _Rows(LinearConstraint):
+    """``A u + B x + C <= 0`` per grid point as toppra's canonical linear constraint (F = I,
+    g = 0, the same for every point), ``0 <= x <= xmax``, and optional rows already per stage
+    (interval), which the interpolation scheme must not pair up again."""
+
+    def __init__(self, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
+                 stage: tuple[NDArray, NDArray, NDArray] | None) -> None:
+        super().__init__()
+        self.rows, self.xmax, self.stage = rows, xmax, stage
+        self.dof = rows[0].shape[1]
+        self.identical = True
+        self.set_discretization_type(1)  # interpolation
+
+    def compute_constraint_params(self, path: Any, gridpoints: NDArray, *_: Any) -> tuple:
+        m = self.rows[0].shape[1]
+        F, g = np.eye(m), np.zeros(m)
+        A, B, C, F, g, _, _ = canlinear_colloc_to_interpolate(
+            *self.rows, F, g, None, None, gridpoints, identical=True)
+        if self.stage is not None:
+            A, B, C = (np.concatenate([X, Y], axis=1) for X, Y in zip((A, B, C), self.stage,
+                                                                     strict=True))
+        # unit normals: seidel bounds each 1-D subproblem by +-1e10 in the line's parameter,
+        # so a row with a short (a, b) loses its box bounds and the warm-started solver fails
+        norm = np.hypot(A, B)
+        tiny = norm < 1e-12
+        norm = np.where(tiny, 1.0, norm)
+        A, B = np.where(tiny, 0.0, A / norm), np.where(tiny, 0.0, B / norm)
+        C = np.where(tiny, np.where(C <= 0, -1.0, 1.0), C / norm)
+        xb = np.stack([np.zeros_like(self.xmax), self.xmax], axis=1)
+        return A, B, C, np.eye(A.shape[1]), np.zeros(A.shape[1]), None, xb
+
+
+def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
+           stage: tuple[NDArray, NDArray, NDArray] | None) -> NDArray:
+    """TOPP-RA rest to rest: the path speed sd at every grid point s."""
+    algo = TOPPRA([_Rows(rows, xmax, stage)], _Grid(s, rows[0].shape[1]), gridpoints=s,
+                  solver_wrapper="seidel")
+    _, sd, _ = algo.compute_parameterization(0.0, 0.0)
+    if sd is None or not np.all(np.isfinite(sd)):
+        raise RetimeError("TOPP-RA found no parameterisation of the path from rest to rest "
+                          "within the limits")
+    return sd
+
+
+def near_reversals(pc: PathCoefficients, sd: NDArray, dt: float) -> PathCoefficients:
+    """``pc`` with the direction of Coulomb friction unknown (``sign`` NaN: friction taken on
+    both sides) wherever a joint is within :data:`REVERSAL_CYCLES` cycles of dt [s] before it
+    reverses or starts from rest, on the clock of the profile sd.
+
+    A cycle takes the Coulomb friction of the velocity it makes, the next one
+    (kernels/drive_solve.py), so the cycle that contains a reversal already brakes against
+    the new direction's friction while its effort is still the old direction's. ``sd`` must
+    be at least as fast as the profile planned with the result (the relaxation is): a slower
+    profile takes longer from a point to a reversal, so it stays within the marked points.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tg = np.concatenate([[0.0], np.cumsum(2 * np.diff(pc.s) / (sd[1:] + sd[:-1]))])
+    sgn = np.sign(pc.qs)
+    # joint i reverses or starts over interval g (a stop needs nothing: at rest static friction
+    # takes its share of the effort, never more than sliding friction against the motion)
+    g, i = np.nonzero((sgn[1:] != sgn[:-1]) & (sgn[1:] != 0))
+    if g.size == 0 or not np.all(np.isfinite(tg)):
+        return pc
+    w = REVERSAL_CYCLES * dt
+    lo = np.searchsorted(tg, tg[g] - w, side="left")
+    hi = np.searchsorted(tg, tg[g + 1], side="right")
+    mark = np.zeros((pc.s.size + 1, pc.qs.shape[1]), dtype=np.int64)
+    np.add.at(mark, (lo, i), 1)
+    np.add.at(mark, (hi, i), -1)
+    near = np.cumsum(mark, axis=0)[:-1] > 0
+    return replace(pc, sign=np.where(near, np.nan, pc.sign))
+
+
+def duration_of(s: NDArray, sd: NDArray) -> float:
+    """Duration [s] of a profile with constant sdd between grid points: sum 2 ds / (sd_i +
+    sd_i+1)."""
+    with np.errstate(divide="ignore"):
+        return float(np.sum(2 * np.diff(s) / (sd[1:] + sd[:-1])))
+
+
+def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
+                   ) -> tuple[NDArray, dict[str, Any]]:
+    """The time-optimal path speed sd (N + 1,) of a piece under the full actuator model.
+
+    Without viscous friction and torque-speed curves one solve is exact. Otherwise: a relaxed
+    solve (peak efforts, no viscous friction, joint speeds below :func:`steady_speed`) gives the
+    first linearisation point, which is not safe; each round linearises the speed-dependent terms
+    at the last profile, lowered where the robot could not even hold still under that
+    linearisation (:func:`holdable`), and solves again. Every round's profile satisfies the true
+    constraints at the grid points (rows.py), and TOPP-RA returns the pointwise largest feasible
+    profile, which the last one is: a round is never slower than the one before (except where
+    ``holdable`` lowered the point). The effort limit is taken at the speed the simulation at
+    ``dt`` uses (:func:`speed_lag`, from the previous round; the running maximum from the third
+    round on); a round counts only if, with its own lag, it is within the planning limits to
+    :data:`LAG_TOL`. Rounds stop when the duration is within :data:`TOL` of the linearisation
+    point's, after at most :data:`ROUNDS`.
+
+    Returns the fastest accepted profile and a log: ``safe`` (the duration of each round's
+    profile [s]), ``relaxed`` (the relaxation's), ``solver_time`` [s] (TOPP-RA alone),
+    ``solver_failures`` (rounds seidel failed; the last good profile is kept).
+    """
+    vcap = velocity_cap(pc, lim)
+    stage = acceleration_rows(pc, lim)
+    log: dict[str, Any] = {"safe": [], "solver_time": 0.0, "solver_failures": 0}
+
+    def solve(rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray) -> NDArray:
+        t0 = time.perf_counter()
+        try:
+            return _solve(pc.s, rows, xmax, stage)
+        finally:
+            log["solver_time"] += time.perf_counter() - t0
+
+    coulomb = dt > 0 and np.any(lim.robot.coulomb_friction)
+    if not np.any(lim.fv) and np.all(np.isinf(lim.corner)):
+        sd = solve(constraint_rows(pc, lim, None), vcap)  # nothing depends on speed: exact
+        if coulomb:  # exact again with friction both ways near the reversals
+            sd = solve(constraint_rows(near_reversals(pc, sd, dt), lim, None), vcap)
+        log["safe"].append(duration_of(pc.s, sd))
+        return sd, log
+    with np.errstate(divide="ignore"):
+        cap = np.min(steady_speed(lim) / np.abs(pc.qs), axis=1) ** 2
+    sd = solve(constraint_rows(pc, lim, None), np.minimum(vcap, cap))
+    t_lin = log["relaxed"] = duration_of(pc.s, sd)
+    if coulomb:
+        pc = near_reversals(pc, sd, dt)
+    best, t_best = None, math.inf
+    lag = np.zeros_like(pc.qs)
+    if np.all(np.isinf(lim.corner)):
+        dt = 0.0  # constant limits: the speed the limit is taken at does not matter
+    for k in range(ROUNDS):
+        new_lag = speed_lag(pc, sd, dt) if dt > 0 else lag
+        lag = new_lag if k < 2 else np.maximum(lag, new_lag)
+        try:
+            sd = solve(constraint_rows(pc, lim, holdable(pc, lim, sd, lag), lag), vcap)
+        except RetimeError:  # seidel's numerics (docs/retime.md): keep the last good profile
+            if best is None:
+                raise
+            log["solver_failures"] += 1
+            break
+        t = duration_of(pc.s, sd)
+        log["safe"].append(t)
+        consistent = dt == 0 or utilisation(pc, lim, sd, dt).max() <= lim.margin * LAG_TOL
+        if t < t_best and consistent:
+            best, t_best = sd, t
+        if abs(t - t_lin) < TOL * t and consistent:
+            break
+        t_lin = t
+    return (sd if best is None else best), log
+
+
+def sample_profile(s: NDArray, sd: NDArray, dt: float, n: int) -> NDArray:
+    """Path positions s(t_k) at t_k = k dt of a profile with constant sdd between grid points
+    (toppra's ``ParametrizeConstAccel``, vectorised; toppra's spline parametrizer is what its
+    issue #150 blames for retimed paths that exceed their limits). The last sample is the path's
+    end, at the first t_k >= the profile's duration. The rows of n joints they become must fit
+    the memory budget (:func:`mrnea.trajectory.require_path_memory`)."""
+    dt_i = 2 * np.diff(s) / (sd[1:] + sd[:-1])
+    if not np.all(np.isfinite(dt_i)):
+        raise RetimeError("the time-optimal profile stops between two grid points")
+    tg = np.concatenate([[0.0], np.cumsum(dt_i)])
+    u = (sd[1:] ** 2 - sd[:-1] ** 2) / (2 * np.diff(s))
+    M = math.ceil(tg[-1] / dt - 1e-9) + 1
+    require_path_memory(M, n)
+    t = np.arange(M) * dt
+    i = np.clip(np.searchsorted(tg, t, side="right") - 1, 0, s.size - 2)
+    tau = t - tg[i]
+    out = s[i] + sd[i] * tau + 0.5 * u[i] * tau ** 2
+    out = np.clip(np.maximum.accumulate(np.minimum(out, s[i + 1])), s[0], s[-1])
+    out[-1] = s[-1]
+    return out
