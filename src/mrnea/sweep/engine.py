@@ -363,7 +363,7 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
     if bar is not None:
         bar.say(f"mrnea sweep: loading the compiled kernels on {len(nthreads)} worker(s)...")
     try:
-        answers = c.run(warm, robot, os.getpid())
+        answers = c.run(warm, robot, os.getpid(), retime)
     except Exception as exc:  # a worker without mrnea, or one that cannot unpickle the robot
         raise SweepError(f"the workers cannot run mrnea's sweep ({type(exc).__name__}: "
                          f"{quote(str(exc), 200)}); give every worker the same mrnea") from None

@@ -127,10 +127,11 @@ def code_version() -> str:
     return f"numba {numba.__version__}, mrnea source {digest.hexdigest()[:12]}"
 
 
-def warm(robot: Robot, client_pid: int) -> dict[str, Any]:
+def warm(robot: Robot, client_pid: int, retime: bool = False) -> dict[str, Any]:
     """Run on each worker before a sweep: load mrnea's compiled kernels (a 3-cycle run of
-    ``robot`` and its summary) and, in a worker process of its own, silence ModelWarning (each
-    variant would repeat its base robot's). Returns what the client checks and says: the
+    ``robot`` and its summary; with ``retime``, a retiming of a short move too, which also
+    imports toppra) and, in a worker process of its own, silence ModelWarning (each variant
+    would repeat its base robot's). Returns what the client checks and says: the
     :func:`code_version`, the process id and the seconds taken."""
     t0 = time.perf_counter()
     if os.getpid() != client_pid:
@@ -139,4 +140,8 @@ def warm(robot: Robot, client_pid: int) -> dict[str, Any]:
     q0 = np.clip(np.zeros(robot.n), robot.lower, robot.upper)
     with contextlib.suppress(MrneaError):
         simulate(robot, np.repeat(q0[None], 3, axis=0), 0.005).summary()
+    if retime:  # a move of 0.01 rad | m (or to the limit) on every joint
+        q1 = np.clip(q0 + 0.01, robot.lower, robot.upper)
+        with contextlib.suppress(MrneaError):
+            retime_program(robot, np.linspace(q0, q1, 20), dt=0.01)
     return {"code": code_version(), "pid": os.getpid(), "seconds": time.perf_counter() - t0}
