@@ -8,7 +8,8 @@ every number the summary gives per joint, as ``<entry>.<joint>`` (peak and RMS m
 effort ratio, peak speed, peak reaction force and moment...): the columns are taken from
 :meth:`mrnea.simulate.SimulationResult.summary` by name, so they follow it. ``error`` is None,
 or why this variant failed (``"<ErrorType>: <message>"``, the other columns then empty): a
-failed variant is a row, never a lost sweep.
+failed variant is a row, never a lost sweep. With ``retime``, :data:`RETIME_COLUMNS` from
+:func:`mrnea.retime` of the variant and its program.
 """
 
 from __future__ import annotations
