@@ -14,13 +14,18 @@ so the suite is deterministic in CI.
 
 from __future__ import annotations
 
+import json
 import os
 import site
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import mrnea
 from mrnea.model import Joint, Link, Robot
 
 try:
@@ -298,3 +303,43 @@ def pin_from_urdf(path: Path, robot: Robot):
     model.gravity = pin.Motion(np.concatenate([np.asarray(robot.gravity, dtype=float),
                                                np.zeros(3)]))
     return model
+
+
+# --- a Dask cluster in processes of its own (the sweep's tests) ----------------------------------
+def environment(**extra: str) -> dict[str, str]:
+    """The environment of a subprocess that must import the mrnea under test, from any
+    folder."""
+    src = str(Path(mrnea.__file__).resolve().parents[1])
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]),
+            **extra}
+
+
+@pytest.fixture(scope="session")
+def scheduler_address(tmp_path_factory):
+    """A scheduler and one single-threaded worker, each a process of its own (as a real
+    cluster's are), started from the command line; the tests reach it through its address."""
+    folder = tmp_path_factory.mktemp("dask")
+    info = folder / "scheduler.json"
+    log = open(folder / "cluster.log", "w")
+    common = {"stdout": log, "stderr": subprocess.STDOUT, "cwd": folder, "env": environment()}
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler",
+                               "--scheduler-file", str(info), "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard"], **common)]
+    try:
+        deadline = time.monotonic() + 120
+        while not info.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(info.read_text())["address"]
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                       "--scheduler-file", str(info), "--nworkers", "1",
+                                       "--nthreads", "1", "--no-dashboard"], **common))
+        from distributed import Client
+
+        with Client(address, timeout="60s") as c:
+            c.wait_for_workers(1, timeout=120)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+            p.wait(timeout=60)
+        log.close()

@@ -1,9 +1,9 @@
 """Every public function refuses an argument of the wrong type with a MrneaError naming it.
 
 Each public function (the top-level exports, ``mrnea.io``, ``mrnea.trajectory``,
-``mrnea.simulate``, ``mrnea.report``, ``mrnea.robots``, ``mrnea.retime``, the methods of
-``Robot``, ``SimulationResult`` and ``RetimeResult``) is called with valid arguments, then with
-each argument replaced in turn by
+``mrnea.simulate``, ``mrnea.report``, ``mrnea.robots``, ``mrnea.retime``, ``mrnea.sweep``'s
+helpers (the sweep itself: tests/test_sweep.py), the methods of ``Robot``, ``SimulationResult``
+and ``RetimeResult``) is called with valid arguments, then with each argument replaced in turn by
 None, an int, a str, a dict, a complex number, bytes and the path of a directory. Where a value
 is of an accepted type for that argument (an int for a time step, a str for a path, None for an
 optional argument, a folder for a base folder) it is skipped. Everything else must raise a
@@ -26,8 +26,13 @@ import mrnea.report
 import mrnea.trajectory
 from mrnea.errors import MrneaError
 from mrnea.report.retime import write_retime_report
+from mrnea.report.sweep import write_sweep_html
 from mrnea.retime import scale_estimate
+from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import simulate
+from mrnea.sweep import check_grid, time_scaled, variant
+from mrnea.sweep.engine import _frame
+from mrnea.sweep.rows import run_case
 
 MALFORMED = Path(__file__).resolve().parent / "malformed"
 BAD = ("None", "int", "str", "dict", "complex", "bytes", "dir")
@@ -63,7 +68,13 @@ def env(tmp_path_factory) -> dict:
         warnings.simplefilter("ignore")
         result = simulate(robot, np.zeros((3, 4)), 0.01)
         retimed = mrnea.retime(robot, mrnea.load_program(d / "prog.toml"))
-    return {"dir": d, "robot": robot, "result": result, "retimed": retimed,
+    (d / "g.toml").write_text("[grid]\npayload = [0.0]\n")
+    program = training_program(0.5)
+    rows = {0: run_case(robot, program, {"payload": 0.0})}
+    sweep_rows = _frame(("payload",), [program.name], [(0, (0, 1.0), {"payload": 0.0})], rows,
+                        False)
+    return {"dir": d, "robot": robot, "result": result, "retimed": retimed, "program": program,
+            "rows": sweep_rows,
             "bad": {"None": None, "int": 123, "str": "abc", "dict": {"a": 1}, "complex": 1 + 2j,
                     "bytes": b"x", "dir": d / "a_folder"}}
 
@@ -161,6 +172,17 @@ def _cases(e: dict) -> list[tuple[str, object, dict, dict]]:
          {"result": e["retimed"], "path": d / "rr.html", "overwrite": True, "files": None,
           "view3d": False},
          {"result": "", "path": OUT, "overwrite": FLAG, "files": MAPPING + "?", "view3d": FLAG}),
+        ("variant", variant, {"robot": robot, "payload": 1.0}, {"robot": "", "payload": NUMBER}),
+        ("time_scaled", time_scaled, {"program": e["program"], "factor": 2.0},
+         {"program": "", "factor": NUMBER}),
+        ("check_grid", check_grid, {"robot": robot, "grid": {"payload": [1.0]}, "zip": False},
+         {"robot": "", "grid": "", "zip": FLAG}),
+        ("load_grid_file", io.load_grid_file, {"path": d / "g.toml"}, {"path": PATH}),
+        ("write_sweep_html", write_sweep_html,
+         {"df": e["rows"], "path": d / "s.html", "robot": "sdt", "keys": None,
+          "map_axes": None, "curves": None, "overwrite": True},
+         {"df": "", "path": OUT, "robot": NAME, "keys": OPTIONAL, "map_axes": OPTIONAL,
+          "curves": NAME + "?", "overwrite": FLAG}),
     ]
 
 
@@ -200,7 +222,8 @@ NAMES = ("forward_dynamics", "inverse_dynamics", "mass_matrix_and_bias", "joint_
          "Robot.with_actuators(rotor_inertia)", "Robot.with_actuators(effort_limit)",
          "Robot.with_actuators(torque_speed)", "Robot.with_gravity", "Robot.to_urdf", "retime",
          "scale_estimate", "RetimeResult.save_csv", "RetimeResult.save_program",
-         "RetimeResult.save_summary", "write_retime_report")
+         "RetimeResult.save_summary", "write_retime_report", "variant", "time_scaled",
+         "check_grid", "load_grid_file", "write_sweep_html")
 
 
 def test_every_case_is_named(env) -> None:

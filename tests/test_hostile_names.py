@@ -18,9 +18,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mrnea.io.program import Program
 from mrnea.model import Joint, Link, Robot
 from mrnea.report import plot_result, write_report
+from mrnea.report.sweep import write_sweep_html
 from mrnea.simulate import simulate
+from mrnea.sweep import check_grid
+from mrnea.sweep.engine import _frame
+from mrnea.sweep.rows import run_case
 
 NAMES = [
     "a$\\frac$1", "$", "$$", "\\", "under_score", "x^2", "{}", "$\\alpha_{1}^{2}$", "%d %s",
@@ -91,6 +96,28 @@ def test_the_report_draws_escapes_and_keeps_every_name(tmp_path: Path) -> None:
     for name in NAMES:
         assert f"joint {name}" in text, name
     assert "<script>robot</script> $\\frac$" in text
+
+
+def test_the_sweep_page_draws_escapes_and_keeps_every_name(tmp_path: Path) -> None:
+    """A sweep of the robot of every name (rows of a serial loop): sweep.html draws its map,
+    labelled with limiting joints, and its curves (12 of the 18 joints) to PNG, and its table
+    gives the names back, no element coming from one."""
+    robot = _robot(NAMES, "<script>robot</script> $\\frac$")
+    q = np.linspace(0.0, 0.5, 30)[:, None] * np.ones(robot.n)
+    prog = Program(robot="x", dt=0.01, t=np.arange(30) * 0.01, q_cmd=q, f_ext=None,
+                   f_ext_point=None, mode=None, name="<b>prog</b> $x$")
+    keys, cases = check_grid(robot, {"payload": [0.0, 1.0], "rotor_inertia": [0.0, 1e-4]})
+    rows = {k: run_case(robot, prog, case) for k, case in enumerate(cases)}
+    df = _frame(keys, [prog.name], [(k, (0, 1.0), c) for k, c in enumerate(cases)], rows, False)
+    assert df["error"].isna().all() and df["worst_joint"].notna().all()
+    page = write_sweep_html(df, tmp_path / "sweep.html", robot.name).read_text(encoding="utf-8")
+    parsed = _Parsed()
+    parsed.feed(page)
+    assert "script" not in parsed.tags and "b" not in parsed.tags
+    assert page.count("data:image/png;base64,") == 2
+    text = "".join(parsed.text)
+    assert "<script>robot</script> $\\frac$" in text and "<b>prog</b> $x$" in text
+    assert all(name in text for name in df["worst_joint"])
 
 
 def test_a_cli_run_with_hostile_names_writes_every_file(tmp_path: Path) -> None:

@@ -31,12 +31,14 @@ from mrnea.errors import (
     RobotFileError,
     SingularMassMatrixError,
     StateError,
+    SweepError,
 )
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
+from mrnea.sweep import sweep  # the function, as simulate (above)
 
 __version__ = "0.1.0"
 
@@ -55,6 +57,7 @@ __all__ = [
     "RobotFileError",
     "SingularMassMatrixError",
     "StateError",
+    "SweepError",
     "__version__",
     "achievable_accelerations",
     "forward_dynamics",
@@ -69,5 +72,6 @@ __all__ = [
     "retime",
     "robots",
     "simulate",
+    "sweep",
     "transform",
 ]

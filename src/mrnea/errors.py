@@ -113,6 +113,12 @@ class OutputError(MrneaError):
     is a directory, its folder is missing or not writable, or another run owns the folder."""
 
 
+class SweepError(MrneaError):
+    """A design sweep cannot start: its grid (an unknown parameter or joint, an empty list, a
+    value the robot cannot take), its grid file, its programs or its cluster. The message names
+    the grid entry, file or program at fault; it is raised before any simulation runs."""
+
+
 class ModelWarning(UserWarning):
     """A robot description is valid but physically doubtful (an inertia that violates the
     triangle inequality, a massless moving link); mrnea goes on and says so."""

@@ -205,9 +205,9 @@ class SimulationResult:
         ``"unlimited"``, or commanded beyond its no-load speed), with its time, effort and
         limit, and ``program_first_over_time``. Then the simulated response: time saturated
         and stuck [s], peak and RMS motor torque [N m], peak effort [N m | N] against
-        ``effort_limit``, peak reaction force [N] and moment [N m] (magnitudes; axial and
-        radial split of the force along the joint axis, bending moment), worst tracking error
-        and when, and the position error q_cmd - q at the last cycle
+        ``effort_limit``, peak speed [rad/s | m/s], peak reaction force [N] and moment [N m]
+        (magnitudes; axial and radial split of the force along the joint axis, bending
+        moment), worst tracking error and when, and the position error q_cmd - q at the last cycle
         (``final_position_error``; tracking errors [rad | m] are 0 below the resolution
         :attr:`tracking_error` states).
         """

@@ -143,6 +143,7 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             "peak_motor_torque": float(np.abs(r.tau_motor[:, i]).max()),
             "rms_motor_torque": float(np.sqrt(np.mean(r.tau_motor[:, i] ** 2))),
             "peak_effort": float(np.abs(r.tau[:, i]).max()),
+            "peak_speed": float(np.abs(r.qd[:, i]).max()),
             **{key: None if loads is None else float(getattr(loads, part)[:, i].max())
                for key, part in PEAK_LOADS},
             "max_tracking_error": float(err[ke, i]),

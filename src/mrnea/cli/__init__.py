@@ -5,6 +5,8 @@
 the verdict alone (exit 0 achievable, 1 not, 2 bad input, 130 interrupted); ``mrnea info ROBOT``
 lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper's Fig. 3;
 ``mrnea retime [ROBOT] PROGRAM --out DIR`` gives a program the fastest timing the robot can make.
+``mrnea sweep [ROBOT] PROGRAM... --grid GRID.toml`` runs every program on every robot variant of
+a grid, on Dask (docs/sweeps.md).
 
 ROBOT is a built-in name (sdt, puma560), a URDF or a native ``.toml`` robot file. PROGRAM is a
 program ``.toml`` file or a CSV of (time, q1..qn) (docs/programs.md). Bad input ends with one
@@ -14,10 +16,11 @@ overwritten unless ``--force`` is given; without ``--out`` a fresh folder is cho
 Layout: :mod:`mrnea.cli.base` holds the group (:data:`main`), error and interrupt handling,
 exit codes and the shared options; each other module adds the commands of one theme
 (:mod:`~mrnea.cli.run`: demo, simulate, check; :mod:`~mrnea.cli.info`; :mod:`~mrnea.cli.paper`:
-fig3; :mod:`~mrnea.cli.retime`: retime). A new command goes in a module of its own, imported below.
+fig3; :mod:`~mrnea.cli.retime`: retime; :mod:`~mrnea.cli.sweep`). A new command goes in a module
+of its own, imported below.
 """
 
-from mrnea.cli import info, paper, retime, run
+from mrnea.cli import info, paper, retime, run, sweep
 from mrnea.cli.base import main
 
-__all__ = ["info", "main", "paper", "retime", "run"]
+__all__ = ["info", "main", "paper", "retime", "run", "sweep"]

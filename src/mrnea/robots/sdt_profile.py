@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.io.program import Program
 from mrnea.trajectory import cycles, require_path_memory
 from mrnea.validate import time_step
 
@@ -68,3 +69,14 @@ def training_profile(dt: float = 0.005) -> tuple[NDArray, NDArray]:
     roll = _quintic(t, 19.0, 23.0, 0.0, np.pi / 4) + _quintic(t, 23.0, 27.0, 0.0, -np.pi / 4)
     pitch = _quintic(t, 27.0, 30.0, 0.0, np.pi / 6) + _quintic(t, 30.0, 33.0, 0.0, -np.pi / 6)
     return t, np.stack([planetary, yaw, roll, pitch], axis=1)
+
+
+def training_program(dt: float = 0.005) -> Program:
+    """The training profile (:func:`training_profile`) as a :class:`mrnea.io.Program` for the
+    built-in SDT, named ``sdt_training``: what ``mrnea demo`` simulates, and the program
+    ``"demo"`` of a sweep (docs/sweeps.md)."""
+    t, q = training_profile(dt)
+    t.setflags(write=False)
+    q.setflags(write=False)
+    return Program(robot="sdt", dt=time_step(dt), t=t, q_cmd=q, f_ext=None, f_ext_point=None,
+                   mode=None, name="sdt_training", source="built-in")

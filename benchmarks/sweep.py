@@ -1,0 +1,250 @@
+"""Benchmark (not a test): the throughput of a design sweep, and what Dask costs per task.
+
+Usage: ``python benchmarks/sweep.py [--n 1000] [--rounds 3] [--out benchmarks/results/sweep.md]``
+
+About n SDT variants (cabin-yaw gear ratio x yaw motor torque limit x payload, n^(1/3) values
+each) of the demo's training profile (8401 cycles at 5 ms), run
+
+1. in a serial loop in this process, as a user writes it (``run_case``: variant, simulate,
+   summary row), and the same loop with Numba's parallel kernels on one thread, as in a worker;
+2. on LocalClusters started as :func:`mrnea.sweep` starts its own: 1 and 2 worker processes
+   (one thread each: the default), 1 process with 2 threads, 2 threads in this process;
+3. with one run per task (``batch=1``) against the default batches, at 1 and 2 workers: what a
+   task costs beyond its runs; and Dask's own round trip of a no-op task;
+4. 1 and 2 worker processes again, alternated in rounds on two live clusters (on a shared
+   machine the load changes from one minute to the next; alternating spreads it over both);
+5. the share of a run that holds the GIL (the nogil simulation kernel timed apart): why
+   threads cannot scale as processes do, on any machine.
+
+Throughput is variants per second of the run phase (cluster start and warm-up are fixed costs,
+reported apart). CPU seconds are counted in the workers (``time.process_time``; the serial loop:
+its thread's), so that a machine shared with other jobs shows as lost wall time, not as a
+slower mrnea; the load average is printed with each line. Every configuration's rows are
+checked equal to the serial loop's (``DataFrame.equals``). The last lines apply the measured
+figures to W workers (docs/performance.md, "Design sweeps").
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import logging
+import os
+import platform
+import statistics
+import time
+
+import numba
+import numpy as np
+import pandas as pd
+from distributed import Client, LocalCluster
+
+from mrnea.robots import sdt
+from mrnea.robots.sdt_profile import training_program
+from mrnea.sweep import check_grid, sweep
+from mrnea.sweep.engine import _frame, _spawning
+from mrnea.sweep.rows import run_case
+
+
+def grid_of(n: int) -> dict[str, list[float]]:
+    """About n variants: k x k x k values of three parameters."""
+    k = max(1, round(n ** (1 / 3)))
+    return {"gear_ratio.cab_yaw": np.linspace(60, 150, k).tolist(),
+            "motor_torque_limit.cab_yaw": np.linspace(30, 75, k).tolist(),
+            "payload": np.linspace(0, 450, k).tolist()}
+
+
+def load() -> str:
+    return f"load {os.getloadavg()[0]:.1f}"
+
+
+def serial(robot, program, grid, one_thread: bool) -> tuple[pd.DataFrame, float, float]:
+    """The loop in this process: (rows, wall [s], thread CPU [s])."""
+    keys, cases = check_grid(robot, grid)
+    numba.set_num_threads(1 if one_thread else numba.config.NUMBA_NUM_THREADS)
+    run_case(robot, program, cases[0])  # load the kernels first
+    w, c = time.perf_counter(), time.thread_time()
+    rows = {k: run_case(robot, program, case) for k, case in enumerate(cases)}
+    wall, cpu = time.perf_counter() - w, time.thread_time() - c
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    jobs = [(k, (0, 1.0), case) for k, case in enumerate(cases)]
+    return _frame(keys, [program.name], jobs, rows, False), wall, cpu
+
+
+def cpu_seconds(client: Client) -> float:
+    return sum(client.run(time.process_time).values())
+
+
+@contextlib.contextmanager
+def cluster(**kw):
+    """A LocalCluster started as mrnea.sweep starts its own, a client of it, and the seconds
+    the start took."""
+    t = time.perf_counter()
+    with _spawning():
+        lc = LocalCluster(dashboard_address=None, silence_logs=logging.CRITICAL,
+                          scheduler_kwargs={"dashboard_address": ":0"}, **kw)
+    with lc, Client(lc) as c:
+        c.wait_for_workers(1)
+        start = time.perf_counter() - t
+        sweep(sdt(), training_program(), {"payload": [0.0]}, client=c, progress=False)
+        yield c, start  # the workers' kernels loaded: the sweeps measured count runs only
+
+
+def on_cluster(c: Client, robot, program, grid, reference, batch=None) -> dict:
+    cpu0 = cpu_seconds(c)
+    df = sweep(robot, program, grid, client=c, progress=False, batch=batch)
+    cpu = cpu_seconds(c) - cpu0
+    s = df.attrs["seconds"]
+    return {"warm": s["warm"], "run": s["run"], "cpu": cpu, "rate": len(df) / s["run"],
+            "tasks": df.attrs["tasks"], "batch": df.attrs["batch"],
+            "same": df.equals(reference), "rows": len(df)}
+
+
+def noop(x: int) -> int:
+    return x
+
+
+def round_trip(c: Client, tasks: int = 2000) -> float:
+    """Seconds per no-op task, submitted at once and gathered."""
+    c.gather(c.map(noop, range(100), pure=False))  # the connections warm
+    t = time.perf_counter()
+    c.gather(c.map(noop, range(tasks), pure=False))
+    return (time.perf_counter() - t) / tasks
+
+
+def gil_share(robot, program, grid, runs: int = 100) -> tuple[float, float]:
+    """(CPU per run [s], the share of it outside the nogil simulation kernel)."""
+    _, cases = check_grid(robot, grid)
+    cases = cases[:runs]
+    msim = importlib.import_module("mrnea.simulate")  # the module (mrnea.simulate: the function)
+    kernel, spent = msim.simulate_cycles, [0.0]
+
+    def timed(*a):
+        t = time.thread_time()
+        try:
+            return kernel(*a)
+        finally:
+            spent[0] += time.thread_time() - t
+
+    numba.set_num_threads(1)
+    run_case(robot, program, cases[0])
+    msim.simulate_cycles = timed
+    try:
+        t = time.thread_time()
+        for case in cases:
+            run_case(robot, program, case)
+        total = time.thread_time() - t
+    finally:
+        msim.simulate_cycles = kernel
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    return total / len(cases), 1 - spent[0] / total
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--out", default=None)
+    args = ap.parse_args()
+    robot, program = sdt(), training_program()
+    grid = grid_of(args.n)
+    n = int(np.prod([len(v) for v in grid.values()]))
+    lines: list[str] = []
+
+    def say(text: str = "") -> None:
+        print(text, flush=True)
+        lines.append(text)
+
+    t_start = time.perf_counter()
+    say(f"# Sweep benchmark: {n} SDT variants x {program.name} ({program.K} cycles)")
+    say()
+    say(f"Command: `python benchmarks/sweep.py --n {args.n} --rounds {args.rounds}`. Machine: "
+        f"{platform.processor() or platform.machine()}, {len(os.sched_getaffinity(0))} usable "
+        f"cores; Python {platform.python_version()}, Numba {numba.__version__}, pandas "
+        f"{pd.__version__}, distributed {__import__('distributed').__version__}. "
+        f"Load average (1 min) {os.getloadavg()[0]:.2f} at the start.")
+    say()
+    say("| configuration | run [s] | variants/s | CPU per run [ms] | cores used | fixed [s] "
+        "| tasks x runs | rows = serial | load |")
+    say("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    reference, _, _ = serial(robot, program, grid, one_thread=False)
+    cpu_runs = []
+    for one in (False, True):
+        df, wall, cpu = serial(robot, program, grid, one)
+        cpu_runs.append(cpu / n)
+        name = "serial loop, Numba on 1 thread" if one else "serial loop as a user writes it"
+        say(f"| {name} | {wall:.1f} | {n / wall:.1f} | {1e3 * cpu / n:.1f} | {cpu / wall:.2f} "
+            f"| - | - | {df.equals(reference)} | {load()} |")
+    configs = [("1 worker process", {"n_workers": 1, "threads_per_worker": 1}),
+               ("2 worker processes (the default here)",
+                {"n_workers": 2, "threads_per_worker": 1}),
+               ("1 process x 2 threads", {"n_workers": 1, "threads_per_worker": 2}),
+               ("2 threads in this process",
+                {"n_workers": 1, "threads_per_worker": 2, "processes": False})]
+    rates: dict[str, float] = {}
+    overhead = {}
+    for name, cfg in configs:
+        with cluster(**cfg) as (c, start):
+            m = on_cluster(c, robot, program, grid, reference)
+            rates[name] = m["rate"]
+            say(f"| {name} | {m['run']:.1f} | {m['rate']:.1f} | {1e3 * m['cpu'] / n:.1f} | "
+                f"{m['cpu'] / m['run']:.2f} | {start:.1f} + {m['warm']:.1f} | {m['tasks']} x "
+                f"{m['batch']} | {m['same']} | {load()} |")
+            if cfg.get("processes", True) and cfg["threads_per_worker"] == 1:
+                one = on_cluster(c, robot, program, grid, reference, batch=1)
+                extra = ((one["run"] - m["run"]) * cfg["n_workers"]
+                         / max(one["tasks"] - m["tasks"], 1))
+                overhead[name] = (round_trip(c), extra, one, m)
+    say()
+    say("Per-task overhead (the same sweep with one run per task, against the default batches; "
+        "Dask's round trip of a no-op task, 2000 submitted at once):")
+    say()
+    for name, (trip, extra, one, m) in overhead.items():
+        say(f"* {name}: no-op round trip {1e3 * trip:.2f} ms per task; {one['tasks']} tasks "
+            f"of 1 run took {one['run']:.1f} s against {m['run']:.1f} s for {m['tasks']} of "
+            f"{m['batch']}: {1e3 * extra:.1f} ms more per task and worker ({load()})")
+    say()
+    say(f"1 and 2 worker processes alternated, both clusters up, {args.rounds} rounds (each "
+        "sees the other's moments of load; the best round is the closest to an idle machine):")
+    say()
+    with cluster(n_workers=1, threads_per_worker=1) as (c1, _), \
+            cluster(n_workers=2, threads_per_worker=1) as (c2, _):
+        best: dict[int, list[float]] = {1: [], 2: []}
+        for r in range(args.rounds):
+            for w, c in ((1, c1), (2, c2)):
+                m = on_cluster(c, robot, program, grid, reference)
+                best[w].append(m["rate"])
+                say(f"* round {r + 1}, {w} worker(s): {m['rate']:.1f} variants/s, "
+                    f"{m['cpu'] / m['run']:.2f} cores used, {1e3 * m['cpu'] / n:.1f} ms CPU per "
+                    f"run, rows = serial {m['same']} ({load()})")
+        say(f"* best: 1 worker {max(best[1]):.1f}, 2 workers {max(best[2]):.1f} variants/s "
+            f"({max(best[2]) / max(best[1]):.2f}x); median {statistics.median(best[1]):.1f} and "
+            f"{statistics.median(best[2]):.1f}")
+    per_run, g = gil_share(robot, program, grid)
+    say()
+    say(f"GIL: a run costs {1e3 * per_run:.1f} ms of CPU, of which {100 * g:.0f} % outside the "
+        f"nogil simulation kernel (variant, set-up, summary: Python and NumPy, holding the GIL "
+        f"most of it): T threads in one process give at most 1/g = {1 / g:.1f}x, T processes "
+        f"T x.")
+    c_run = statistics.median(cpu_runs)
+    o = statistics.median([t for t, *_ in overhead.values()])
+    b = next(iter(overhead.values()))[3]["batch"]
+    say()
+    say(f"On paper, W worker processes on W free cores: throughput = W / (c + o / b) with "
+        f"c = {1e3 * c_run:.1f} ms CPU per run, o = {1e3 * o:.1f} ms per task, b = {b} runs "
+        f"per task: {1 / (c_run + o / b):.0f} variants/s per worker; 8 workers "
+        f"{8 / (c_run + o / b):.0f}/s, 64 workers {64 / (c_run + o / b):.0f}/s. A task of b "
+        f"runs lasts {b * c_run:.2f} s, so W workers ask the scheduler for W / {b * c_run:.2f} "
+        f"tasks per second; at o per task (an upper bound of the scheduler's own cost) it "
+        f"keeps up to W = {b * c_run / o:.0f} workers.")
+    say()
+    say(f"Whole benchmark {time.perf_counter() - t_start:.0f} s; load average (1 min) "
+        f"{os.getloadavg()[0]:.2f} at the end.")
+    if args.out:
+        with open(args.out, "w") as fh:
+            fh.write("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()

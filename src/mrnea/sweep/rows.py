@@ -1,0 +1,148 @@
+"""One row of a design sweep: a program simulated on a robot variant, as a flat summary.
+
+Usage: ``row = run_case(robot, program, {"payload": 5.0})``; on a Dask worker,
+``run_batch(jobs, robot, programs)`` runs many and returns ``(job index, row)`` pairs.
+
+A row holds :data:`TOP_COLUMNS`, the first infeasible instant (:data:`FIRST_COLUMNS`), and
+every number the summary gives per joint, as ``<entry>.<joint>`` (peak and RMS motor torque,
+effort ratio, peak speed, peak reaction force and moment...): the columns are taken from
+:meth:`mrnea.simulate.SimulationResult.summary` by name, so they follow it. ``error`` is None,
+or why this variant failed (``"<ErrorType>: <message>"``, the other columns then empty): a
+failed variant is a row, never a lost sweep. With ``retime``, :data:`RETIME_COLUMNS` from
+:func:`mrnea.retime` of the variant and its program.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import math
+import os
+import time
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numba
+import numpy as np
+
+from mrnea.errors import ModelWarning, MrneaError
+from mrnea.io.program import Program
+from mrnea.model import Robot
+from mrnea.retime.core import retime as retime_program
+from mrnea.simulate import simulate
+from mrnea.sweep.variants import variant
+
+__all__ = ["FIRST_COLUMNS", "RETIME_COLUMNS", "TOP_COLUMNS", "code_version", "run_batch",
+           "run_case", "summary_row", "warm"]
+
+#: Top-level summary entries copied into each row (those the summary has).
+TOP_COLUMNS = ("achievable", "worst_joint", "worst_effort_ratio", "duration",
+               "max_tracking_error")
+#: The first infeasible instant's columns (NaN and None when there is none).
+FIRST_COLUMNS = ("first_infeasible_time", "first_infeasible_joint", "first_infeasible_reason")
+#: The columns of ``retime=True``: the retimed duration [s] and why retiming failed (or None).
+RETIME_COLUMNS = ("retimed_duration", "retime_error")
+
+
+def summary_row(summary: Mapping[str, Any]) -> dict[str, Any]:
+    """A summary as one flat row: :data:`TOP_COLUMNS`, :data:`FIRST_COLUMNS`, and each
+    per-joint entry that is a number, a boolean or None as ``<entry>.<joint>``."""
+    row = {key: summary[key] for key in TOP_COLUMNS if key in summary}
+    first = summary.get("first_infeasible")
+    row.update(zip(FIRST_COLUMNS, (first["time"], first["joint"], first["reason"]) if first
+                   else (math.nan, None, None), strict=True))
+    for j in summary["joints"]:
+        for key, value in j.items():
+            if value is None or isinstance(value, (int, float)):
+                row[f"{key}.{j['joint']}"] = value
+    return row
+
+
+# --- runs ----------------------------------------------------------------------------------
+
+
+def _error(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+def run_case(robot: Robot, program: Program, params: Mapping[str, Any], retime: bool = False
+             ) -> dict[str, Any]:
+    """One sweep row: ``program`` (time-scaled already) on ``variant(robot, **params)``.
+
+    Any exception of the variant, its simulation or its summary becomes the row's ``error``
+    (a failed variant is a row). With ``retime``, :data:`RETIME_COLUMNS` too.
+    """
+    row: dict[str, Any] = {"error": None}
+    try:
+        rob = variant(robot, **params)
+        res = simulate(rob, program.q_cmd, program.dt, mode=program.mode or "hybrid",
+                       f_ext=program.f_ext, f_ext_point=program.f_ext_point)
+        row.update(summary_row(res.summary()))
+    except Exception as exc:
+        row["error"] = _error(exc)
+        return row
+    if retime:
+        row.update(retime_columns(rob, program))
+    return row
+
+
+def retime_columns(robot: Robot, program: Program) -> dict[str, Any]:
+    """:data:`RETIME_COLUMNS` of ``mrnea.retime(robot, program)``: its duration [s], or NaN and
+    why it failed."""
+    try:
+        return {"retimed_duration": float(retime_program(robot, program).duration),
+                "retime_error": None}
+    except Exception as exc:
+        return {"retimed_duration": math.nan, "retime_error": _error(exc)}
+
+
+def run_batch(jobs: Sequence[tuple[int, tuple[int, float], Mapping[str, Any]]], robot: Robot,
+              programs: Mapping[tuple[int, float], Program], retime: bool = False
+              ) -> list[tuple[int, dict[str, Any]]]:
+    """A Dask task: ``(job index, row)`` for each ``(index, program key, params)`` job, the
+    program key being (program number, time scale).
+
+    Numba's parallel kernels run on one thread here (a thread-local setting): the sweep is
+    parallel over tasks already, and more threads than cores would only wait for each other.
+    """
+    numba.set_num_threads(1)
+    return [(k, run_case(robot, programs[key], params, retime)) for k, key, params in jobs]
+
+
+@functools.cache
+def code_version() -> str:
+    """What makes two processes' rows equal bit for bit: Numba's version and a digest of
+    mrnea's source files (this process's; a worker that runs other code would give other
+    rows)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    digest = hashlib.sha256()
+    for folder, dirs, files in sorted(os.walk(root)):
+        dirs.sort()
+        for name in sorted(f for f in files if f.endswith(".py")):
+            path = os.path.join(folder, name)
+            digest.update(os.path.relpath(path, root).encode())
+            with open(path, "rb") as fh:
+                digest.update(fh.read())
+    return f"numba {numba.__version__}, mrnea source {digest.hexdigest()[:12]}"
+
+
+def warm(robot: Robot, client_pid: int, retime: bool = False) -> dict[str, Any]:
+    """Run on each worker before a sweep: load mrnea's compiled kernels (a 3-cycle run of
+    ``robot`` and its summary; with ``retime``, a retiming of a short move too, which also
+    imports toppra) and, in a worker process of its own, silence ModelWarning (each variant
+    would repeat its base robot's). Returns what the client checks and says: the
+    :func:`code_version`, the process id and the seconds taken."""
+    t0 = time.perf_counter()
+    if os.getpid() != client_pid:
+        warnings.simplefilter("ignore", ModelWarning)
+    numba.set_num_threads(1)
+    q0 = np.clip(np.zeros(robot.n), robot.lower, robot.upper)
+    with contextlib.suppress(MrneaError):
+        simulate(robot, np.repeat(q0[None], 3, axis=0), 0.005).summary()
+    if retime:  # a move of 0.01 rad | m (or to the limit) on every joint
+        q1 = np.clip(q0 + 0.01, robot.lower, robot.upper)
+        with contextlib.suppress(MrneaError):
+            retime_program(robot, np.linspace(q0, q1, 20), dt=0.01)
+    return {"code": code_version(), "pid": os.getpid(), "seconds": time.perf_counter() - t0}
