@@ -19,7 +19,8 @@ from mrnea.actuators import effort_limits_at
 from mrnea.errors import ModelError, StateError, SweepError
 from mrnea.io import load_grid_file, load_program
 from mrnea.io.program import Program
-from mrnea.model import Joint, Link, Robot, transform
+from mrnea.model import Joint, Link, Robot
+from mrnea.rigid import transform
 from mrnea.robots import puma560, sdt
 from mrnea.sweep import check_grid, time_scaled, variant
 from mrnea.sweep.engine import _frame

@@ -209,17 +209,17 @@ def stamp() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
 
 
-def page(title: str, heading: str, body: str) -> str:
-    """One self-contained HTML page of the reports (simulation, and the pages that reuse it):
-    the document head with the reports' style sheet, ``title`` and the ``<h1>`` ``heading``
-    (both text, escaped here), then ``body`` (HTML)."""
+def page(title: str, heading: str, body: str, css: str = _CSS) -> str:
+    """One self-contained HTML page of the reports (simulation, retiming, sweep): the document
+    head with the style sheet ``css`` (the simulation report's by default), ``title`` and the
+    ``<h1>`` ``heading`` (both text, escaped here), then ``body`` (HTML)."""
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>{_e(title)}</title>
-<style>{_CSS}</style>
+<style>{css}</style>
 </head>
 <body>
 <h1>{_e(heading)}</h1>

@@ -20,7 +20,6 @@ import html
 import math
 import os
 from collections.abc import Sequence
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -31,8 +30,9 @@ from matplotlib.patches import Patch, Rectangle
 
 from mrnea.errors import OutputError, StateError, quote, shorten
 from mrnea.io.source import as_path
-from mrnea.io.writer import check_new, create
+from mrnea.io.writer import check_new, write_file
 from mrnea.report.drawing import MAX_JOINTS, label, new_figure, png_data_uri
+from mrnea.report.html import page, stamp
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -321,7 +321,7 @@ def write_sweep_html(df: pd.DataFrame, path: str | os.PathLike[str], robot: str,
     curves : str, optional
         The curves' parameter (default: the first numeric swept parameter).
     overwrite : bool
-        Replace an existing file (written through :func:`mrnea.io.writer.create`).
+        Replace an existing file (written through :func:`mrnea.io.writer.write_file`).
 
     Returns
     -------
@@ -372,19 +372,8 @@ def write_sweep_html(df: pd.DataFrame, path: str | os.PathLike[str], robot: str,
             "of them.</p>" if len(df) > MAX_TABLE_ROWS else "")
     images = "".join(f'<figure><img alt="{e(n)}" src="{png_data_uri(f)}"><figcaption>{e(n)}'
                      "</figcaption></figure>" for n, f in figs)
-    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
-    doc = f"""<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<meta name="viewport" content="width=device-width, initial-scale=1">
-<title>{e(f"mrnea sweep: {robot}")}</title>
-<style>{_CSS}</style>
-</head>
-<body>
-<h1>Design sweep: {e(robot)}</h1>
-<p>{e(counts)}</p>
-<p class="note">Generated {e(stamp)} by mrnea. Effort ratio: the largest |effort the program
+    content = f"""<p>{e(counts)}</p>
+<p class="note">Generated {e(stamp())} by mrnea. Effort ratio: the largest |effort the program
 asks for| / the limit at that speed, over the cycles and the joints; above 1 the program needs
 more than a drive has. Map cells: the limiting joint (the first infeasible one, else the one
 closest to its limit) and the ratio; a variant is judged over all its programs.</p>
@@ -392,10 +381,6 @@ closest to its limit) and the ratio; a variant is judged over all its programs.<
 <h2>Rows</h2>
 {more}<div class="scroll"><table><tr>{head}</tr>
 {"".join(body)}
-</table></div>
-</body>
-</html>
-"""
-    with create(path, overwrite) as fh:
-        fh.write(doc)
-    return path
+</table></div>"""
+    return write_file(path, page(f"mrnea sweep: {robot}", f"Design sweep: {robot}", content,
+                                 css=_CSS), overwrite)
