@@ -109,7 +109,7 @@ URDF = """<?xml version="1.0"?>
 @pytest.fixture
 def vis_urdf(tmp_path: Path) -> Path:
     """``URDF`` in ``vispkg/urdf/``, with the mesh ``vispkg/meshes/part.stl`` (a ROS layout)."""
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh
     pkg = tmp_path / "vispkg"
     (pkg / "urdf").mkdir(parents=True)
     (pkg / "meshes").mkdir()
@@ -192,7 +192,6 @@ def test_mesh_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert mesh_path("x\0.stl", urdf) == "x\0.stl"  # a name the file system refuses
     with pytest.raises(RobotFileError, match="not a regular file"):
         read_mesh(tmp_path / "a")
-    pytest.importorskip("trimesh")
     bomb = tmp_path / "bomb.dae"  # COLLADA is XML: a DTD's entities are refused, as in a URDF
     bomb.write_text('<?xml version="1.0"?><!DOCTYPE c [<!ENTITY a "aaaa">]><COLLADA>&a;'
                     "</COLLADA>")
@@ -208,7 +207,6 @@ def test_real_urdfs_have_their_meshes() -> None:
     assert [len(lk.visuals) for lk in robot.links] == [1] * 6 and len(robot.base_visuals) == 1
     assert all(v.kind == "mesh" and Path(v.mesh).is_file() for lk in robot.links
                for v in lk.visuals)
-    pytest.importorskip("collada")  # DAE files: trimesh reads them with pycollada
     V, F = read_mesh(robot.links[1].visuals[0].mesh)  # upper arm: 0.425 m long
     assert F.shape[0] > 1000 and 0.45 < np.ptp(V[:, 2]) < 0.6
 

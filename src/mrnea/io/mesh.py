@@ -2,8 +2,8 @@
 (:func:`read_mesh`, through trimesh: STL, OBJ, DAE with pycollada, PLY, ...).
 
 A robot is loaded without reading its meshes: a :class:`mrnea.visual.Visual` holds the path,
-and the report's 3D view reads the file when it draws the robot. trimesh is optional
-(``pip install "mrnea[mesh]"``); without it a view draws simple shapes instead.
+and the report's 3D view reads the file when it draws the robot, with trimesh (a dependency,
+imported on the first mesh read, not with mrnea).
 """
 
 from __future__ import annotations
@@ -78,11 +78,7 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArra
         raise RobotFileError(f"{path}: mesh file not found (no folder resolves this name, and "
                              "mrnea fetches nothing)")
     p = Path(path)
-    try:
-        import trimesh
-    except ImportError:
-        raise RobotFileError(f"{p}: reading mesh files needs trimesh "
-                             "(pip install \"mrnea[mesh]\")") from None
+    import trimesh
     data = read_bytes(p, "mesh file", RobotFileError, MAX_MESH_FILE)
     refused = refused_prolog(data) if p.suffix.lower() == ".dae" else None  # XML: no DTD
     if refused is not None:

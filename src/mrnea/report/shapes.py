@@ -130,22 +130,19 @@ def decimate(vertices: ArrayLike, faces: ArrayLike, max_faces: int
              ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """A mesh of at most ``max_faces`` (>= 4) triangles approximating (V, 3), (F, 3).
 
-    Quadric decimation (the ``fast_simplification`` package) where it is installed and meets the
-    budget; otherwise the convex hull of every k-th vertex, at most ``max_faces // 2`` of them
+    Quadric decimation (the ``fast_simplification`` package) where it meets the budget;
+    otherwise the convex hull of every k-th vertex, at most ``max_faces // 2`` of them
     (a hull of m points has at most 2 m - 4 faces; holes and concavities are lost).
     """
     V, F = np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64)
     if F.shape[0] <= max_faces:
         return V, F
-    try:
-        import fast_simplification
-
-        V2, F2 = fast_simplification.simplify(V, F, target_count=max_faces)
-        if 0 < F2.shape[0] <= max_faces:
-            return np.asarray(V2, dtype=float), np.asarray(F2, dtype=np.int64)
-    except ImportError:
-        pass
+    import fast_simplification
     import trimesh
+
+    V2, F2 = fast_simplification.simplify(V, F, target_count=max_faces)
+    if 0 < F2.shape[0] <= max_faces:
+        return np.asarray(V2, dtype=float), np.asarray(F2, dtype=np.int64)
 
     every = math.ceil(V.shape[0] / max(4, max_faces // 2))
     hull = trimesh.convex.convex_hull(V[::every])
