@@ -47,7 +47,8 @@ LAG_TOL = 1.001  # a round is accepted when, with its own speed lag, it is withi
 REVERSAL_CYCLES = 1  # Coulomb friction both ways this many cycles before a change of direction
 STALL = 1e-6  # an interior grid point with x = sd^2 below this fraction of the largest stalls ...
 STALL_HEIGHT = 1e-3  # ... if its controllable set reaches above this fraction (_solve)
-STALL_REPAIRS = 20  # re-solves with capped x to repair stalls, at most
+STALL_REPAIRS = 20  # re-solves with capped x to repair stalls, at most (a stall near a via
+#                    point can move one grid point back per repair: 2-3 re-solves measured)
 
 
 class _Grid(AbstractGeometricPath):
@@ -107,7 +108,7 @@ class _Rows(LinearConstraint):
 def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
            stage: tuple[NDArray, NDArray, NDArray] | None) -> tuple[NDArray, int]:
     """TOPP-RA rest to rest: the path speed sd at every grid point s, with no stall (below),
-    and the number of stalls repaired.
+    and the number of stall repairs (caps applied, over all re-solves).
 
     TOPP-RA's forward pass takes the largest path acceleration from the largest controllable
     x_i = sd_i^2; that is time-optimal only while a larger x_i never lowers the largest
@@ -123,8 +124,8 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
     reachable x_i is a concave function of x_i-1 (the maximum over a slice of a polygon), so
     below the cap it never falls as x_i-1 rises: there the greedy choice is optimal again.
     """
-    n, repaired = rows[0].shape[1], 0
-    for _ in range(STALL_REPAIRS + 1):
+    n, repaired, attempts = rows[0].shape[1], 0, 0
+    while True:
         con = _Rows(rows, xmax, stage)
         algo = TOPPRA([con], _Grid(s, n), gridpoints=s, solver_wrapper="seidel")
         _, sd, _, K = algo.compute_parameterization(0.0, 0.0, return_data=True)
@@ -134,15 +135,14 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
         x = sd ** 2
         stalls = np.flatnonzero((x[1:-1] <= STALL * x.max())
                                 & (K[1:-1, 1] > STALL_HEIGHT * x.max())) + 1
-        if stalls.size == 0:
+        if stalls.size == 0 or attempts == STALL_REPAIRS:
             return sd, repaired
-        repaired += stalls.size
+        attempts, repaired = attempts + 1, repaired + stalls.size
         A, B, C = con.compute_constraint_params(None, s)[:3]
         xmax = xmax.copy()
         for i in stalls:
             xmax[i - 1] = min(xmax[i - 1], _unstall(A[i - 1], B[i - 1], C[i - 1],
                                                     s[i] - s[i - 1], K[i - 1], K[i]))
-    return sd, repaired
 
 
 def _unstall(A: NDArray, B: NDArray, C: NDArray, ds: float, Kj: NDArray, Ki: NDArray
