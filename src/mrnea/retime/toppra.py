@@ -46,7 +46,8 @@ TOL = 0.002  # rounds stop when the duration changes by less than this fraction
 LAG_TOL = 1.001  # a round is accepted when, with its own speed lag, it is within margin x this
 REVERSAL_CYCLES = 1  # Coulomb friction both ways this many cycles before a change of direction
 STALL = 1e-6  # an interior grid point with x = sd^2 below this fraction of the largest stalls ...
-STALL_HEIGHT = 1e-3  # ... if its controllable set reaches above this fraction (_solve)
+STALL_HEIGHT = 1e-3  # ... if its controllable set reaches above this fraction (_solve) ...
+STALL_COST = 1e-3  # ... and the stall costs more than this fraction of the profile's duration
 STALL_REPAIRS = 20  # re-solves with capped x to repair stalls, at most (a stall near a via
 #                    point can move one grid point back per repair: 2-3 re-solves measured)
 
@@ -118,7 +119,10 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
     the controllable set only x_i+1 = 0 is left: the path **stalls** one grid point early and
     the last interval takes 2 ds / sd_i with sd_i ~ 1e-4 (measured: the Puma 560 with 15 kg
     stopping at home, 5.87 s for 0.3 mrad; 10.5 s in all where 4.8 s is possible). A stall at
-    an interior point i (x_i ~ 0 while its controllable set reaches higher) is repaired by
+    an interior point i (x_i ~ 0 while its controllable set reaches higher) that costs time
+    (its two intervals, at the top of its controllable set, would be faster by more than
+    :data:`STALL_COST` of the duration: stalls at a via point between fast neighbours cost
+    nothing, and repairing them made the Puma's quintic 4 times slower to plan) is repaired by
     capping x_i-1 at the largest value from which stage i - 1 reaches the highest x_i it can
     (a 2-variable LP) and solving again, at most :data:`STALL_REPAIRS` times. The highest
     reachable x_i is a concave function of x_i-1 (the maximum over a slice of a polygon), so
@@ -133,8 +137,16 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
             raise RetimeError("TOPP-RA found no parameterisation of the path from rest to "
                               "rest within the limits")
         x = sd ** 2
-        stalls = np.flatnonzero((x[1:-1] <= STALL * x.max())
-                                & (K[1:-1, 1] > STALL_HEIGHT * x.max())) + 1
+        i = 1 + np.flatnonzero((x[1:-1] <= STALL * x.max())
+                               & (K[1:-1, 1] > STALL_HEIGHT * x.max()))
+        # what each costs: its two intervals' time now and at the top of its controllable set
+        with np.errstate(divide="ignore"):
+            now = (2 * (s[i] - s[i - 1]) / (sd[i - 1] + sd[i])
+                   + 2 * (s[i + 1] - s[i]) / (sd[i] + sd[i + 1]))
+        top = np.sqrt(K[i, 1])
+        best = (2 * (s[i] - s[i - 1]) / (sd[i - 1] + top)
+                + 2 * (s[i + 1] - s[i]) / (top + sd[i + 1]))
+        stalls = i[now - best > STALL_COST * duration_of(s, sd)]
         if stalls.size == 0 or attempts == STALL_REPAIRS:
             return sd, repaired
         attempts, repaired = attempts + 1, repaired + stalls.size
