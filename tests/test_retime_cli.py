@@ -173,7 +173,7 @@ def test_the_suggested_command_runs(tmp_path):
 
 @pytest.mark.parametrize("args,match", [
     (["--margin", "0"], "'--margin': must be > 0"),
-    (["--margin", "1.5"], "margin: must be in (0, 1]"),
+    (["--margin", "1.5"], "'--margin': must be in (0, 1]"),
     (["--margin", "nan"], "'--margin'"),
     (["--dt", "0"], "'--dt': must be > 0"),
 ])

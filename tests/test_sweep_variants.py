@@ -303,6 +303,8 @@ def test_the_examples_read(tmp_path):
     ("[sweep]\nrobot = 'sdt'\n", ["g.toml", "missing required key 'grid'"]),
     ("[grid]\n", ["g.toml", "[grid]", "no parameter"]),
     ("[grid]\npayload = 1\n", ["g.toml", "'payload' must be an array"]),
+    ("[grid]\ngear_ratio.cab_yaw = [60]\n", ["g.toml", "'gear_ratio' must be an array",
+                                              "quote a per-joint key, 'gear_ratio.cab_yaw'"]),
     ("[grid]\npayload = []\n", ["g.toml", "'payload'", "empty"]),
     ("[sweep]\nzip = 'yes'\n[grid]\npayload = [1]\n", ["'zip' must be true or false"]),
     ("[sweep]\nprograms = 'a.toml'\n[grid]\npayload = [1]\n", ["'programs' must be an array"]),

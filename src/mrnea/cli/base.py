@@ -262,8 +262,8 @@ class Number(click.ParamType):
 
     name = "number"
 
-    def __init__(self, positive: bool) -> None:
-        self.positive = positive
+    def __init__(self, positive: bool, at_most: float | None = None) -> None:
+        self.positive, self.at_most = positive, at_most  # at_most: an upper bound, or None
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
                 ) -> float:
@@ -278,10 +278,13 @@ class Number(click.ParamType):
             self.fail(f"must be > 0, got {quote(value)}", param, ctx)
         if not self.positive and not number >= 0:
             self.fail(f"must be >= 0, got {quote(value)}", param, ctx)
+        if self.at_most is not None and number > self.at_most:
+            self.fail(f"must be in (0, {self.at_most:g}], got {quote(value)}", param, ctx)
         return number
 
 
 POSITIVE, NON_NEGATIVE = Number(positive=True), Number(positive=False)
+FRACTION = Number(positive=True, at_most=1.0)  # in (0, 1]
 
 catch_opt = click.option("--catch-up", type=NON_NEGATIVE, default=0.0, metavar="GAIN",
                          help="Position-loop gain [1/s] that steers back to the program after a "

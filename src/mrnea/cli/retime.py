@@ -26,6 +26,7 @@ import click
 import numpy as np
 
 from mrnea.cli.base import (
+    FRACTION,
     POSITIVE,
     checkpoint,
     compile_notice,
@@ -92,7 +93,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @click.option("--method", type=click.Choice(["toppra", "scale"]), default="toppra",
               show_default=True,
               help="toppra: time-optimal along the path; scale: uniform time scaling.")
-@click.option("--margin", type=POSITIVE, default=0.98, show_default=True, metavar="M",
+@click.option("--margin", type=FRACTION, default=0.98, show_default=True, metavar="M",
               help="toppra: plan against M x every effort and velocity limit, 0 < M <= 1 "
                    "(lowered until the simulation accepts the result).")
 @click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",

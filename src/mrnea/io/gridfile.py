@@ -80,6 +80,11 @@ def load_grid_file(path: str | os.PathLike[str]) -> GridFile:
         raise check.error("[grid]", "no parameter: give at least one, e.g. "
                                     "\"gear_ratio.cab_yaw\" = [60, 80, 100]")
     for key, values in grid.items():
+        if isinstance(values, dict) and values:  # gear_ratio.cab_yaw = [...] unquoted
+            joint = next(iter(values))
+            raise check.error("[grid]", f"{quote(key)} must be an array of values, got a table "
+                                        f"(TOML reads an unquoted dotted key as one): quote a "
+                                        f"per-joint key, {quote(f'{key}.{joint}')} = [...]")
         if not isinstance(values, list):
             raise check.error("[grid]", f"{quote(key)} must be an array of values, got "
                                         f"{type_name(values)} {quote(values)}")
