@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from conftest import pin_fext, random_chain, rel_err, to_pinocchio
 from hypothesis import given
@@ -39,8 +40,6 @@ from mrnea.actuators import (
     motor_torque,
 )
 from mrnea.rigid import transform
-
-pin = pytest.importorskip("pinocchio")
 
 TOL = 1e-9  # numerical agreement between independent computations
 MODES = ("paper", "hybrid")

@@ -19,13 +19,12 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+import pandas
+import pinocchio as pin
 import pytest
 from conftest import erd_path
 
 from mrnea.io import parse_payload
-
-pin = pytest.importorskip("pinocchio")
-pandas = pytest.importorskip("pandas")
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"

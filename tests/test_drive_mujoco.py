@@ -15,6 +15,7 @@ through the public API.
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 from conftest import random_chain
@@ -24,8 +25,6 @@ from mjcf import to_mjcf
 from mrnea import Joint, Link, Robot, transform
 from mrnea.achievable import achievable_accelerations, achievable_step
 from mrnea.simulate import simulate
-
-mujoco = pytest.importorskip("mujoco")
 
 
 def _model(xml: str):

@@ -27,8 +27,6 @@ from conftest import (
 
 import mrnea
 
-pytest.importorskip("pinocchio")
-
 TOL = 1e-9
 B = 100  # random states per robot
 N_SINGLE = 4  # of which this many are also checked one call at a time

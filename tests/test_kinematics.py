@@ -14,14 +14,13 @@ inverse dynamics (mrnea's RNEA with the wrench minus without, Eq. 1's J^T k_e).
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from conftest import rel_err
 from test_dynamics_pinocchio import ALL, N_SINGLE, B, get_case
 
 import mrnea
 from mrnea.errors import StateError
-
-pin = pytest.importorskip("pinocchio")
 
 TOL = 1e-12
 

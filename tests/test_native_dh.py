@@ -497,7 +497,7 @@ def test_sdt_data_is_complete_and_plausible() -> None:
 
 
 def _rtb_puma():
-    rtb = pytest.importorskip("roboticstoolbox")
+    import roboticstoolbox as rtb
     return rtb.models.DH.Puma560()
 
 

@@ -19,12 +19,11 @@ from chromium_cdp import Browser, ChromiumUnavailable
 from click.testing import CliRunner
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from PIL import Image  # matplotlib's dependency
 
 from mrnea.cli import main
 from mrnea.report import shapes as shp
 from mrnea.report import view3d, view3d_html
-
-Image = pytest.importorskip("PIL.Image")  # matplotlib's dependency
 
 DT, PERIOD, T_END, T_MARK = 0.01, 2.0, 6.0, 2.75
 L1, L2 = 0.6, 0.4

@@ -14,6 +14,7 @@ import shutil
 import warnings
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from conftest import (
     PinChain,
@@ -38,8 +39,6 @@ from mrnea.io import (
     parse_payload,
 )
 from mrnea.model import Joint, Link, Robot
-
-pin = pytest.importorskip("pinocchio")
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
 

@@ -125,7 +125,7 @@ def test_hybrid_and_paper_modes_differ_on_a_two_link_arm():
 def test_summary_matches_the_per_cycle_table(tmp_path):
     """The CSV (read by pandas in one call: units in the column names, the flags as booleans)
     holds what the summary sums up."""
-    pandas = pytest.importorskip("pandas")
+    import pandas
     robot = two_link(limit1=2.0, limit2=1.0)
     dt = 0.005
     res = simulate(robot, smooth_move([0.0, 0.0], [1.0, -1.0], 0.5, dt), dt)

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from mrnea.errors import ModelError, OutputError, RobotFileError
@@ -16,8 +17,6 @@ from mrnea.io.urdf import UNBOUNDED, load_urdf
 from mrnea.io.urdf_writer import write_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.rigid import rotation_from_rpy, transform
-
-pin = pytest.importorskip("pinocchio")
 
 RTOL = 1e-12
 

@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from click.testing import CliRunner
 from conftest import pin_fext, to_pinocchio
@@ -19,8 +20,6 @@ from mrnea.actuators import program_requirement
 from mrnea.cli import main
 from mrnea.robots.sdt_profile import training_profile
 from mrnea.simulate import simulate
-
-pin = pytest.importorskip("pinocchio")
 
 
 def there_and_back(q0, q1, T: float, dt: float, rest: float = 0.1) -> np.ndarray:

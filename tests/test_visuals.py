@@ -292,9 +292,10 @@ def test_builtin_robots_have_visuals() -> None:
 def test_puma_visuals_sit_in_the_dh_frames() -> None:
     """The Puma 560's visuals are given in its DH link frames (as its centres of mass): placed
     by mrnea's link frames they land where Robotics Toolbox's DH frames put them."""
-    rtb = pytest.importorskip("roboticstoolbox")
     import tomllib
     from importlib import resources
+
+    import roboticstoolbox as rtb
 
     puma = mrnea.robots.puma560()
     doc = tomllib.loads(resources.files("mrnea").joinpath("robots", "data", "puma560.toml")
