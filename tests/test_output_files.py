@@ -188,6 +188,30 @@ def test_a_folder_has_one_owner_and_a_stale_lock_does_not_block(tmp_path: Path) 
     assert list(out.iterdir()) == []
 
 
+def test_a_failed_run_leaves_no_empty_folder_it_created(tmp_path: Path) -> None:
+    new, kept, existing = tmp_path / "a" / "new", tmp_path / "kept", tmp_path / "existing"
+    existing.mkdir()
+    for folder, write in ((new, False), (kept, True), (existing, False)):
+        with pytest.raises(OutputError, match="bad program"), own_folder(folder):
+            if write:
+                (folder / "cycles.csv").write_text("t\n")
+            raise OutputError("bad program")
+    assert not new.exists() and (tmp_path / "a").is_dir()  # only the folder it made itself
+    assert [q.name for q in kept.iterdir()] == ["cycles.csv"]  # a partial result stays
+    assert existing.is_dir() and list(existing.iterdir()) == []
+
+
+def test_cli_error_after_the_folder_leaves_none(tmp_path: Path) -> None:
+    prog = tmp_path / "still.toml"
+    prog.write_text('[program]\nrobot = "puma560"\ndt = 0.01\n[path]\nprofile = "trapezoidal"\n'
+                    "waypoints = [[0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]]\n"
+                    "velocity_limit = 1\nacceleration_limit = 1\ndwell = 1.0\n")
+    res = subprocess.run([sys.executable, "-m", "mrnea", "retime", str(prog), "--out",
+                          str(tmp_path / "out")], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 2 and "never moves" in res.stderr, res.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_planted_lock_link_or_a_file_in_the_folders_place_is_refused(tmp_path: Path,
                                                                        victim: Path) -> None:
     out = tmp_path / "out"

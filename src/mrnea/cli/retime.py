@@ -39,7 +39,7 @@ from mrnea.cli.base import (
     quiet_opt,
     robot_options,
 )
-from mrnea.errors import MrneaError
+from mrnea.errors import MrneaError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_program, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.writer import check_new, create, own_folder
@@ -133,9 +133,12 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
         check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
         with compile_notice(quiet):
-            res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method, margin=margin,
-                                 f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                 mode=run.mode or mode)
+            try:
+                res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
+                                     margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
+                                     mode=run.mode or mode)
+            except RetimeError as exc:  # about the program: say which file it is
+                raise RetimeError(f"{program_arg}: {exc}") from None
         checkpoint()
         name = f"{Path(program_arg).stem}-retimed"
         res.save_csv(paths[CSV], force)

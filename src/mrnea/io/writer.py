@@ -176,7 +176,8 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
     An exclusive ``flock`` on ``folder/.mrnea.lock`` (opened without following a link) is held
     for the block and the lock file removed at its end. The kernel releases the lock when a
     process dies, so a run that was killed never blocks the next one (its lock file stays
-    behind, harmless).
+    behind, harmless). A folder this call created is removed again if the block fails before
+    writing anything into it (a bad program leaves no empty folder behind).
 
     Raises
     ------
@@ -184,6 +185,7 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
         ``folder`` cannot be created, or another run holds it.
     """
     folder = as_path(folder, "folder", OutputError)
+    created = not os.path.lexists(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
@@ -192,12 +194,17 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
         raise OutputError(f"{folder}: cannot create the output folder: {exc.strerror}") from None
     lock = folder / LOCK_NAME
     fd = _lock(folder, lock)
+    failed = True
     try:
         yield folder
+        failed = False
     finally:
         with contextlib.suppress(OSError):
             os.unlink(lock)  # while still holding it: see _lock
         os.close(fd)
+        if failed and created:
+            with contextlib.suppress(OSError):
+                folder.rmdir()  # only if empty: nothing written, nothing lost
 
 
 def _lock(folder: Path, lock: Path) -> int:
