@@ -9,7 +9,7 @@ steadier of the two).
 
 Cases: the SDT's training profile (the demo, dt = 5 ms: the yaw drive saturates; Coulomb
 friction on) and the same with generous limits; a fast Puma 560 program (1000 cycles of
-benchmarks/run.py's ``puma_program`` at dt = 2 ms: its drives saturate most of the time) and a
+models.py's ``puma_program`` at dt = 2 ms: its drives saturate most of the time) and a
 slow one with generous limits (20 000 cycles); each in hybrid and paper mode.
 """
 
@@ -18,20 +18,11 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
+from models import puma_program
 
 import mrnea
 from mrnea.robots.sdt_profile import training_profile
 from mrnea.simulate import simulate
-
-
-def puma_program(K: int, dt: float) -> np.ndarray:
-    """As benchmarks/run.py: q0 + A (1 - cos(2 pi m t / T)) / 2, at rest at both ends."""
-    t = np.arange(K)[:, None] * dt
-    q0 = np.array([0.0, 0.5, -0.5, 0.0, 0.5, 0.0])
-    A = np.array([1.0, 0.8, 0.8, 1.5, 1.0, 2.0])
-    m = np.array([2, 3, 4, 3, 5, 4])
-    return q0 + A * (1.0 - np.cos(2.0 * np.pi * m * t / (K * dt))) / 2.0
 
 
 def cases() -> dict[str, tuple]:

@@ -6,6 +6,7 @@
 * :func:`to_pinocchio` -- the same chain built directly (one Pinocchio joint per mrnea joint,
   ``nq == nv``), used for the random chains and the simulation loop.
 * :func:`random_chain` -- a random, physically consistent chain (tests/conftest.py's builder).
+* :func:`puma_program` -- the smooth Puma 560 program of the simulation benchmarks.
 * :func:`rel_err` -- the error measure of the tests: ``max|a - b| / max(1, max|b|)``.
 """
 
@@ -132,3 +133,12 @@ def to_pinocchio(robot: Robot) -> pin.Model:
 def random_chains(ns, seed: int = 0) -> dict[int, Robot]:
     """One random chain per size n, the same in every process (seeded by (seed, n))."""
     return {n: random_chain(np.random.default_rng([seed, n]), n) for n in ns}
+
+
+def puma_program(K: int, dt: float) -> np.ndarray:
+    """A smooth Puma 560 program, at rest at both ends: q0 + A (1 - cos(2 pi m t / T)) / 2."""
+    t = np.arange(K)[:, None] * dt
+    q0 = np.array([0.0, 0.5, -0.5, 0.0, 0.5, 0.0])
+    A = np.array([1.0, 0.8, 0.8, 1.5, 1.0, 2.0])
+    m = np.array([2, 3, 4, 3, 5, 4])
+    return q0 + A * (1.0 - np.cos(2.0 * np.pi * m * t / (K * dt))) / 2.0

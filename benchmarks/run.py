@@ -412,21 +412,12 @@ def batch_table(res: dict, cfg: Config) -> str:
 
 # --- 3. simulation -------------------------------------------------------------------------------
 
-def puma_program(K: int, dt: float) -> np.ndarray:
-    """A smooth Puma 560 program, at rest at both ends: q0 + A (1 - cos(2 pi m t / T)) / 2."""
-    t = np.arange(K)[:, None] * dt
-    q0 = np.array([0.0, 0.5, -0.5, 0.0, 0.5, 0.0])
-    A = np.array([1.0, 0.8, 0.8, 1.5, 1.0, 2.0])
-    m = np.array([2, 3, 4, 3, 5, 4])
-    return q0 + A * (1.0 - np.cos(2.0 * np.pi * m * t / (K * dt))) / 2.0
-
-
 def simulation(cases: list[models.Case], cfg: Config) -> dict:
     K = cfg.cycles
     puma = next(c for c in cases if c.label == "Puma 560")
     sdt = mrnea.robots.sdt().with_actuators(coulomb_friction=0.0)
     runs = {
-        "Puma 560": (puma.robot, pin.Model(puma.model), 0.002, puma_program(K, 0.002),
+        "Puma 560": (puma.robot, pin.Model(puma.model), 0.002, models.puma_program(K, 0.002),
                      "smooth cosine program, 6 joints"),
         "SDT": (sdt, models.to_pinocchio(sdt), 42.0 / K,
                 training_profile(42.0 / K)[1][:K], "the demo's training profile, "

@@ -25,11 +25,18 @@ from __future__ import annotations
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from mrnea import Link, Robot
 
 MIN_MASS = 1e-9  # [kg]
 MIN_INERTIA = 1e-12  # [kg m^2]
+
+
+def quaternion(R: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z), MuJoCo's order, of a rotation matrix (SciPy's is x, y, z,
+    w)."""
+    return np.roll(Rotation.from_matrix(R).as_quat(), 1)
 
 
 def _num(x: float) -> str:
@@ -38,25 +45,6 @@ def _num(x: float) -> str:
 
 def _nums(a: np.ndarray) -> str:
     return " ".join(_num(x) for x in np.ravel(a))
-
-
-def quaternion(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
-    t = np.trace(R)
-    if t > 0:
-        s = 2.0 * np.sqrt(1.0 + t)
-        q = (0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s)
-    else:
-        i = int(np.argmax(np.diag(R)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * np.sqrt(1.0 + R[i, i] - R[j, j] - R[k, k])
-        q = np.empty(4)
-        q[0] = (R[k, j] - R[j, k]) / s
-        q[1 + i] = 0.25 * s
-        q[1 + j] = (R[j, i] + R[i, j]) / s
-        q[1 + k] = (R[k, i] + R[i, k]) / s
-    q = np.asarray(q, dtype=float)
-    return q / np.linalg.norm(q)
 
 
 def mujoco_inertia(inertia: np.ndarray) -> np.ndarray:

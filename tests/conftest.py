@@ -306,6 +306,26 @@ def pin_from_urdf(path: Path, robot: Robot):
 
 
 # --- a Dask cluster in processes of its own (the sweep's tests) ----------------------------------
+
+def mrnea_cli(*args: str | Path, cwd: Path | None = None,
+              timeout: float = 600) -> subprocess.CompletedProcess:
+    """``python -m mrnea ARGS`` as a real process in ``cwd``, the environment (PYTHONPATH)
+    kept; ``timeout`` [s] is the hang guard."""
+    return subprocess.run([sys.executable, "-m", "mrnea", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def one_error_line(res: subprocess.CompletedProcess, *words: str) -> str:
+    """Exit code 2 and exactly one ``mrnea: error:`` line on stderr, naming ``words``; no
+    traceback, no MemoryError. Returns the line."""
+    assert res.returncode == 2, (res.returncode, res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mrnea: error: "), res.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert "Traceback" not in res.stderr and "MemoryError" not in res.stderr
+    return lines[0]
+
 def environment(**extra: str) -> dict[str, str]:
     """The environment of a subprocess that must import the mrnea under test, from any
     folder."""

@@ -22,7 +22,7 @@ import numpy as np
 import pandas
 import pinocchio as pin
 import pytest
-from conftest import erd_path
+from conftest import erd_path, mrnea_cli, one_error_line
 
 from mrnea.io import parse_payload
 
@@ -32,19 +32,6 @@ UR5 = "ur_description/urdf/ur5_robot.urdf"
 PANDA = "panda_description/urdf/panda.urdf"
 HOLD = [0.3, -1.2, 1.4, -0.9, 1.1, 0.4]  # rad: a UR5 pose away from every singular one
 PAYLOAD = (2.0, [0.0, 0.0, 0.1])  # kg, m in wrist_3_link's frame
-
-
-def mrnea(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    """``python -m mrnea ARGS`` in ``cwd`` (PYTHONPATH and the rest of the environment kept)."""
-    return subprocess.run([sys.executable, "-m", "mrnea", *args], cwd=cwd, capture_output=True,
-                          text=True, timeout=600, env=dict(os.environ))
-
-
-def one_error_line(res: subprocess.CompletedProcess) -> str:
-    assert res.returncode == 2, (res.stdout, res.stderr)
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("mrnea: error: "), res.stderr
-    return lines[0]
 
 
 def hold_program(path: Path, robot: str | None, extra: str = "", q=HOLD) -> None:
@@ -99,7 +86,7 @@ def ur5_site(tmp_path_factory):
 @pytest.fixture(scope="module")
 def floor_run(ur5_site: Path) -> Path:
     """The hold program simulated from another folder: its output folder."""
-    res = mrnea("simulate", "../progs/hold.toml", "--out", "out", cwd=ur5_site / "elsewhere")
+    res = mrnea_cli("simulate", "../progs/hold.toml", "--out", "out", cwd=ur5_site / "elsewhere")
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith("ACHIEVABLE: ur5 follows the program")
     return ur5_site / "elsewhere" / "out"
@@ -108,7 +95,7 @@ def floor_run(ur5_site: Path) -> Path:
 def test_ur5_program_with_sidecar_and_payload(ur5_site: Path, floor_run: Path) -> None:
     """The program alone (run from another folder) names the robot, the sidecar and the payload:
     the efforts are Pinocchio's gravity torques with the payload, the limits the sidecar's."""
-    robot = json.loads(mrnea("info", "progs/hold.toml", "--json", cwd=ur5_site).stdout)
+    robot = json.loads(mrnea_cli("info", "progs/hold.toml", "--json", cwd=ur5_site).stdout)
     names = [j["name"] for j in robot["joints"]]
     tau = efforts(floor_run / "cycles.csv", names)
     expected = pin_gravity(ur5_site / "robots" / "ur5.urdf", HOLD)
@@ -124,7 +111,7 @@ def test_ur5_program_with_sidecar_and_payload(ur5_site: Path, floor_run: Path) -
 
 def test_command_line_payload_overrides_the_programs(ur5_site: Path) -> None:
     """--payload replaces the program's payload (here by none), it does not add to it."""
-    res = mrnea("check", "progs/hold.toml", "--payload", "0", "--json", cwd=ur5_site)
+    res = mrnea_cli("check", "progs/hold.toml", "--payload", "0", "--json", cwd=ur5_site)
     assert res.returncode == 0, res.stderr
     peaks = [j["peak_effort"] for j in json.loads(res.stdout)["joints"]]
     bare = pin_gravity(ur5_site / "robots" / "ur5.urdf", HOLD, payload=None)
@@ -134,11 +121,11 @@ def test_command_line_payload_overrides_the_programs(ur5_site: Path) -> None:
 def test_ceiling_mounted_ur5(ur5_site: Path, floor_run: Path) -> None:
     """--gravity 0,0,9.81 hangs the robot: Pinocchio's torques with model.gravity set so, and
     the floor-mounted ones with the sign flipped. ROBOT is the program's file by another path."""
-    res = mrnea("simulate", "../robots/ur5.urdf", "hold.toml", "--gravity", "0,0,9.81",
+    res = mrnea_cli("simulate", "../robots/ur5.urdf", "hold.toml", "--gravity", "0,0,9.81",
                 "--out", "up", cwd=ur5_site / "progs")
     assert res.returncode == 0, res.stderr
     names = [j["name"] for j in json.loads(
-        mrnea("info", "robots/ur5.urdf", "--json", cwd=ur5_site).stdout)["joints"]]
+        mrnea_cli("info", "robots/ur5.urdf", "--json", cwd=ur5_site).stdout)["joints"]]
     up = efforts(ur5_site / "progs" / "up" / "cycles.csv", names)
     down = efforts(floor_run / "cycles.csv", names)
     expected = pin_gravity(ur5_site / "robots" / "ur5.urdf", HOLD, gravity=(0.0, 0.0, 9.81))
@@ -148,22 +135,22 @@ def test_ceiling_mounted_ur5(ur5_site: Path, floor_run: Path) -> None:
 
 
 def test_robot_other_than_the_programs_is_an_error(ur5_site: Path) -> None:
-    line = one_error_line(mrnea("check", "puma560", "progs/hold.toml", cwd=ur5_site))
+    line = one_error_line(mrnea_cli("check", "puma560", "progs/hold.toml", cwd=ur5_site))
     assert "robot 'puma560' is not the robot progs/hold.toml names" in line
     assert "ur5.urdf" in line
 
 
 def test_wrong_joint_count_names_file_and_counts(ur5_site: Path) -> None:
     hold_program(ur5_site / "progs" / "ur5_fast.toml", "../robots/ur5.urdf", q=HOLD[:5])
-    line = one_error_line(mrnea("check", "progs/ur5_fast.toml", cwd=ur5_site))
+    line = one_error_line(mrnea_cli("check", "progs/ur5_fast.toml", cwd=ur5_site))
     assert line.endswith("progs/ur5_fast.toml: 5 joint values per waypoint, robot ur5 has 6")
 
 
 def test_program_naming_no_robot(ur5_site: Path) -> None:
     hold_program(ur5_site / "progs" / "anyrobot.toml", None)
-    line = one_error_line(mrnea("check", "progs/anyrobot.toml", cwd=ur5_site))
+    line = one_error_line(mrnea_cli("check", "progs/anyrobot.toml", cwd=ur5_site))
     assert "names no robot" in line
-    res = mrnea("check", "robots/ur5.urdf", "progs/anyrobot.toml", cwd=ur5_site)
+    res = mrnea_cli("check", "robots/ur5.urdf", "progs/anyrobot.toml", cwd=ur5_site)
     assert res.returncode == 0, res.stderr
 
 
@@ -171,10 +158,10 @@ def test_panda_tip(tmp_path: Path) -> None:
     """Without --tip the Panda's branching fingers are an error listing the candidate tips and
     the option; with it, the arm ends at the chosen link, the rest lumped into link 7."""
     urdf = erd_path(PANDA)
-    line = one_error_line(mrnea("info", str(urdf), cwd=tmp_path))
+    line = one_error_line(mrnea_cli("info", str(urdf), cwd=tmp_path))
     assert "--tip LINK" in line
     assert line.endswith("panda_leftfinger, panda_rightfinger, panda_hand_tcp")
-    res = mrnea("info", str(urdf), "--tip", "panda_hand_tcp", "--json", cwd=tmp_path)
+    res = mrnea_cli("info", str(urdf), "--tip", "panda_hand_tcp", "--json", cwd=tmp_path)
     data = json.loads(res.stdout)
     assert data["n"] == 7 and [j["name"] for j in data["joints"]] == [
         f"panda_joint{i}" for i in range(1, 8)]
@@ -189,20 +176,20 @@ def test_panda_tip(tmp_path: Path) -> None:
     prog = tmp_path / "panda.toml"
     hold_program(prog, str(urdf), 'tip = "panda_hand_tcp"',
                  q=[0.0, -0.5, 0.0, -2.0, 0.0, 1.5, 0.8])
-    res = mrnea("check", "panda.toml", cwd=tmp_path)
+    res = mrnea_cli("check", "panda.toml", cwd=tmp_path)
     assert res.returncode == 0, res.stderr
-    line = one_error_line(mrnea("check", "panda.toml", "--tip", "panda_leftfinger",
+    line = one_error_line(mrnea_cli("check", "panda.toml", "--tip", "panda_leftfinger",
                                 cwd=tmp_path))
     assert "7 joint values per waypoint, robot panda has 8" in line
 
 
 def test_info_without_robot_unknown_and_xacro(tmp_path: Path) -> None:
-    res = mrnea("info", cwd=tmp_path)
+    res = mrnea_cli("info", cwd=tmp_path)
     assert res.returncode == 0 and "sdt" in res.stdout and "puma560" in res.stdout
-    line = one_error_line(mrnea("info", "ur5", cwd=tmp_path))
+    line = one_error_line(mrnea_cli("info", "ur5", cwd=tmp_path))
     assert "'ur5' is neither a built-in robot (sdt, puma560) nor a file" in line
     (tmp_path / "arm.urdf.xacro").write_text("<robot/>")
-    line = one_error_line(mrnea("info", "arm.urdf.xacro", cwd=tmp_path))
+    line = one_error_line(mrnea_cli("info", "arm.urdf.xacro", cwd=tmp_path))
     assert "xacro arm.urdf.xacro > arm.urdf" in line
 
 
@@ -210,7 +197,7 @@ def test_info_json_is_strict_and_the_table_fits(tmp_path: Path) -> None:
     def refuse(token: str) -> None:
         raise AssertionError(f"not strict JSON: {token}")
 
-    res = mrnea("info", "sdt", "--json", cwd=tmp_path)
+    res = mrnea_cli("info", "sdt", "--json", cwd=tmp_path)
     data = json.loads(res.stdout, parse_constant=refuse)
     assert data["joints"][0]["upper"] is None and data["joints"][3]["upper"] == pytest.approx(
         np.pi / 2)
@@ -226,9 +213,9 @@ def test_examples_ur5_program_and_sidecar(tmp_path: Path) -> None:
     """examples/ur5_pick.toml with its sidecar is achievable; 12 kg instead of its 3 saturates a
     wrist: the verdict and the final position error carry units."""
     urdf = str(erd_path(UR5))
-    res = mrnea("check", urdf, str(EXAMPLES / "ur5_pick.toml"), cwd=tmp_path)
+    res = mrnea_cli("check", urdf, str(EXAMPLES / "ur5_pick.toml"), cwd=tmp_path)
     assert res.returncode == 0 and res.stdout.startswith("ACHIEVABLE"), res.stderr
-    res = mrnea("check", urdf, str(EXAMPLES / "ur5_pick.toml"), "--payload", "12@0,0,0.1",
+    res = mrnea_cli("check", urdf, str(EXAMPLES / "ur5_pick.toml"), "--payload", "12@0,0,0.1",
                 cwd=tmp_path)
     assert res.returncode == 1, res.stderr
     assert "NOT ACHIEVABLE" in res.stdout and "wrist_1_joint" in res.stdout

@@ -8,6 +8,7 @@ with a timeout, so that a regression hangs nothing but that process.
 
 from __future__ import annotations
 
+import functools
 import os
 import shutil
 import subprocess
@@ -16,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import mrnea_cli, one_error_line
 
 from mrnea.errors import ProgramFileError, RobotFileError
 from mrnea.io import (
@@ -31,22 +33,10 @@ from mrnea.io import (
 from mrnea.io.source import MAX_CSV_SIZE, MAX_FILE_SIZE
 from mrnea.robots import sdt
 
+mrnea = functools.partial(mrnea_cli, timeout=120)  # [s]: the hang guard
+
 MALFORMED = Path(__file__).resolve().parent / "malformed"
 PROGRAM = ('[program]\nrobot = "sdt"\ndt = 0.01\n[path]\ncsv = "{csv}"\n')
-
-
-def mrnea(*args: str | Path, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mrnea", *map(str, args)], capture_output=True,
-                          text=True, timeout=timeout)
-
-
-def one_error_line(res: subprocess.CompletedProcess, *words: str) -> str:
-    assert res.returncode == 2, (res.returncode, res.stderr)
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("mrnea: error:"), res.stderr
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-    return lines[0]
 
 
 # --- not a regular file -----------------------------------------------------------------------

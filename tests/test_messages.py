@@ -8,24 +8,21 @@ megabyte long, and on the command line, where an error is always exactly one lin
 
 from __future__ import annotations
 
+import functools
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import mrnea_cli
 
 from mrnea.errors import LIST_LIMIT, QUOTE_LIMIT, MrneaError, listing, quote
 from mrnea.io import from_csv, load_urdf, loads_native, loads_program
 
+mrnea = functools.partial(mrnea_cli, timeout=120)  # [s]: the hang guard
+
 MALFORMED = Path(__file__).resolve().parent / "malformed"
 BIG = "x" * 1_000_000
-
-
-def mrnea(*args: str | Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mrnea", *map(str, args)], capture_output=True,
-                          text=True, timeout=120)
 
 
 @pytest.mark.parametrize("value", [

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import mrnea_cli, one_error_line
 
 from mrnea.errors import OutputError
 from mrnea.io.writer import LOCK_NAME, check_new, create, own_folder
@@ -33,21 +34,6 @@ LONG = ('[program]\nrobot = "sdt"\ndt = 0.001\n[path]\nprofile = "quintic"\n'
         "waypoints = [[0, 0, 0, 0], [0.5, 0.15, 0.15, 0.15]]\n"
         "velocity_limit = 0.01\nacceleration_limit = 0.01\n")
 VICTIM = "the user's precious data\n"
-
-
-def mrnea(*args: str | Path, timeout: float = 600) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mrnea", *map(str, args)], capture_output=True,
-                          text=True, timeout=timeout)
-
-
-def one_error_line(res: subprocess.CompletedProcess, *words: str) -> str:
-    """Exit code 2 and exactly one ``mrnea: error:`` line on stderr, naming ``words``."""
-    assert res.returncode == 2, (res.returncode, res.stderr)
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("mrnea: error:"), res.stderr
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-    return lines[0]
 
 
 def leftovers(folder: Path) -> list[str]:
@@ -231,7 +217,7 @@ def test_cli_refuses_a_link_at_an_output_name(tmp_path: Path, victim: Path, shor
     out = tmp_path / "out"
     out.mkdir()
     (out / name).symlink_to(victim)
-    one_error_line(mrnea("simulate", "sdt", short, "--out", out, "--quiet"), name, "exists")
+    one_error_line(mrnea_cli("simulate", "sdt", short, "--out", out, "--quiet"), name, "exists")
     assert victim.read_text() == VICTIM and (out / name).is_symlink()
     assert sorted(p.name for p in out.iterdir()) == [name]
 
@@ -242,11 +228,11 @@ def test_cli_refuses_a_dangling_link_and_the_users_files(tmp_path: Path, short: 
     out = tmp_path / "out"
     out.mkdir()
     (out / name).symlink_to(tmp_path / "nothing-here")
-    one_error_line(mrnea("simulate", "sdt", short, "--out", out), name)
+    one_error_line(mrnea_cli("simulate", "sdt", short, "--out", out), name)
     assert not (tmp_path / "nothing-here").exists()
     (out / name).unlink()
     (out / name).write_text(VICTIM)
-    one_error_line(mrnea("simulate", "sdt", short, "--out", out), name, "--force")
+    one_error_line(mrnea_cli("simulate", "sdt", short, "--out", out), name, "--force")
     assert (out / name).read_text() == VICTIM
 
 
@@ -259,7 +245,7 @@ def test_cli_force_replaces_links_never_their_targets(tmp_path: Path, victim: Pa
     for name in OUTPUTS:
         (out / name).symlink_to(victim)
     (out / "cycles.csv.partial").symlink_to(victim)
-    res = mrnea("simulate", "sdt", short, "--out", out, "--force", "--quiet")
+    res = mrnea_cli("simulate", "sdt", short, "--out", out, "--force", "--quiet")
     assert res.returncode == 0, res.stderr
     assert victim.read_text() == VICTIM
     for name in OUTPUTS:
@@ -275,13 +261,13 @@ def test_cli_a_directory_at_an_output_name_is_one_error(tmp_path: Path, short: P
                                                         force: list[str]) -> None:
     out = tmp_path / "out"
     (out / "summary.json").mkdir(parents=True)
-    one_error_line(mrnea("simulate", "sdt", short, "--out", out, *force), "summary.json",
+    one_error_line(mrnea_cli("simulate", "sdt", short, "--out", out, *force), "summary.json",
                    "is a directory")
     assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
 
 
 def test_cli_out_naming_a_file_is_one_error(tmp_path: Path, victim: Path, short: Path) -> None:
-    res = mrnea("simulate", "sdt", short, "--out", victim)
+    res = mrnea_cli("simulate", "sdt", short, "--out", victim)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert victim.read_text() == VICTIM
 
@@ -290,7 +276,7 @@ def test_demo_refuses_a_link_at_fig3(tmp_path: Path, victim: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
     (out / "fig3.png").symlink_to(victim)
-    one_error_line(mrnea("demo", "--out", out), "fig3.png")
+    one_error_line(mrnea_cli("demo", "--out", out), "fig3.png")
     assert victim.read_text() == VICTIM
 
 
@@ -323,7 +309,7 @@ def test_cli_two_runs_into_one_folder(tmp_path: Path) -> None:
     try:
         wait_for_table(first, out)
         before = sorted(p.name for p in out.iterdir())
-        second = mrnea("simulate", "sdt", long, "--out", out, "--quiet", "--force")
+        second = mrnea_cli("simulate", "sdt", long, "--out", out, "--quiet", "--force")
         one_error_line(second, str(out), "another mrnea run")
         assert sorted(p.name for p in out.iterdir()) == before
     finally:
@@ -342,7 +328,7 @@ def test_cli_a_killed_runs_lock_does_not_block_the_next(tmp_path: Path, short: P
     first.kill()  # SIGKILL: no clean-up at all
     first.communicate(timeout=60)
     assert (out / LOCK_NAME).exists()
-    res = mrnea("simulate", "sdt", short, "--out", out, "--quiet")
+    res = mrnea_cli("simulate", "sdt", short, "--out", out, "--quiet")
     assert res.returncode == 0, res.stderr
     assert (out / "summary.json").is_file() and not (out / LOCK_NAME).exists()
 
@@ -350,17 +336,17 @@ def test_cli_a_killed_runs_lock_does_not_block_the_next(tmp_path: Path, short: P
 # --- fig3 ----------------------------------------------------------------------------------------
 @pytest.mark.parametrize("out", ["fig.xyz", "fig3.png.bak", "fig.pgf"])
 def test_fig3_unsupported_suffix_is_one_error(tmp_path: Path, out: str) -> None:
-    line = one_error_line(mrnea("fig3", "--out", tmp_path / out), "unsupported figure format")
+    line = one_error_line(mrnea_cli("fig3", "--out", tmp_path / out), "unsupported figure format")
     assert ".png" in line
     assert list(tmp_path.iterdir()) == []
 
 
 def test_fig3_without_suffix_never_replaces_the_png(tmp_path: Path) -> None:
     (tmp_path / "fig.png").write_text(VICTIM)
-    one_error_line(mrnea("fig3", "--out", tmp_path / "fig"), "fig.png", "exists")
+    one_error_line(mrnea_cli("fig3", "--out", tmp_path / "fig"), "fig.png", "exists")
     assert (tmp_path / "fig.png").read_text() == VICTIM
     (tmp_path / "figs").mkdir()
-    one_error_line(mrnea("fig3", "--out", tmp_path / "figs"), "is a directory")
+    one_error_line(mrnea_cli("fig3", "--out", tmp_path / "figs"), "is a directory")
     assert list((tmp_path / "figs").iterdir()) == []
 
 
@@ -369,12 +355,12 @@ def test_fig3_links(tmp_path: Path, victim: Path) -> None:
     replaced itself with --force, its target untouched."""
     dangling = tmp_path / "d.png"
     dangling.symlink_to(tmp_path / "created-through-the-link.png")
-    one_error_line(mrnea("fig3", "--out", dangling), "d.png")
+    one_error_line(mrnea_cli("fig3", "--out", dangling), "d.png")
     assert not (tmp_path / "created-through-the-link.png").exists()
     link = tmp_path / "f.png"
     link.symlink_to(victim)
-    one_error_line(mrnea("fig3", "--out", link), "f.png")
-    res = mrnea("fig3", "--out", link, "--force")
+    one_error_line(mrnea_cli("fig3", "--out", link), "f.png")
+    res = mrnea_cli("fig3", "--out", link, "--force")
     assert res.returncode == 0, res.stderr
     assert victim.read_text() == VICTIM
     assert not link.is_symlink() and link.read_bytes()[:4] == b"\x89PNG"

@@ -10,15 +10,14 @@ spanning 1e7 s at 0.01 s, a waypoint program of 5e8 cycles).
 
 from __future__ import annotations
 
-import subprocess
-import sys
+import functools
 import time
 import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import random_chain
+from conftest import mrnea_cli, one_error_line, random_chain
 
 import mrnea.resources as resources
 from mrnea.errors import MrneaError, ProgramFileError, StateError
@@ -28,6 +27,8 @@ from mrnea.robots.sdt_profile import training_profile
 from mrnea.simulate import simulate
 from mrnea.trajectory import PATH_BYTES, quintic, trapezoidal
 
+mrnea = functools.partial(mrnea_cli, timeout=300)  # [s]: the hang guard
+
 
 @pytest.fixture
 def small_budget(monkeypatch):
@@ -35,21 +36,6 @@ def small_budget(monkeypatch):
     monkeypatch.setattr(resources, "available_memory", lambda: 4 * 10**6 / 3)
     monkeypatch.setattr(resources, "BUDGET_FLOOR", 0)
     assert memory_budget() == 10**6
-
-
-def one_error_line(res: subprocess.CompletedProcess, *words: str) -> str:
-    assert res.returncode == 2, (res.returncode, res.stderr)
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("mrnea: error:"), res.stderr
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-    assert "Traceback" not in res.stderr and "MemoryError" not in res.stderr
-    return lines[0]
-
-
-def mrnea(*args: str | Path, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mrnea", *map(str, args)], capture_output=True,
-                          text=True, timeout=300, cwd=cwd)
 
 
 # --- the budget ---------------------------------------------------------------------------------
