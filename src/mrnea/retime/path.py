@@ -53,8 +53,8 @@ def pieces(q: NDArray) -> list[tuple[str, int, int]]:
 def friction_pair(robot: Robot) -> tuple[NDArray, NDArray]:
     """Each joint's Coulomb friction magnitudes (n,) against positive and against negative
     motion, F+ and F- [N m | N], joint side (equal for a symmetric joint)."""
-    F = np.asarray(robot.coulomb_friction, dtype=float)
-    return (F, F) if F.ndim == 1 else (F[:, 0], F[:, 1])
+    F = robot.coulomb_friction  # (n, 2): [F+, F-] per joint
+    return F[:, 0], F[:, 1]
 
 
 def coulomb(robot: Robot, direction: NDArray) -> NDArray:
