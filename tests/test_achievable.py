@@ -27,12 +27,7 @@ from hypothesis import strategies as st
 
 import mrnea
 from mrnea import Joint, Link, Robot, StateError, inverse_dynamics, mass_matrix_and_bias
-from mrnea.achievable import (
-    AchievableResult,
-    StepResult,
-    achievable_accelerations,
-    achievable_step,
-)
+from mrnea.achievable import AchievableResult, StepResult, achievable_accelerations, achievable_step
 from mrnea.actuators import (
     actuator_efforts,
     actuator_mass_matrix_and_bias,

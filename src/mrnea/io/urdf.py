@@ -40,14 +40,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import (
-    ModelError,
-    RobotFileError,
-    clip,
-    listing,
-    quote,
-    shorten,
-)
+from mrnea.errors import ModelError, RobotFileError, clip, listing, quote, shorten
 from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
 from mrnea.io.urdf_transmission import transmissions

@@ -17,24 +17,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import (
-    add,
-    cross,
-    finite,
-    kinematics,
-    sized,
-    tip_point,
-    vec,
-    wrench,
-)
-from mrnea.kernels.layout import (
-    ENTRY_ALLOC,
-    JIT,
-    MASS,
-    PRISMATIC,
-    TYPE,
-    pose_buffers,
-)
+from mrnea.kernels.common import add, cross, finite, kinematics, sized, tip_point, vec, wrench
+from mrnea.kernels.layout import ENTRY_ALLOC, JIT, MASS, PRISMATIC, TYPE, pose_buffers
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 

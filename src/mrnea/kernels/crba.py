@@ -16,17 +16,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import (
-    add,
-    cross,
-    dot,
-    finite,
-    kinematics,
-    mv,
-    scale,
-    sub,
-    vec,
-)
+from mrnea.kernels.common import add, cross, dot, finite, kinematics, mv, scale, sub, vec
 from mrnea.kernels.layout import (
     ALLOC,
     MASS,

@@ -18,26 +18,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from mrnea.kernels.common import (
-    chunk,
-    cross,
-    finite,
-    kinematics,
-    n_chunks,
-    sub,
-    tip_point,
-    vec,
-)
-from mrnea.kernels.layout import (
-    ALLOC,
-    ENTRY,
-    JIT,
-    POSE,
-    PRISMATIC,
-    TYPE,
-    pose_buffers,
-    scratch,
-)
+from mrnea.kernels.common import chunk, cross, finite, kinematics, n_chunks, sub, tip_point, vec
+from mrnea.kernels.layout import ALLOC, ENTRY, JIT, POSE, PRISMATIC, TYPE, pose_buffers, scratch
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 

@@ -14,11 +14,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite, kinematics, sized
-from mrnea.kernels.layout import (
-    ENTRY_ALLOC,
-    force_buffers,
-    pose_buffers,
-)
+from mrnea.kernels.layout import ENTRY_ALLOC, force_buffers, pose_buffers
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 

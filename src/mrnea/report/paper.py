@@ -12,15 +12,7 @@ from numpy.typing import ArrayLike
 
 from mrnea.dynamics import forward_dynamics, inverse_dynamics, mass_matrix_and_bias
 from mrnea.errors import StateError
-from mrnea.report.drawing import (
-    MAX_JOINTS,
-    axes_grid,
-    header,
-    joint_units,
-    label,
-    peak,
-    plot_line,
-)
+from mrnea.report.drawing import MAX_JOINTS, axes_grid, header, joint_units, label, peak, plot_line
 
 if TYPE_CHECKING:
     from mrnea.model import Robot

@@ -36,11 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea import validate
-from mrnea.actuators import (
-    actuator_mass_matrix_and_bias,
-    effort_limits_at,
-    program_requirement,
-)
+from mrnea.actuators import actuator_mass_matrix_and_bias, effort_limits_at, program_requirement
 from mrnea.errors import RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
