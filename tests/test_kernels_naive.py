@@ -14,23 +14,23 @@ without an external wrench. Tolerances (``conftest.rel_err``): 1e-9 for efforts,
 from __future__ import annotations
 
 import naive
+import numba as nb
 import numpy as np
 import pytest
 from conftest import random_chain, random_states, rel_err
 
-from mrnea.kernels.aba import aba
+from mrnea.kernels.aba import aba, aba_batch
 from mrnea.kernels.crba import crba, crba_bias
 from mrnea.kernels.engines import (
     ENGINE_CRBA,
     ENGINE_MRNEA,
     ENGINE_WALKER_ORIN,
-    FD_ABA,
     fd_batch,
     fd_crba,
     fd_walker_orin,
     mass_matrix_bias_batch,
 )
-from mrnea.kernels.layout import compile_model, entry_scratch
+from mrnea.kernels.layout import batch_scratch, compile_model, entry_scratch
 from mrnea.kernels.mrnea import fd_mrnea, mrnea
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
 from mrnea.kernels.status import OK
@@ -110,19 +110,33 @@ def test_forward_dynamics_kernels_against_naive(kernel, n, frac, with_fext):
         assert err <= _fd_tolerance(naive.mass_matrix_jacobian(robot, q), ref), err
 
 
+@pytest.mark.parametrize("threads", [1, nb.config.NUMBA_NUM_THREADS])
 @pytest.mark.parametrize("n, frac", [(1, 0.0), (5, 0.4), (9, 0.2)])
-def test_batch_kernels_against_naive(n, frac):
-    """The batch loops (one scratch per chunk, the kernel picked by its code) give each state
-    the naive result: rnea, reactions, H and u' by every engine, qdd by every method."""
-    robot, m, states = _states(n, frac, True, count=70)  # more states than chunks
+def test_batch_kernels_against_naive(n, frac, threads):
+    """The batch loops (one scratch per thread, the engine picked by its code) give each state
+    the naive result on one thread and on all: rnea, reactions, H and u' by every engine, qdd
+    by every method."""
+    robot, m, states = _states(n, frac, True, count=70)  # many more states than threads
+    before = nb.get_num_threads()
+    nb.set_num_threads(threads)  # for the stack (one scratch a thread) and the kernels
+    try:
+        ws = batch_scratch(n)
+        assert ws[0].shape[0] == threads
+        _check_batches(robot, m, states, ws)
+    finally:
+        nb.set_num_threads(before)
+
+
+def _check_batches(robot, m, states, ws):
+    n = robot.n
     Q, QD, QDD, TAU, FE, PE = (np.array([s[k] for s in states]) for k in
                                ("q", "qd", "qdd", "tau", "f_ext", "f_ext_point"))
     B = len(states)
     status = np.empty(B, dtype=np.int64)
     tau, W = np.empty((B, n)), np.empty((B, n, 6))
-    rnea_batch(m, Q, QD, QDD, FE, PE, tau, status)
+    rnea_batch(m, Q, QD, QDD, FE, PE, tau, status, ws)
     assert (status == OK).all()
-    reactions_batch(m, Q, QD, QDD, FE, PE, W, status)
+    reactions_batch(m, Q, QD, QDD, FE, PE, W, status, ws)
     assert (status == OK).all()
     H_ref = [naive.mass_matrix_jacobian(robot, q) for q in Q]
     for b in range(B):
@@ -131,14 +145,17 @@ def test_batch_kernels_against_naive(n, frac):
         assert rel_err(W[b], naive.joint_reactions(robot, *args)) <= TOL_REF
     for engine in (ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA):
         H, u = np.empty((B, n, n)), np.empty((B, n))
-        mass_matrix_bias_batch(m, Q, QD, FE, PE, H, u, status, engine)
+        mass_matrix_bias_batch(m, Q, QD, FE, PE, H, u, status, ws, engine)
         assert (status == OK).all()
         for b in range(B):
             assert rel_err(H[b], H_ref[b]) <= TOL_REF, engine
             assert rel_err(u[b], naive.bias(robot, Q[b], QD[b], FE[b], PE[b])) <= TOL_REF
-    for method in (ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA, FD_ABA):
+    for method in (ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA, "aba"):
         qdd = np.empty((B, n))
-        fd_batch(m, Q, QD, TAU, FE, PE, qdd, status, method)
+        if method == "aba":
+            aba_batch(m, Q, QD, TAU, FE, PE, qdd, status, ws)
+        else:
+            fd_batch(m, Q, QD, TAU, FE, PE, qdd, status, ws, method)
         assert (status == OK).all()
         for b in range(B):
             ref = naive.forward_dynamics(robot, Q[b], QD[b], TAU[b], FE[b], PE[b])

@@ -42,7 +42,7 @@ from mrnea.kernels.achievable import (
     step,
 )
 from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
+from mrnea.kernels.layout import ACHIEVABLE, batch_scratch, entry_scratch
 from mrnea.model import Robot
 
 Mode = Literal["hybrid", "paper"]
@@ -135,8 +135,8 @@ def achievable_accelerations(
     # qdd, tau, phi, tau_req, limit, sat, stuck
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
-        achievable_batch((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out,
-                         status)
+        achievable_batch((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out, status,
+                         batch_scratch(robot.n, ACHIEVABLE))
     else:
         status = achievable((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out)
     validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})

@@ -26,6 +26,7 @@ from mrnea import compiled, validate
 from mrnea.errors import StateError
 from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents
 from mrnea.kernels.engines import ENGINE_MRNEA
+from mrnea.kernels.layout import batch_scratch
 from mrnea.kernels.simulate import program_requirement as requirement_kernel
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
@@ -51,7 +52,7 @@ def actuator_mass_matrix_and_bias(
     H = np.empty((Q.shape[0], n, n))
     u = np.empty((Q.shape[0], n))
     status = np.empty(Q.shape[0], dtype=np.int64)
-    actuator_terms_batch((m, act), Q, QD, FE, PE, ENGINE_MRNEA, H, u, status)
+    actuator_terms_batch((m, act), Q, QD, FE, PE, ENGINE_MRNEA, H, u, status, batch_scratch(n))
     validate.check_status(robot, status if batched else int(status[0]),
                           {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return (H, u) if batched else (H[0], u[0])

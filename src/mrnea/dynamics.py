@@ -38,12 +38,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.compiled import BY_ID
-from mrnea.kernels.aba import aba
+from mrnea.kernels.aba import aba, aba_batch
 from mrnea.kernels.engines import (
     ENGINE_CRBA,
     ENGINE_MRNEA,
     ENGINE_WALKER_ORIN,
-    FD_ABA,
     fd_batch,
     fd_crba,
     fd_walker_orin,
@@ -51,7 +50,7 @@ from mrnea.kernels.engines import (
 )
 from mrnea.kernels.kinematics import frames, frames_batch, jacobian_batch
 from mrnea.kernels.kinematics import jacobian as jacobian_kernel
-from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, OUT3_T, SCRATCH_T
+from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, OUT3_T, SCRATCH_T, batch_scratch
 from mrnea.kernels.mrnea import fd_mrnea, mrnea
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
 from mrnea.kernels.status import OK
@@ -104,10 +103,10 @@ class _Entry:
 
 
 _FD = {  # method: the single-state entry, the batch kernel
-    "mrnea": (_Entry(fd_mrnea, OUT1_T), partial(fd_batch, method=ENGINE_MRNEA)),
-    "walker_orin": (_Entry(fd_walker_orin, OUT1_T), partial(fd_batch, method=ENGINE_WALKER_ORIN)),
-    "crba": (_Entry(fd_crba, OUT1_T), partial(fd_batch, method=ENGINE_CRBA)),
-    "aba": (_Entry(aba, OUT1_T), partial(fd_batch, method=FD_ABA)),
+    "mrnea": (_Entry(fd_mrnea, OUT1_T), partial(fd_batch, engine=ENGINE_MRNEA)),
+    "walker_orin": (_Entry(fd_walker_orin, OUT1_T), partial(fd_batch, engine=ENGINE_WALKER_ORIN)),
+    "crba": (_Entry(fd_crba, OUT1_T), partial(fd_batch, engine=ENGINE_CRBA)),
+    "aba": (_Entry(aba, OUT1_T), aba_batch),
 }
 _HB = {"mrnea": (_Entry(mrnea, OUT2_T, OUT1_T),
                  partial(mass_matrix_bias_batch, engine=ENGINE_MRNEA)),
@@ -139,7 +138,7 @@ def _evaluate(
         B = arrays[0].shape[0]
         outputs = [np.empty((B, *shape)) for shape in shapes(robot.n)]
         status = np.empty(B, dtype=np.int64)
-        kernel_batch(m, *arrays, fe, pe, *outputs, status)
+        kernel_batch(m, *arrays, fe, pe, *outputs, status, batch_scratch(robot.n))
     else:
         outputs = [np.empty(shape) for shape in shapes(robot.n)]
         if f_ext is None:  # a point without a force changes nothing
@@ -298,7 +297,7 @@ def forward_kinematics(robot: Robot, q: ArrayLike) -> NDArray[np.float64]:
     T = np.empty((*q.shape[:-1], robot.n + 1, 4, 4))
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
-        frames_batch(m, q, T, status)
+        frames_batch(m, q, T, status, batch_scratch(robot.n))
     else:
         status = _FRAMES.free(m, q, T, ws)
     validate.check_status(robot, status, {"q": q})
@@ -344,7 +343,7 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None) -> NDAr
     J = np.empty((*q.shape[:-1], 6, robot.n))
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
-        jacobian_batch(m, q, p, J, status)
+        jacobian_batch(m, q, p, J, status, batch_scratch(robot.n))
     else:
         status = _JACOBIAN.call(m, q, p, J, ws)
     validate.check_status(robot, status, {"q": q, "point": p})

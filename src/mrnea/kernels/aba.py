@@ -1,6 +1,7 @@
 """ABA: the articulated-body algorithm, O(n) forward dynamics (Featherstone, RBDA Sec. 7.3).
 
-Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd, ws)`` fills ``qdd`` (n,). ``status`` is OK,
+Usage: ``status = aba(model, q, qd, tau, fext, pe, qdd, ws)`` fills ``qdd`` (n,);
+``aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, ws)`` does it over a batch. ``status`` is OK,
 NONFINITE (an input holds NaN or inf), or the index of the first joint whose articulated inertia
 D_i is not positive (a singular H).
 
@@ -18,7 +19,16 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import add, cross, finite, kinematics, sized, tip_point, vec, wrench
-from mrnea.kernels.layout import ENTRY_ALLOC, JIT, MASS, PRISMATIC, TYPE, pose_buffers
+from mrnea.kernels.layout import (
+    ENTRY_ALLOC,
+    JIT,
+    MASS,
+    PARALLEL,
+    PRISMATIC,
+    TYPE,
+    own_scratch,
+    pose_buffers,
+)
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
@@ -151,3 +161,11 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
         for a in range(6):
             acc_p[a] += S[i, a] * qdd[i]
     return OK if finite(qdd) else OVERFLOW
+
+
+@nb.njit(**PARALLEL)
+def aba_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, ws):
+    """``aba`` over a batch: Q, QD, TAU, QDD (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,); ws: a
+    ``batch_scratch`` (kernels/layout.py)."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], own_scratch(ws))

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import chunk, finite, n_chunks
+from mrnea.kernels.common import finite
 from mrnea.kernels.drive import actuator_terms, coulomb, effort_limit
 from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
 from mrnea.kernels.layout import (
@@ -39,9 +39,11 @@ from mrnea.kernels.layout import (
     FPOS,
     JIT,
     LOWER,
+    PARALLEL,
     UPPER,
     VLIM,
     achievable_buffers,
+    own_scratch,
     scratch,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
@@ -154,18 +156,13 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, 
     return OK if finite(qd_next) and finite(tau) and finite(tau_req) else OVERFLOW
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def achievable_batch(compiled, Q, QD, QDD_DES, FEXT, PE, mode, engine, OUT, STATUS):
+@nb.njit(**PARALLEL)
+def achievable_batch(compiled, Q, QD, QDD_DES, FEXT, PE, mode, engine, OUT, STATUS, ws):
     """``achievable`` over a batch (B, n): OUT = (QDD, TAU, PHI, TAU_REQ, LIMIT, SAT, STUCK),
-    each (B, n); FEXT (B, 6), PE (B, 3), STATUS (B,)."""
-    B, n = Q.shape
+    each (B, n); FEXT (B, 6), PE (B, 3), STATUS (B,); ws: an ``ACHIEVABLE`` ``batch_scratch``."""
     model, act = compiled
     QDD, TAU, PHI, TAU_REQ, LIMIT, SAT, STUCK = OUT
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, ACHIEVABLE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = achievable_ws(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
-                                      engine, QDD[b], TAU[b], PHI[b], TAU_REQ[b], LIMIT[b],
-                                      SAT[b], STUCK[b], ws)
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = achievable_ws(model, act, Q[b], QD[b], QDD_DES[b], FEXT[b], PE[b], mode,
+                                  engine, QDD[b], TAU[b], PHI[b], TAU_REQ[b], LIMIT[b], SAT[b],
+                                  STUCK[b], own_scratch(ws))

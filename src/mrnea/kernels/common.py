@@ -1,6 +1,6 @@
-"""What every kernel shares: 3-vector and 3x3 algebra on tuples, the kinematics pass, the
-batch kernels' chunks and the entries' checks. The layout of the compiled model, of the scratch
-and the Numba options are in ``layout.py``.
+"""What every kernel shares: 3-vector and 3x3 algebra on tuples, the kinematics pass and the
+entries' checks. The layout of the compiled model, of the scratch and the Numba options are in
+``layout.py``.
 
 Every kernel works in base coordinates, as the paper does: ``R[i]`` (3, 3) is link i's orientation,
 ``o[i]`` (3,) its frame origin (a point on joint i's axis), ``z[i]`` (3,) joint i's unit axis,
@@ -192,20 +192,6 @@ def kinematics(model, q, R, o, z, c, Ic):
         put_sym(Ic, i, mmt(mm(Ri, mat(model[r, INER:INER + 9])), Ri))
         Rp = Ri
         op = oi
-
-
-@nb.njit(**INLINE)
-def chunk(ch, n_chunks, B):
-    """States ``range(lo, hi)`` of chunk ``ch`` when a batch of B states is cut into n_chunks."""
-    return ch * B // n_chunks, (ch + 1) * B // n_chunks
-
-
-@nb.njit(**INLINE)
-def n_chunks(B):
-    """How many chunks a batch kernel cuts B states into, each with its own scratch array so that
-    threads share no memory but their outputs: up to 64, enough to balance the load of up to 16
-    threads (a constant: Numba cannot cache a kernel that asks for the thread count)."""
-    return min(B, 64)
 
 
 @nb.njit(**INLINE)

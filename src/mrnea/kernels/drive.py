@@ -41,10 +41,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import chunk, n_chunks
 from mrnea.kernels.engines import mass_matrix_bias
 from mrnea.kernels.layout import (
-    ALLOC,
     CORNER,
     FNEG,
     FPOS,
@@ -54,9 +52,9 @@ from mrnea.kernels.layout import (
     JIT,
     JM,
     NOLOAD,
+    PARALLEL,
     PEAK,
-    POSE,
-    scratch,
+    own_scratch,
 )
 from mrnea.kernels.status import OK
 
@@ -159,18 +157,13 @@ def actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws):
     return OK
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def actuator_terms_batch(compiled, Q, QD, FEXT, PE, engine, HA, UA, STATUS):
+@nb.njit(**PARALLEL)
+def actuator_terms_batch(compiled, Q, QD, FEXT, PE, engine, HA, UA, STATUS, ws):
     """H_a and u'_a with the Coulomb friction of the joints' motion, ``coulomb(qd)``, over a
-    batch: HA (B, n, n), UA (B, n), STATUS (B,)."""
-    B, n = Q.shape
+    batch: HA (B, n, n), UA (B, n), STATUS (B,); ws: a ``batch_scratch``."""
     model, act = compiled
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = actuator_terms(model, act, Q[b], QD[b], FEXT[b], PE[b], engine, HA[b],
-                                       UA[b], ws)
-            for i in range(n):
-                UA[b, i] += coulomb(QD[b, i], act[i, FPOS], act[i, FNEG])
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = actuator_terms(model, act, Q[b], QD[b], FEXT[b], PE[b], engine, HA[b],
+                                   UA[b], own_scratch(ws))
+        for i in range(Q.shape[1]):
+            UA[b, i] += coulomb(QD[b, i], act[i, FPOS], act[i, FNEG])

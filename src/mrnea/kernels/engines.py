@@ -5,28 +5,27 @@ u' (n,) by the paper's mRNEA (``ENGINE_MRNEA``, kernels/mrnea.py), Walker-Orin m
 (``ENGINE_WALKER_ORIN``, kernels/walker_orin.py) or CRBA with one Newton-Euler pass for the bias
 (``ENGINE_CRBA``, kernels/crba.py); ``status = fd_walker_orin(model, q, qd, tau, fext, pe, qdd,
 ws)`` and ``fd_crba`` solve ``H qdd = tau - u'`` (Eq. 2) on H and u' of those engines
-(``fd_mrnea``, the paper's, is in kernels/mrnea.py). The batch kernels of both, one per kind of
-output: ``mass_matrix_bias_batch(model, Q, QD, FEXT, PE, H, U, STATUS, engine)`` and
-``fd_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, method)``, whose ``method`` is an engine or
-``FD_ABA`` (kernels/aba.py), so that the public API runs every method's batch through the same
-two loops. ``ws``: a ``SOLVE`` scratch (kernels/layout.py).
+(``fd_mrnea``, the paper's, is in kernels/mrnea.py). The batch kernels of both take the engine
+as an argument, so that the public API runs every engine's batch through the same two loops:
+``mass_matrix_bias_batch(model, Q, QD, FEXT, PE, H, U, STATUS, ws, engine)`` and
+``fd_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, ws, engine)`` (ABA, which forms no H, has
+its own, kernels/aba.py). ``ws``: a ``SOLVE`` scratch, or a ``batch_scratch`` for the batch
+kernels (kernels/layout.py).
 """
 
 from __future__ import annotations
 
 import numba as nb
 
-from mrnea.kernels.aba import aba
-from mrnea.kernels.common import chunk, finite, n_chunks, sized
+from mrnea.kernels.common import sized
 from mrnea.kernels.crba import crba_bias
-from mrnea.kernels.layout import ALLOC, ENTRY_ALLOC, JIT, POSE, SOLVE, scratch, solve_buffers
+from mrnea.kernels.layout import ENTRY_ALLOC, JIT, PARALLEL, own_scratch, solve_buffers
 from mrnea.kernels.mrnea import mrnea_ws
 from mrnea.kernels.solve import solve_forward
-from mrnea.kernels.status import NONFINITE, OK, SIZE
+from mrnea.kernels.status import SIZE
 from mrnea.kernels.walker_orin import walker_orin
 
 ENGINE_MRNEA, ENGINE_WALKER_ORIN, ENGINE_CRBA = 0, 1, 2
-FD_ABA = 3  # fd_batch only: the articulated-body algorithm, which forms no H
 
 
 @nb.njit(**JIT)
@@ -45,13 +44,9 @@ def fd_engine(model, q, qd, tau, fext, pe, qdd, engine, ws):
     lengths (status SIZE): H qdd = tau - u' by a Cholesky solve (Eq. 2)."""
     if not sized(model, q, qd, tau):
         return SIZE
-    if not finite(tau):
-        return NONFINITE
     H, L, u, rhs = solve_buffers(ws, q.shape[0])
     status = mass_matrix_bias(model, q, qd, fext, pe, engine, H, u, ws)
-    if status != OK:
-        return status
-    return solve_forward(H, u, tau, L, rhs, qdd)
+    return solve_forward(status, H, u, tau, L, rhs, qdd)
 
 
 @nb.njit(**ENTRY_ALLOC)
@@ -66,32 +61,18 @@ def fd_crba(model, q, qd, tau, fext, pe, qdd, ws):
     return fd_engine(model, q, qd, tau, fext, pe, qdd, ENGINE_CRBA, ws)
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def mass_matrix_bias_batch(model, Q, QD, FEXT, PE, H, U, STATUS, engine):
+@nb.njit(**PARALLEL)
+def mass_matrix_bias_batch(model, Q, QD, FEXT, PE, H, U, STATUS, ws, engine):
     """``mass_matrix_bias`` over a batch: Q, QD, U (B, n); FEXT (B, 6); PE (B, 3); H (B, n, n);
-    STATUS (B,) int64."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = mass_matrix_bias(model, Q[b], QD[b], FEXT[b], PE[b], engine, H[b], U[b],
-                                         ws)
+    STATUS (B,) int64; ws: a ``batch_scratch`` (kernels/layout.py)."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = mass_matrix_bias(model, Q[b], QD[b], FEXT[b], PE[b], engine, H[b], U[b],
+                                     own_scratch(ws))
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def fd_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, method):
-    """Forward dynamics over a batch: ``fd_engine`` on ``method``'s H and u' (an ``ENGINE_*``),
-    or ``aba`` (``FD_ABA``). Q, QD, TAU, QDD (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,) int64."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, SOLVE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            if method == FD_ABA:
-                STATUS[b] = aba(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], ws)
-            else:
-                STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], method,
-                                      ws)
+@nb.njit(**PARALLEL)
+def fd_batch(model, Q, QD, TAU, FEXT, PE, QDD, STATUS, ws, engine):
+    """``fd_engine`` over a batch: TAU, QDD (B, n); the others as ``mass_matrix_bias_batch``."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = fd_engine(model, Q[b], QD[b], TAU[b], FEXT[b], PE[b], QDD[b], engine,
+                              own_scratch(ws))

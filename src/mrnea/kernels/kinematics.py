@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from mrnea.kernels.common import chunk, cross, finite, kinematics, n_chunks, sub, tip_point, vec
-from mrnea.kernels.layout import ALLOC, ENTRY, JIT, POSE, PRISMATIC, TYPE, pose_buffers, scratch
+from mrnea.kernels.common import cross, finite, kinematics, sub, tip_point, vec
+from mrnea.kernels.layout import ENTRY, JIT, PARALLEL, PRISMATIC, TYPE, own_scratch, pose_buffers
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
@@ -82,25 +82,16 @@ def jacobian(model, q, pe, J, ws):
     return jacobian_ws(model, q, pe, J, ws)
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def frames_batch(model, Q, OUT, STATUS):
-    """``frames`` over a batch: Q (B, n), OUT (B, n + 1, 4, 4), STATUS (B,)."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = frames_ws(model, Q[b], OUT[b], ws)
+@nb.njit(**PARALLEL)
+def frames_batch(model, Q, OUT, STATUS, ws):
+    """``frames`` over a batch: Q (B, n), OUT (B, n + 1, 4, 4), STATUS (B,); ws: a
+    ``batch_scratch`` (kernels/layout.py)."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = frames_ws(model, Q[b], OUT[b], own_scratch(ws))
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def jacobian_batch(model, Q, PE, J, STATUS):
-    """``jacobian`` over a batch: Q (B, n), PE (B, 3), J (B, 6, n), STATUS (B,)."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = jacobian_ws(model, Q[b], PE[b], J[b], ws)
+@nb.njit(**PARALLEL)
+def jacobian_batch(model, Q, PE, J, STATUS, ws):
+    """``jacobian`` over a batch, as ``frames_batch``: PE (B, 3), J (B, 6, n)."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = jacobian_ws(model, Q[b], PE[b], J[b], own_scratch(ws))

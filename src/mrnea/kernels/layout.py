@@ -40,7 +40,7 @@ arithmetic of its own; :func:`scratch` is told what the scratch is for (``POSE``
 byte). The slots of kernels that call one another are disjoint; the others share rows, which
 holds because every kernel writes a slot before it reads it::
 
-    pose_buffers      R = T[:n], Ic = T[n:], o, z, c = V[:3n]     the kinematics pass (and
+    pose_buffers      R = T[:n], Ic = T[n:2n], o, z, c = V[:3n]  the kinematics pass (and
                                                                    kinematics.py's frames, J)
     mrnea_buffers     e, d, E, M = V[3n:7n]                        the mRNEA pass
     force_buffers     f, nm = V[3n:5n]                             the Newton-Euler passes
@@ -50,8 +50,9 @@ holds because every kernel writes a slot before it reads it::
     drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
-scratch, the largest an entry needs); batch kernels allocate one per chunk of states, the
-simulation loop one per run: nothing on the hot path allocates.
+scratch, the largest an entry needs); a batch kernel takes a stack of them, one per thread
+(:func:`batch_scratch`), and each state its thread's own (:func:`own_scratch`); the simulation
+loop allocates one per run: nothing on the hot path allocates.
 """
 
 from __future__ import annotations
@@ -96,6 +97,10 @@ ALLOC = {**JIT, "_nrt": True}
 ENTRY = {**JIT, "nogil": False}
 ENTRY_ALLOC = {**ALLOC, "nogil": False}
 INLINE = JIT
+# PARALLEL: a batch kernel: a prange over the states, each on its thread's scratch from the
+# stack its caller makes (``batch_scratch``, ``own_scratch``). It allocates nothing, so it runs
+# without Numba's runtime (docs/design.md)
+PARALLEL = {**JIT, "parallel": True}
 # INTO_CALLER: compiled into the caller's code by Numba itself, whatever runtime the caller has:
 # the slot functions (they return views), and solve.solve_forward, whose call of its own made
 # forward dynamics 3 % slower (measured; LLVM did not inline it)
@@ -169,31 +174,64 @@ def scratch_rows(n, kind):
 
 
 @nb.njit(**ALLOC)
-def new_scratch(n, s_rows, i_rows):
-    """The arrays of a scratch with s_rows rows of S and i_rows of I (at least one each)."""
-    return (np.empty((2 * n, 3, 3)), np.empty((7 * n, 3)), np.empty((max(s_rows, 1), n)),
-            np.empty((max(i_rows, 1), n), dtype=np.int64))
+def new_scratches(n, s_rows, i_rows, count, pad):
+    """``count`` scratches with s_rows rows of S and i_rows of I (at least one each), stacked on
+    a leading axis: ``(T, V, S, I)`` of shapes (count, 2n + pad, 3, 3), (count, 7n + pad, 3),
+    (count, s + pad, n), (count, i + pad, n). The ``pad`` rows at the end of each scratch are
+    never used: 8 of them keep the rows two threads write at least a cache line (64 bytes)
+    apart, so that the threads of a batch do not take the same cache line from each other
+    (false sharing: up to 1.5x the time of a 6-joint batch on two threads, measured)."""
+    return (np.empty((count, 2 * n + pad, 3, 3)), np.empty((count, 7 * n + pad, 3)),
+            np.empty((count, max(s_rows, 1) + pad, n)),
+            np.empty((count, max(i_rows, 1) + pad, n), dtype=np.int64))
+
+
+@nb.njit(**INTO_CALLER)
+def scratch_of(ws, k):
+    """Scratch k ``(T, V, S, I)`` of a stack made by ``new_scratches``."""
+    return ws[0][k], ws[1][k], ws[2][k], ws[3][k]
 
 
 @nb.njit(**ALLOC)
 def scratch(n, kind):
     """A new scratch ``(T, V, S, I)`` for one state of an n-joint robot, for ``kind``."""
     s_rows, i_rows = scratch_rows(n, kind)
-    return new_scratch(n, s_rows, i_rows)
+    return scratch_of(new_scratches(n, s_rows, i_rows, 1, 0), 0)
+
+
+@nb.njit(**INTO_CALLER)
+def own_scratch(ws):
+    """The calling thread's scratch of a batch kernel's stack (``batch_scratch``): threads
+    share no buffer, and a state allocates nothing (``numba.get_thread_id()`` is below the
+    thread count the stack was made for)."""
+    return scratch_of(ws, nb.get_thread_id())
 
 
 def entry_scratch(n: int, kind: int = SOLVE) -> tuple[np.ndarray, ...]:
     """A scratch made in Python by the kernels' own source (so nothing more is compiled); the
     default, ``SOLVE``, serves every single-state entry."""
+    return tuple(a[0] for a in _new_scratches(n, kind, 1, 0))
+
+
+def batch_scratch(n: int, kind: int = SOLVE) -> tuple[np.ndarray, ...]:
+    """A batch kernel's scratch: one per thread of the calling thread's
+    ``numba.get_num_threads()``, stacked (``new_scratches``), with 8 rows of padding between
+    threads. The default kind, ``SOLVE``, is what every single-state entry takes and serves every
+    batch kernel but ``achievable_batch`` (``ACHIEVABLE``). Made in Python: a kernel that asks
+    for the thread count is not cached (docs/design.md)."""
+    return _new_scratches(n, kind, nb.get_num_threads(), 8)
+
+
+def _new_scratches(n: int, kind: int, count: int, pad: int) -> tuple[np.ndarray, ...]:
     rows = getattr(scratch_rows, "py_func", scratch_rows)(n, kind)
-    return getattr(new_scratch, "py_func", new_scratch)(n, *rows)
+    return getattr(new_scratches, "py_func", new_scratches)(n, *rows, count, pad)
 
 
 @nb.njit(**INTO_CALLER)
 def pose_buffers(ws, n):
     """R (n, 3, 3), o, z, c (n, 3), Ic (n, 3, 3): the kinematics pass's output slots."""
     T, V = ws[0], ws[1]
-    return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:]
+    return T[:n], V[:n], V[n:2 * n], V[2 * n:3 * n], T[n:2 * n]
 
 
 @nb.njit(**INTO_CALLER)

@@ -28,8 +28,8 @@ the backward pass is a 3 x n coefficient matrix times qdd plus a 3-vector (Eqs. 
   (kernels/layout.py) skip them, and the tests check the result is bit-for-bit the general one.
 
 ``ws`` is a scratch (kernels/layout.py). ``mrnea`` and ``fd_mrnea`` are the
-single-state entries (they check the state's lengths, status SIZE); ``mrnea_ws`` and
-``fd_mrnea_ws``, which do not, are what the batch kernels and the simulation loop call.
+single-state entries (they check the state's lengths, status SIZE); ``mrnea_ws``, which does
+not, is what the batch kernels and the simulation loop call.
 
 Beyond the paper (which treats revolute joints): for a prismatic joint i the effort is the force
 along its axis, so h_ik = z_i . E_ik and u'_i = z_i . E_i. Eq. 14 folds the external force f_e
@@ -170,25 +170,16 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
-@nb.njit(**JIT)
-def fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws):
-    """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
-
-    Returns OK, NONFINITE, or the index of the pivot where H is not positive definite.
-    Scratch: a ``SOLVE`` one (kernels/layout.py ``solve_buffers``: H, L, u', tau - u').
-    """
-    if not finite(tau):
-        return NONFINITE
-    H, L, u, rhs = solve_buffers(ws, q.shape[0])
-    status = mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
-    if status != OK:
-        return status
-    return solve_forward(H, u, tau, L, rhs, qdd)
-
-
 @nb.njit(**ENTRY)
 def fd_mrnea(model, q, qd, tau, fext, pe, qdd, ws):
-    """``fd_mrnea_ws`` after checking the state's lengths (status SIZE)."""
+    """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
+
+    Returns OK, SIZE (a state of the wrong length), NONFINITE, or the index of the pivot where
+    H is not positive definite. Scratch: a ``SOLVE`` one (kernels/layout.py ``solve_buffers``:
+    H, L, u', tau - u').
+    """
     if not sized(model, q, qd, tau):
         return SIZE
-    return fd_mrnea_ws(model, q, qd, tau, fext, pe, qdd, ws)
+    H, L, u, rhs = solve_buffers(ws, q.shape[0])
+    status = mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
+    return solve_forward(status, H, u, tau, L, rhs, qdd)

@@ -21,7 +21,6 @@ import numba as nb
 
 from mrnea.kernels.common import (
     add,
-    chunk,
     cross,
     dot,
     finite,
@@ -30,7 +29,6 @@ from mrnea.kernels.common import (
     mm,
     mtv,
     mv,
-    n_chunks,
     put,
     rot,
     scale,
@@ -41,21 +39,19 @@ from mrnea.kernels.common import (
     wrench,
 )
 from mrnea.kernels.layout import (
-    ALLOC,
     ENTRY,
     JIT,
     MASS,
     NOCOM,
     NOPOS,
-    POSE,
+    PARALLEL,
     PRISMATIC,
-    REACTIONS,
     ROT,
     TYPE,
     effort_buffer,
     force_buffers,
+    own_scratch,
     pose_buffers,
-    scratch,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
@@ -193,25 +189,17 @@ def reactions(model, q, qd, qdd, fext, pe, out, ws):
     return reactions_ws(model, q, qd, qdd, fext, pe, out, ws)
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS):
-    """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,)."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, POSE)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], ws)
+@nb.njit(**PARALLEL)
+def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS, ws):
+    """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,); ws: a
+    ``batch_scratch`` (kernels/layout.py)."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], own_scratch(ws))
 
 
-@nb.njit(**{**ALLOC, "parallel": True})
-def reactions_batch(model, Q, QD, QDD, FEXT, PE, OUT, STATUS):
-    """``reactions`` over a batch: OUT (B, n, 6), STATUS (B,)."""
-    B, n = Q.shape
-    nc = n_chunks(B)
-    for ch in nb.prange(nc):
-        ws = scratch(n, REACTIONS)
-        lo, hi = chunk(ch, nc, B)
-        for b in range(lo, hi):
-            STATUS[b] = reactions_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], OUT[b], ws)
+@nb.njit(**PARALLEL)
+def reactions_batch(model, Q, QD, QDD, FEXT, PE, OUT, STATUS, ws):
+    """``reactions`` over a batch, as ``rnea_batch``: OUT (B, n, 6)."""
+    for b in nb.prange(Q.shape[0]):
+        STATUS[b] = reactions_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], OUT[b],
+                                 own_scratch(ws))

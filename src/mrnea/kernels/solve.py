@@ -4,8 +4,8 @@ Usage: ``status = cholesky_solve(H, rhs, L, x)`` fills ``x`` (n,) using ``L`` (n
 (its strict lower triangle holds the factor, its diagonal the factor's reciprocal pivots);
 ``status`` is OK or the index of the first pivot that is not positive relative to the largest
 diagonal entry of H (a singular or indefinite H: for example a massless moving tip link).
-H and rhs are not modified. ``status = solve_forward(H, u, tau, L, rhs, qdd)`` is forward
-dynamics once H and u' are known (Eq. 2): qdd from ``H qdd = tau - u'``.
+H and rhs are not modified. ``status = solve_forward(status, H, u, tau, L, rhs, qdd)`` is forward
+dynamics once a pass has filled H and u' (Eq. 2): qdd from ``H qdd = tau - u'``.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 
 from mrnea.kernels.common import finite
 from mrnea.kernels.layout import INTO_CALLER, JIT
-from mrnea.kernels.status import OK, OVERFLOW
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
 PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
 
@@ -55,9 +55,15 @@ def cholesky_solve(H, rhs, L, x):
 
 
 @nb.njit(**INTO_CALLER)
-def solve_forward(H, u, tau, L, rhs, qdd):
-    """qdd (n,) from ``H qdd = tau - u'`` (Eq. 2), ``rhs`` (n,) and ``L`` (n, n) as scratch;
-    returns OK, OVERFLOW, or the index of the failing pivot."""
+def solve_forward(status, H, u, tau, L, rhs, qdd):
+    """Forward dynamics once a pass has filled H and u' and returned ``status`` (Eq. 2): qdd
+    (n,) from ``H qdd = tau - u'``, ``rhs`` (n,) and ``L`` (n, n) as scratch. Returns the pass's
+    status if it is not OK, NONFINITE if tau holds NaN or inf, else OK, OVERFLOW or the index
+    of the failing pivot."""
+    if status != OK:
+        return status
+    if not finite(tau):
+        return NONFINITE
     for i in range(tau.shape[0]):
         rhs[i] = tau[i] - u[i]
     status = cholesky_solve(H, rhs, L, qdd)
