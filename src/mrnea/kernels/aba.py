@@ -24,8 +24,7 @@ from mrnea.kernels.layout import (
     JIT,
     MASS,
     PARALLEL,
-    PRISMATIC,
-    TYPE,
+    is_prismatic,
     own_scratch,
     pose_buffers,
 )
@@ -78,7 +77,7 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
     # pass 1, base to tip: velocities, bias accelerations, rigid-body inertias and bias forces
     for i in range(n):
         zi = vec(z, i)
-        if model[i + 1, TYPE] == PRISMATIC:
+        if is_prismatic(model, i):
             S[i, 3:] = zi
         else:
             S[i, :3] = zi

@@ -23,12 +23,11 @@ from mrnea.kernels.layout import (
     NOCOM,
     NOPOS,
     POS,
-    PRISMATIC,
     ROT,
     ROTB,
     ROTC,
-    TYPE,
     ZAX,
+    is_prismatic,
 )
 
 # --- 3-vector algebra on tuples -----------------------------------------------------------------
@@ -172,7 +171,7 @@ def kinematics(model, q, R, o, z, c, Ic):
         zi = mvt(Rp, triple(model[r, ZAX:ZAX + 3]))
         oi = op if model[r, NOPOS] else add(op, mvt(Rp, triple(model[r, POS:POS + 3])))
         A = mat(model[r, ROT:ROT + 9])
-        if model[r, TYPE] == PRISMATIC:
+        if is_prismatic(model, i):
             oi = add(oi, scale(zi, q[i]))
             Ri = mm(Rp, A)
         else:

@@ -17,15 +17,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import add, cross, dot, finite, kinematics, mv, scale, sub, vec
-from mrnea.kernels.layout import (
-    ALLOC,
-    MASS,
-    PRISMATIC,
-    TYPE,
-    force_buffers,
-    pose_arrays,
-    pose_buffers,
-)
+from mrnea.kernels.layout import ALLOC, MASS, force_buffers, is_prismatic, pose_arrays, pose_buffers
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
@@ -80,7 +72,7 @@ def composite(model, o, z, c, Ic, H):
 
         # force and moment (about C_j) that a unit acceleration of joint j needs
         zj = vec(z, j)
-        if model[j + 1, TYPE] == PRISMATIC:
+        if is_prismatic(model, j):
             F = scale(zj, Mc)
             Nc = (0.0, 0.0, 0.0)
         else:
@@ -88,7 +80,7 @@ def composite(model, o, z, c, Ic, H):
             Nc = mv(Jc, 0, zj)
         for i in range(j + 1):
             zi = vec(z, i)
-            if model[i + 1, TYPE] == PRISMATIC:
+            if is_prismatic(model, i):
                 h = dot(zi, F)
             else:
                 h = dot(zi, add(Nc, cross(sub(Cc, vec(o, i)), F)))

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import cross, finite, kinematics, sub, tip_point, vec
-from mrnea.kernels.layout import ENTRY, JIT, PARALLEL, PRISMATIC, TYPE, own_scratch, pose_buffers
+from mrnea.kernels.layout import ENTRY, JIT, PARALLEL, is_prismatic, own_scratch, pose_buffers
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
@@ -64,7 +64,7 @@ def jacobian_ws(model, q, pe, J, ws):
     p = tip_point(o, R, n, pe)  # o_n + R_n p_e, base coordinates
     for k in range(n):
         zk = vec(z, k)
-        if model[k + 1, TYPE] == PRISMATIC:
+        if is_prismatic(model, k):
             v, w = zk, (0.0, 0.0, 0.0)
         else:
             v, w = cross(zk, sub(p, vec(o, k))), zk  # Eq. 5 at the point p

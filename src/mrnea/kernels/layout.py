@@ -5,7 +5,7 @@ single-state entries. The status codes are in ``status.py`` (no Numba there).
 Compiled model (:func:`compile_model`): one read-only float64 array of shape ``(n + 1, NCOL)``.
 Row 0 holds the gravity vector in ``[0:3]``; row ``i + 1`` describes joint ``i`` and link ``i``::
 
-    TYPE        0 revolute (and continuous), 1 prismatic
+    TYPE        0 revolute (and continuous), 1 prismatic (kernels ask :func:`is_prismatic`)
     ROT  (9)    origin rotation A, parent link frame -> joint frame, row-major
     POS  (3)    origin translation [m], parent link frame
     AXIS (3)    unit joint axis a, joint frame
@@ -114,6 +114,12 @@ OUT2_T = nb.types.Array(nb.types.float64, 2, "C")
 OUT3_T = nb.types.Array(nb.types.float64, 3, "C")
 SCRATCH_T = nb.types.Tuple((nb.types.Array(nb.types.float64, 3, "C"), OUT2_T, OUT2_T,
                             nb.types.Array(nb.types.int64, 2, "C")))  # entry_scratch
+
+
+@nb.njit(**INLINE)
+def is_prismatic(model, i):
+    """Whether joint i (0-based: row i + 1 of the compiled model) is prismatic."""
+    return model[i + 1, TYPE] == PRISMATIC
 
 
 def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:

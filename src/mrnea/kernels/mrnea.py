@@ -63,8 +63,7 @@ from mrnea.kernels.layout import (
     MASS,
     NOCOM,
     NOPOS,
-    PRISMATIC,
-    TYPE,
+    is_prismatic,
     mrnea_buffers,
     pose_buffers,
     solve_buffers,
@@ -139,7 +138,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
         # a1 (Eq. 24): d_ik + l_i x e_ik, k <= i; and E_{ik} = E_{(i+1)k} + e_ik
         for k in range(i + 1):
             zk = vec(z, k)
-            if model[k + 1, TYPE] == PRISMATIC:
+            if is_prismatic(model, k):
                 e_ik = scale(zk, m_i)  # Eqs. 5, 15
                 t = cross(l_i, e_ik) if has_l else (0.0, 0.0, 0.0)
             else:
@@ -159,7 +158,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
         n_c = add(n_c, n_ic)
         E_c = add(E_c, e_i)  # E_i
         # Eqs. 35-36: moments projected on the axis; forces for a prismatic joint
-        prismatic = model[i + 1, TYPE] == PRISMATIC
+        prismatic = is_prismatic(model, i)
         C = E if prismatic else M
         for k in range(n if full else i + 1):
             H[i, k] = dot(zi, vec(C, k))

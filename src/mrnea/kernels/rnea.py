@@ -45,11 +45,10 @@ from mrnea.kernels.layout import (
     NOCOM,
     NOPOS,
     PARALLEL,
-    PRISMATIC,
     ROT,
-    TYPE,
     effort_buffer,
     force_buffers,
+    is_prismatic,
     own_scratch,
     pose_buffers,
 )
@@ -73,7 +72,7 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
             p_star = sub(oi, vec(o, i - 1)) if i > 0 else oi
             # acceleration of the point of the parent coinciding with o_i
             a_o = add(a_o, add(cross(wd, p_star), cross(w, cross(w, p_star))))
-        if model[i + 1, TYPE] == PRISMATIC:
+        if is_prismatic(model, i):
             a_o = add(a_o, scale(cross(w, zi), 2.0 * qd[i]))
             if qdd is not None:
                 a_o = add(a_o, scale(zi, qdd[i]))
@@ -117,7 +116,7 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
         put(f, i, fi)
         put(nm, i, ni)
         # Eq. 33: projection on the axis of motion (force for a prismatic joint)
-        tau[i] = dot(vec(z, i), fi if model[i + 1, TYPE] == PRISMATIC else ni)
+        tau[i] = dot(vec(z, i), fi if is_prismatic(model, i) else ni)
         f_next, n_next, p_next = fi, ni, oi
 
 
@@ -168,7 +167,7 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
         # joint frame: the parent's orientation times the origin rotation, D_{i-1} in Eq. 32
         Rp = rot(R, i - 1) if i > 0 else (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         Rj = mm(Rp, mat(model[i + 1, ROT:ROT + 9]))
-        if model[i + 1, TYPE] == PRISMATIC:
+        if is_prismatic(model, i):
             # moment about the joint frame's origin, o_i - z_i q_i: add (z_i q_i) x f_i
             t = cross(scale(vec(z, i), q[i]), vec(f, i))
             for a in range(3):
