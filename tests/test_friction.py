@@ -19,6 +19,7 @@ import pytest
 import mrnea
 from mrnea import Joint, ModelError, RobotFileError
 from mrnea.achievable import achievable_accelerations
+from mrnea.actuators import coulomb_effort
 from mrnea.io import load_robot, load_urdf
 from mrnea.io.native import loads_native
 from mrnea.simulate import simulate
@@ -45,6 +46,22 @@ def test_with_actuators_and_the_robot_array():
     assert robot.with_actuators(coulomb_friction=7.0).coulomb_friction.tolist() == [[7, 7]] * 4
     with pytest.raises(ModelError, match="4 entries"):
         robot.with_actuators(coulomb_friction=[1.0, 2.0])
+
+
+def test_coulomb_effort_is_the_law_by_hand():
+    """phi(qd) (actuators.coulomb_effort): F+ moving forward, -F- moving back, 0 at rest, per
+    joint, one state or a batch; the joints' own pairs, asymmetric included."""
+    robot = mrnea.robots.puma560()  # RTB's Tc+ != Tc-
+    F = np.array([j.coulomb_pair for j in robot.joints])
+    assert np.any(F[:, 0] != F[:, 1])
+    qd = np.array([0.3, -2.0, 0.0, 1e-300, -1e-300, 5.0])
+    expect = [F[0, 0], -F[1, 1], 0.0, F[3, 0], -F[4, 1], F[5, 0]]
+    assert coulomb_effort(robot, qd).tolist() == expect
+    batch = coulomb_effort(robot, np.stack([qd, -qd]))
+    assert batch.shape == (2, 6) and batch[0].tolist() == expect
+    assert batch[1].tolist() == [-F[0, 1], F[1, 0], 0.0, -F[3, 1], F[4, 0], -F[5, 1]]
+    with pytest.raises(mrnea.StateError, match="qd"):
+        coulomb_effort(robot, [0.0, math.nan, 0, 0, 0, 0])
 
 
 def test_native_toml_and_sidecar_read_a_pair(tmp_path):

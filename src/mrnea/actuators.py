@@ -82,6 +82,16 @@ def effort_limits_at(robot: Robot, qd: ArrayLike) -> NDArray[np.float64]:
     return out.reshape(np.shape(qd))
 
 
+def coulomb_effort(robot: Robot, qd: ArrayLike) -> NDArray[np.float64]:
+    """phi(qd) of the module docstring: each joint's Coulomb friction effort [N m | N], joint
+    side, at joint velocity qd [rad/s | m/s], (n,) or (B, n): F+ where qd > 0, -F- where
+    qd < 0, 0 at rest (where friction is set-valued; a cycle resolves it). The law of
+    ``kernels/drive.coulomb``, vectorised for whole paths (:mod:`mrnea.retime`)."""
+    _, (qd,), _, _ = validate.inputs(robot, {"qd": qd}, None, None)
+    F = robot.coulomb_friction  # (n, 2): [F+, F-]
+    return np.where(qd > 0.0, F[:, 0], np.where(qd < 0.0, -F[:, 1], 0.0))
+
+
 def effort_limit_branches(robot: Robot, speed: ArrayLike) -> NDArray[np.float64]:
     """The falling branches of each joint's torque-speed curve at ``speed`` >= 0 [rad/s | m/s],
     (n,) or (B, n), with their slopes: (..., n, 4) ``[P / w, -P / w^2, line, -gamma]`` (constant

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.actuators import actuator_mass_matrix_and_bias
+from mrnea.actuators import actuator_mass_matrix_and_bias, coulomb_effort
 from mrnea.model import Robot
 
 if TYPE_CHECKING:
@@ -55,13 +55,6 @@ def friction_pair(robot: Robot) -> tuple[NDArray, NDArray]:
     motion, F+ and F- [N m | N], joint side (equal for a symmetric joint)."""
     F = robot.coulomb_friction  # (n, 2): [F+, F-] per joint
     return F[:, 0], F[:, 1]
-
-
-def coulomb(robot: Robot, direction: NDArray) -> NDArray:
-    """The Coulomb friction effort [N m | N] of each joint moving in ``direction`` (..., n) (> 0:
-    F+, < 0: -F-, 0: at rest, none), joint side, as the actuator convention adds it (Eq. 43)."""
-    fp, fn = friction_pair(robot)
-    return np.where(direction > 0, fp, np.where(direction < 0, -fn, 0.0))
 
 
 def at_clock(t: NDArray, tk: NDArray, rows: NDArray | None) -> NDArray | None:
@@ -196,7 +189,7 @@ def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDAr
                                            np.concatenate([qs, np.zeros_like(qs)]),
                                            twice(f_ext), twice(f_ext_point))
     sgn = np.sign(qs)
-    u1 = u2[:G] - robot.viscous_friction * qs - coulomb(robot, sgn)  # rigid u'(q, q_s)
+    u1 = u2[:G] - robot.viscous_friction * qs - coulomb_effort(robot, sgn)  # rigid u'(q, q_s)
     c = u2[G:]
     a = np.einsum("kij,kj->ki", H2[:G], qs)
     b = np.einsum("kij,kj->ki", H2[:G], qss) + u1 - c

@@ -28,10 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.actuators import effort_limit_branches, effort_limits_at
+from mrnea.actuators import coulomb_effort, effort_limit_branches, effort_limits_at
 from mrnea.errors import RetimeError
 from mrnea.model import Robot
-from mrnea.retime.path import PathCoefficients, coulomb, friction_pair
+from mrnea.retime.path import PathCoefficients, friction_pair
 
 SPARE = 1e-3  # holdable: (sdd, sd^2) = (0, 0) satisfies every row with this fraction of the peak
 APART = 1e-6  # the second viscous row only where it differs from the first by this (of the peak)
@@ -97,7 +97,7 @@ def _friction_bounds(pc: PathCoefficients, lim: Limits) -> tuple[NDArray, NDArra
     by F_s on both sides (a joint reversing, starting or stopping: breakaway friction)."""
     fp, fn = friction_pair(lim.robot)
     known = np.isfinite(pc.sign)
-    coul = coulomb(lim.robot, np.nan_to_num(pc.sign))
+    coul = coulomb_effort(lim.robot, np.nan_to_num(pc.sign))
     return pc.c + np.where(known, coul, fp), pc.c + np.where(known, coul, -fn)
 
 
@@ -219,7 +219,7 @@ def holding_need(robot: Robot, c: NDArray, sign: NDArray, moving: NDArray) -> ND
     fp, fn = friction_pair(robot)
     with np.errstate(invalid="ignore"):
         against = np.where(np.isfinite(sign),
-                           np.abs(c + coulomb(robot, np.nan_to_num(sign))),
+                           np.abs(c + coulomb_effort(robot, np.nan_to_num(sign))),
                            np.maximum(np.abs(c + fp), np.abs(c - fn)))
     return np.where(moving, against, np.maximum(np.maximum(c - fn, -c - fp), 0.0))
 

@@ -36,11 +36,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea import validate
-from mrnea.actuators import actuator_mass_matrix_and_bias, effort_limits_at, program_requirement
+from mrnea.actuators import (
+    actuator_mass_matrix_and_bias,
+    coulomb_effort,
+    effort_limits_at,
+    program_requirement,
+)
 from mrnea.errors import RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
-from mrnea.retime.path import coulomb, friction_pair, piece_rows, piece_spline
+from mrnea.retime.path import friction_pair, piece_rows, piece_spline
 from mrnea.retime.rows import holding_need, static_check
 from mrnea.trajectory import require_path_memory
 
@@ -94,7 +99,7 @@ def hollerbach(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = None
     B = robot.viscous_friction * qd
     fp, fn = friction_pair(robot)
     still = direction == 0
-    return Hollerbach(h - B - c, B, c + coulomb(robot, direction), c, direction, qd,
+    return Hollerbach(h - B - c, B, c + coulomb_effort(robot, direction), c, direction, qd,
                       np.where(still, fp, 0.0), np.where(still, fn, 0.0))
 
 
