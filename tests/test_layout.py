@@ -14,26 +14,32 @@ import itertools
 import re
 from pathlib import Path
 
+import numba as nb
 import numpy as np
 import pytest
 from conftest import random_chain
+from numpy.lib.array_utils import byte_bounds
 
 import mrnea
 from mrnea import compiled
 from mrnea.kernels.layout import (
     ACHIEVABLE,
+    BATCH_PAD,
     NACT,
     NCOL,
     POSE,
-    REACTIONS,
     SOLVE,
     achievable_buffers,
+    batch_scratch,
     drive_solve_buffers,
     effort_buffer,
     entry_scratch,
     force_buffers,
     mrnea_buffers,
+    new_scratches,
     pose_buffers,
+    scratch_of,
+    scratch_rows,
     solve_buffers,
 )
 
@@ -45,8 +51,8 @@ def _py(fn):
     return getattr(fn, "py_func", fn)
 
 
-def _slots(kind: int, n: int) -> dict[str, list[np.ndarray]]:
-    ws = entry_scratch(n, kind)
+def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndarray]]:
+    ws = entry_scratch(n, kind) if ws is None else ws
     out = {"pose": list(_py(pose_buffers)(ws, n)), "mrnea": list(_py(mrnea_buffers)(ws, n)),
            "force": list(_py(force_buffers)(ws, n)), "effort": [_py(effort_buffer)(ws)]}
     if kind in (SOLVE, ACHIEVABLE):
@@ -65,8 +71,7 @@ SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's d
 }
 # the slots used at the same time: a kernel's own, and those of every kernel it calls
 TOGETHER = {
-    POSE: [("pose", "mrnea"), ("pose", "force")],
-    REACTIONS: [("pose", "force", "effort")],
+    POSE: [("pose", "mrnea"), ("pose", "force"), ("pose", "force", "effort")],
     SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve")],
     ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve"),
                  ("pose", "force", "achievable", "drive_solve"), ("pose", "force", "effort")],
@@ -74,7 +79,7 @@ TOGETHER = {
 
 
 @pytest.mark.parametrize("n", [1, 2, 7])
-@pytest.mark.parametrize("kind", [POSE, REACTIONS, SOLVE, ACHIEVABLE])
+@pytest.mark.parametrize("kind", [POSE, SOLVE, ACHIEVABLE])
 def test_slots_fit_their_scratch_and_do_not_overlap(kind: int, n: int) -> None:
     slots = _slots(kind, n)
     want = {"n": (n,), "n3": (n, 3), "n33": (n, 3, 3), "nn": (n, n), "2n": (2, n),
@@ -85,6 +90,41 @@ def test_slots_fit_their_scratch_and_do_not_overlap(kind: int, n: int) -> None:
         views = [(name, k, v) for name in group for k, v in enumerate(slots[name])]
         for (a, i, x), (b, j, y) in itertools.combinations(views, 2):
             assert not np.shares_memory(x, y), f"{a}[{i}] and {b}[{j}] overlap"
+
+
+def test_batch_scratch_has_one_scratch_per_thread() -> None:
+    before = nb.get_num_threads()
+    try:
+        for threads in {1, nb.config.NUMBA_NUM_THREADS}:
+            nb.set_num_threads(threads)
+            assert all(a.shape[0] == threads for a in batch_scratch(4))
+    finally:
+        nb.set_num_threads(before)
+
+
+@pytest.mark.parametrize("n", [1, 2, 6, 7])
+@pytest.mark.parametrize("kind", [SOLVE, ACHIEVABLE])
+def test_threads_of_a_batch_stack_are_a_cache_line_apart(kind: int, n: int) -> None:
+    """Two threads' scratches in a batch stack (padded by BATCH_PAD rows): each thread's slots
+    have their shapes, and no slot of one comes within 64 bytes of a slot of the other in the
+    same array (no shared cache line)."""
+    rows = _py(scratch_rows)(n, kind)
+    stack = _py(new_scratches)(n, *rows, 2, BATCH_PAD)
+    threads = [_slots(kind, n, _py(scratch_of)(stack, k)) for k in (0, 1)]
+    for slots in threads:
+        for name, views in slots.items():
+            assert [v.shape for v in views] == [_SHAPE[s](n) for s in SHAPES[name]], name
+    for arr in stack:
+        first, end = byte_bounds(arr)
+        spans = [[byte_bounds(v) for views in slots.values() for v in views
+                  if first <= byte_bounds(v)[0] < end] for slots in threads]
+        for lo0, hi0 in spans[0]:
+            for lo1, hi1 in spans[1]:
+                assert hi0 + 64 <= lo1 or hi1 + 64 <= lo0
+
+
+_SHAPE = {"n": lambda n: (n,), "n3": lambda n: (n, 3), "n33": lambda n: (n, 3, 3),
+          "nn": lambda n: (n, n), "2n": lambda n: (2, n), "3n": lambda n: (3, n)}
 
 
 def test_integer_slots_are_integers() -> None:

@@ -35,8 +35,8 @@ The kernels that need both take them as one tuple, ``compiled = (model, act)``.
 Scratch (:func:`scratch`): the buffers of one state, the tuple ``(T, V, S, I)`` of 3x3 matrices
 T (2n, 3, 3), 3-vectors V (7n, 3), rows of n floats S and rows of n ints I. A kernel takes its
 buffers through the slot functions below (first-axis slices: no copy, no reshape), never by row
-arithmetic of its own; :func:`scratch` is told what the scratch is for (``POSE``, ``REACTIONS``,
-``SOLVE``, ``ACHIEVABLE``) and allocates the rows those slots need (allocation costs time by the
+arithmetic of its own; :func:`scratch` is told what the scratch is for (``POSE``, ``SOLVE``,
+``ACHIEVABLE``) and allocates the rows those slots need (allocation costs time by the
 byte). The slots of kernels that call one another are disjoint; the others share rows, which
 holds because every kernel writes a slot before it reads it::
 
@@ -162,9 +162,10 @@ def compile_actuators(robot: Robot) -> np.ndarray:
 
 
 # --- the scratch ----------------------------------------------------------------------------------
-# what a scratch is for: the kinematics and Newton-Euler or mRNEA passes alone, those and the
-# reactions' efforts, those and a forward-dynamics solve, or the achievable accelerations
-POSE, REACTIONS, SOLVE, ACHIEVABLE = 0, 1, 2, 3
+# what a scratch is for: the kinematics and Newton-Euler or mRNEA passes (and the reactions'
+# efforts), those and a forward-dynamics solve, or the achievable accelerations
+POSE, SOLVE, ACHIEVABLE = 0, 1, 2
+BATCH_PAD = 8  # unused rows after each thread's scratch in a batch stack (``new_scratches``)
 
 
 @nb.njit(**INTO_CALLER)
@@ -174,9 +175,7 @@ def scratch_rows(n, kind):
         return 3 * n + 15, 4
     if kind == SOLVE:
         return 2 * n + 2, 0
-    if kind == REACTIONS:
-        return 1, 0
-    return 0, 0
+    return 1, 0  # POSE: S[0], the reactions' efforts
 
 
 @nb.njit(**ALLOC)
@@ -208,8 +207,9 @@ def scratch(n, kind):
 @nb.njit(**INTO_CALLER)
 def own_scratch(ws):
     """The calling thread's scratch of a batch kernel's stack (``batch_scratch``): threads
-    share no buffer, and a state allocates nothing (``numba.get_thread_id()`` is below the
-    thread count the stack was made for)."""
+    share no buffer, and taking it allocates nothing. The stack must have been made for the
+    thread count the kernel runs on (``numba.get_thread_id()`` below it): by ``batch_scratch``
+    in the same call, on the same Python thread, as the launch."""
     return scratch_of(ws, nb.get_thread_id())
 
 
@@ -221,11 +221,11 @@ def entry_scratch(n: int, kind: int = SOLVE) -> tuple[np.ndarray, ...]:
 
 def batch_scratch(n: int, kind: int = SOLVE) -> tuple[np.ndarray, ...]:
     """A batch kernel's scratch: one per thread of the calling thread's
-    ``numba.get_num_threads()``, stacked (``new_scratches``), with 8 rows of padding between
-    threads. The default kind, ``SOLVE``, is what every single-state entry takes and serves every
-    batch kernel but ``achievable_batch`` (``ACHIEVABLE``). Made in Python: a kernel that asks
-    for the thread count is not cached (docs/design.md)."""
-    return _new_scratches(n, kind, nb.get_num_threads(), 8)
+    ``numba.get_num_threads()``, stacked (``new_scratches``), with ``BATCH_PAD`` rows of padding
+    between threads. The default kind, ``SOLVE``, is what every single-state entry takes; it
+    serves every batch kernel but ``achievable_batch`` (``ACHIEVABLE``). Made in Python: a
+    kernel that asks for the thread count is not cached (docs/design.md)."""
+    return _new_scratches(n, kind, nb.get_num_threads(), BATCH_PAD)
 
 
 def _new_scratches(n: int, kind: int, count: int, pad: int) -> tuple[np.ndarray, ...]:

@@ -154,8 +154,8 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     ``out[i] = [f; n]`` (6,): force [N] and moment [N m] that link i-1 exerts on link i through
     joint i, in the joint frame (the parent's frame moved by the joint origin, fixed to the
     parent: the bearing's housing), the moment about the joint frame's origin o_i.
-    Scratch: a ``REACTIONS`` one or larger (its ``effort_buffer`` holds the efforts, not
-    returned). ``pose_ready``: as ``rnea_ws``.
+    Scratch: any kind (its ``effort_buffer`` holds the efforts, not returned). ``pose_ready``:
+    as ``rnea_ws``.
     """
     n = q.shape[0]
     status = rnea_ws(model, q, qd, qdd, fext, pe, effort_buffer(ws), ws, pose_ready)

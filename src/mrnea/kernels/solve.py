@@ -57,13 +57,13 @@ def cholesky_solve(H, rhs, L, x):
 @nb.njit(**INTO_CALLER)
 def solve_forward(status, H, u, tau, L, rhs, qdd):
     """Forward dynamics once a pass has filled H and u' and returned ``status`` (Eq. 2): qdd
-    (n,) from ``H qdd = tau - u'``, ``rhs`` (n,) and ``L`` (n, n) as scratch. Returns the pass's
-    status if it is not OK, NONFINITE if tau holds NaN or inf, else OK, OVERFLOW or the index
-    of the failing pivot."""
-    if status != OK:
-        return status
+    (n,) from ``H qdd = tau - u'``, ``rhs`` (n,) and ``L`` (n, n) as scratch. Returns NONFINITE
+    if tau holds NaN or inf, else the pass's status if it is not OK, else OK, OVERFLOW or the
+    index of the failing pivot."""
     if not finite(tau):
         return NONFINITE
+    if status != OK:
+        return status
     for i in range(tau.shape[0]):
         rhs[i] = tau[i] - u[i]
     status = cholesky_solve(H, rhs, L, qdd)
