@@ -69,6 +69,14 @@ SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's d
     "achievable": ["nn", *["n"] * 6],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
 }
+
+
+def _shapes(name: str, n: int) -> list[tuple[int, ...]]:
+    """The shapes of slot group ``name``'s views for n joints (SHAPES, in units of n)."""
+    unit = {"n": (n,), "n3": (n, 3), "n33": (n, 3, 3), "nn": (n, n), "2n": (2, n), "3n": (3, n)}
+    return [unit[s] for s in SHAPES[name]]
+
+
 # the slots used at the same time: a kernel's own, and those of every kernel it calls
 TOGETHER = {
     POSE: [("pose", "mrnea"), ("pose", "force"), ("pose", "force", "effort")],
@@ -82,10 +90,8 @@ TOGETHER = {
 @pytest.mark.parametrize("kind", [POSE, SOLVE, ACHIEVABLE])
 def test_slots_fit_their_scratch_and_do_not_overlap(kind: int, n: int) -> None:
     slots = _slots(kind, n)
-    want = {"n": (n,), "n3": (n, 3), "n33": (n, 3, 3), "nn": (n, n), "2n": (2, n),
-            "3n": (3, n)}
     for name, views in slots.items():
-        assert [v.shape for v in views] == [want[s] for s in SHAPES[name]], name
+        assert [v.shape for v in views] == _shapes(name, n), name
     for group in TOGETHER[kind]:
         views = [(name, k, v) for name in group for k, v in enumerate(slots[name])]
         for (a, i, x), (b, j, y) in itertools.combinations(views, 2):
@@ -113,7 +119,7 @@ def test_threads_of_a_batch_stack_are_a_cache_line_apart(kind: int, n: int) -> N
     threads = [_slots(kind, n, _py(scratch_of)(stack, k)) for k in (0, 1)]
     for slots in threads:
         for name, views in slots.items():
-            assert [v.shape for v in views] == [_SHAPE[s](n) for s in SHAPES[name]], name
+            assert [v.shape for v in views] == _shapes(name, n), name
     for arr in stack:
         first, end = byte_bounds(arr)
         spans = [[byte_bounds(v) for views in slots.values() for v in views
@@ -121,10 +127,6 @@ def test_threads_of_a_batch_stack_are_a_cache_line_apart(kind: int, n: int) -> N
         for lo0, hi0 in spans[0]:
             for lo1, hi1 in spans[1]:
                 assert hi0 + 64 <= lo1 or hi1 + 64 <= lo0
-
-
-_SHAPE = {"n": lambda n: (n,), "n3": lambda n: (n, 3), "n33": lambda n: (n, 3, 3),
-          "nn": lambda n: (n, n), "2n": lambda n: (2, n), "3n": lambda n: (3, n)}
 
 
 def test_integer_slots_are_integers() -> None:
