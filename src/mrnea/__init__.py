@@ -33,6 +33,7 @@ from mrnea.errors import (
     StateError,
     SweepError,
 )
+from mrnea.ik import inverse_kinematics
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
@@ -63,6 +64,7 @@ __all__ = [
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",
+    "inverse_kinematics",
     "jacobian",
     "joint_reactions",
     "load_program",
