@@ -2,9 +2,16 @@
 
 Usage: ``ik_path(model, poses, pe, Rt, q0, Q, ERR, tol_p, tol_w, max_iter)`` fills ``Q`` (K, n)
 with joint positions whose tool frame reaches ``poses`` (K, 4, 4) (base frame) one after the
-other, each solve warm-started at the previous one's result (the first at ``q0``): the
-continuous branch through ``q0``. ``ERR`` (K, 3) receives what is left: the position error
-[m], the orientation error [rad] and the iterations taken. The tool frame is fixed to the last
+other, each solve warm-started from the previous ones (the first at ``q0``): the continuous
+branch through ``q0``. For n <= 6 the start of pose k is the predictor ``2 q_{k-1} - q_{k-2}``
+(the last joint step again; ``q_{k-1}`` alone after a pose not reached, and for k = 0 ``q0``):
+fewer iterations, and through a fold of the inverse kinematics (an arm passing through its full
+stretch) the solve keeps the smooth branch, whose joint velocity is continuous, rather than
+bouncing back on the other branch with a kink in q. A redundant arm (n > 6) starts at
+``q_{k-1}``: a predicted start would carry the last step's null-space motion on from cycle to
+cycle (a drift of the elbow), where the minimum-norm step from the previous cycle has none.
+``ERR`` (K, 3) receives what is left: the position error [m], the orientation error [rad] and
+the iterations taken. The tool frame is fixed to the last
 link: origin ``pe`` (3,) [m] and axes ``Rt`` (3, 3), both in the last link's frame.
 
 One iteration, at q (the tool pose ``T(q) = [[R_n Rt, o_n + R_n pe], [0, 1]]``)::
@@ -18,9 +25,9 @@ One iteration, at q (the tool pose ``T(q) = [[R_n Rt, o_n + R_n pe], [0, 1]]``):
 accepted if it lowers ``|e|`` (then mu is halved, down to 1), else undone with mu times ten.
 Near a solution the damping vanishes with ``|e|^2`` and the steps are Gauss-Newton steps:
 quadratic convergence, down to the tolerances ``tol_p`` [m] and ``tol_w`` [rad] in one or two
-iterations per 1 ms cycle of a smooth path. For n = 7 each step is the minimum-norm joint step
-(the least joint motion that makes the tool move as asked), so the redundancy is resolved as
-"move as little as possible from the previous cycle", continuously, with no null-space goal.
+iterations per cycle of a smooth path. For n = 7 each step is the minimum-norm joint step (the
+least joint motion that makes the tool move as asked), so the redundancy is resolved as "move as
+little as possible from the previous cycle", continuously, with no null-space goal.
 
 The pose and the Jacobian come from one kinematics pass, ``kinematics.jacobian_ws`` (which
 leaves the link frames R_i, o_i in the scratch's pose slots): nothing of the kinematics is
@@ -145,9 +152,14 @@ def ik_path(model, poses, pe, Rt, q0, Q, ERR, tol_p, tol_w, max_iter):
     J, e, M = np.empty((6, n)), np.empty(6), np.empty((3, 3))
     A, L = np.empty((m, m)), np.empty((m, m))
     rhs, x = np.empty(m), np.empty(m)
-    q, q_new, dq = q0.copy(), np.empty(n), np.empty(n)
+    q, q_new, dq, q_prev = q0.copy(), np.empty(n), np.empty(n), q0.copy()
     for k in range(poses.shape[0]):
         target = poses[k]
+        if n <= 6 and k > 0 and ERR[k - 1, 0] <= tol_p and ERR[k - 1, 1] <= tol_w:
+            for i in range(n):  # the predictor: the last cycle's joint step again
+                q_prev[i], q[i] = q[i], 2.0 * q[i] - q_prev[i]
+        else:
+            q_prev[:] = q
         status, ep, ew = pose_error(model, q, target, pe, Rt, J, e, M, ws)
         mu, it = 1.0, 0
         while status == OK and (ep > tol_p or ew > tol_w) and it < max_iter and mu < MU_MAX:
