@@ -310,3 +310,36 @@ def test_bad_tool_and_mixed_tables_are_errors(tmp_path):
     with pytest.raises(ProgramFileError, match=r"'q0' belongs to a program of \[\[move\]\]"):
         loads_program('[program]\ndt = 0.01\nq0 = [0.0]\n[path]\nprofile = "quintic"\n'
                       'waypoints = [[0.0], [1.0]]\nvelocity_limit = 1\nacceleration_limit = 1\n')
+
+
+def test_simulated_tool_errors_against_pinocchio(tmp_path):
+    """A payload the wrist cannot carry: the real motion leaves the programmed path; its tool
+    errors (table, summary, report) are Pinocchio's distance of the real q's tool0 frame from
+    the programmed pose."""
+    path, robot, ref = _ur5()
+    heavy = robot.with_payload(30.0, [0.0, 0.0, 0.1])
+    prog = solve(loads_program(_program(path, Q_HOME, PICK)), heavy)
+    res = mrnea.simulate(heavy, prog.q_cmd, prog.dt, cartesian=prog.cartesian)
+    assert not res.achievable
+    pe, oe = res.tool_position_error, res.tool_orientation_error
+    for k in range(0, res.K, 37):
+        T = ref.pose(res.q[k])
+        P = prog.cartesian.pose[k]
+        assert abs(pe[k] - np.linalg.norm(T[:3, 3] - P[:3, 3])) <= 1e-9
+        assert abs(oe[k] - np.linalg.norm(pin.log3(P[:3, :3].T @ T[:3, :3]))) <= 1e-9
+    assert pe.max() > 0.1  # it falls far off the path
+    s = res.summary()
+    k = int(np.argmax(pe))
+    assert s["max_tool_position_error"] == pe[k] and s["max_tool_position_error_time"] == res.t[k]
+    assert s["max_tool_orientation_error"] == oe.max()
+    cols = res.columns()
+    np.testing.assert_array_equal(cols["tool_position_error [m]"], pe)
+    np.testing.assert_array_equal(cols["tool_orientation_error [rad]"], oe)
+    from mrnea.report import write_report
+    html = write_report(res, tmp_path / "report.html", view3d=False).read_text()
+    assert f"max position error {pe.max() * 1e3:,.0f} mm" in html
+    # a program the robot follows: the tool stays on the programmed pose
+    light = solve(loads_program(_program(path, Q_HOME, PICK)), robot)
+    ok = mrnea.simulate(robot, light.q_cmd, light.dt, cartesian=light.cartesian)
+    assert ok.achievable and ok.summary()["max_tool_position_error"] <= 1e-9
+    assert ok.summary()["max_tool_orientation_error"] <= 1e-9

@@ -179,7 +179,24 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
         bad = nsat or npos or nvel
         rows.append(_row([c if isinstance(c, _Html) else _e(c) for c in cells],
                          cls="sat" if bad else ""))
-    return f'<div class="scroll"><table>{"".join(rows)}</table></div>'
+    return f'<div class="scroll"><table>{"".join(rows)}</table></div>' + _tool_html(result, link)
+
+
+def _tool_html(result: SimulationResult, link: bool) -> str:
+    """A Cartesian program's tool errors (the real motion against the programmed pose): the
+    peaks, in mm and mrad, and when; nothing for a joint program."""
+    s = result.summary()
+    if "max_tool_position_error" not in s:
+        return ""
+    cells = [_e("tool (Cartesian program)"),
+             _e(f"max position error {fmt_number(s['max_tool_position_error'] * 1e3)} mm"),
+             _instant(s["max_tool_position_error_time"], result.dt, link),
+             _e(f"max orientation error {fmt_number(s['max_tool_orientation_error'] * 1e3)} "
+                f"mrad"),
+             _instant(s["max_tool_orientation_error_time"], result.dt, link)]
+    head = ["tool path", "position", "at t [s]", "orientation", "at t [s]"]
+    return (f'<table class="tool">{_row([_e(h) for h in head], head=True)}'
+            f"{_row(cells)}</table>")
 
 
 def _params_html(result: SimulationResult, interpolation: str | None) -> str:
