@@ -338,8 +338,46 @@ def test_simulated_tool_errors_against_pinocchio(tmp_path):
     from mrnea.report import write_report
     html = write_report(res, tmp_path / "report.html", view3d=False).read_text()
     assert f"max position error {pe.max() * 1e3:,.0f} mm" in html
+    # the 3D view draws the tool point's paths: the commanded one is the programmed path
+    from mrnea.report.view3d import result_scene
+    assert result_scene(res)["tip"] == [0.0, 0.0823, 0.0] == list(res.tool_point)
     # a program the robot follows: the tool stays on the programmed pose
     light = solve(loads_program(_program(path, Q_HOME, PICK)), robot)
     ok = mrnea.simulate(robot, light.q_cmd, light.dt, cartesian=light.cartesian)
     assert ok.achievable and ok.summary()["max_tool_position_error"] <= 1e-9
     assert ok.summary()["max_tool_orientation_error"] <= 1e-9
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.mark.parametrize("example, urdf", [
+    ("ur5_cartesian_pick.toml", UR5),
+    ("panda_cartesian_hand.toml", "panda_description/urdf/panda.urdf"),
+])
+def test_examples_are_achievable(example, urdf):
+    res = mrnea_cli("check", erd_path(urdf), EXAMPLES / example)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert res.stdout.startswith("ACHIEVABLE:")
+
+
+def test_retime_keeps_the_tool_path(tmp_path):
+    """mrnea retime of a Cartesian program: the retimed joint rows, run through Pinocchio's
+    forward kinematics, stay on the programmed segments and arc (to the resampling's accuracy)."""
+    path, _, ref = _ur5()
+    f = tmp_path / "pick.toml"
+    f.write_text(_program(path, Q_HOME, PICK))
+    res = mrnea_cli("retime", f, "--out", tmp_path / "out", "--no-3d", "--quiet")
+    assert res.returncode == 0, res.stderr
+    rows = np.loadtxt(tmp_path / "out" / "retimed.csv", delimiter=",", skiprows=1)
+    prog = mrnea.load_program(f)
+    a, b = prog.cartesian.pose[:-1, :3, 3], prog.cartesian.pose[1:, :3, 3]
+    ab = b - a
+    L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    worst = 0.0
+    for q in rows[:, 1:]:  # the distance to the polyline through the programmed cycles
+        p = ref.pose(q)[:3, 3]
+        u = np.clip(np.einsum("ij,ij->i", p - a, ab) / L2, 0.0, 1.0)
+        worst = max(worst, float(np.min(np.linalg.norm(a + u[:, None] * ab - p, axis=1))))
+    assert worst <= 1e-5, worst
+    assert rows[-1, 0] < prog.t[-1]  # and faster

@@ -129,6 +129,9 @@ class SimulationResult:
         (``simulate(..., cartesian=prog.cartesian)``): how far the real motion's tool frame is
         from the programmed pose, ``|p(q) - p*|`` [m] and the angle of ``R*^T R(q)`` [rad];
         None otherwise.
+    tool_point : for a Cartesian program, the tool frame's origin [m] in the last link's frame
+        (the 3D view draws its path, the programmed Cartesian path, and the real one); None
+        otherwise.
     """
 
     robot: Robot
@@ -159,6 +162,7 @@ class SimulationResult:
     fd: str = "mrnea"
     tool_position_error: NDArray | None = None
     tool_orientation_error: NDArray | None = None
+    tool_point: tuple[float, float, float] | None = None
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -424,7 +428,8 @@ def simulate(
         reaction=np.zeros((K, n, 6)) if reactions else None, tracking_error=zeros(),
         coulomb=zeros(), stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros(),
         tool_position_error=None if cartesian is None else np.zeros(K),
-        tool_orientation_error=None if cartesian is None else np.zeros(K))
+        tool_orientation_error=None if cartesian is None else np.zeros(K),
+        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])))
     clamp = zeros(np.int64)
     status_k = np.empty(K, dtype=np.int64)  # the program requirement's, per cycle
     res.q[0], res.qd[0] = x0, v0
