@@ -107,10 +107,16 @@ def fail(message: str) -> NoReturn:
 
 
 def fresh_dir(base: str) -> Path:
-    """``base``, or ``base-2``, ``base-3``... : the first that does not exist or is empty."""
+    """A command's default output folder: ``base``, or ``base-2``, ``base-3``... , the first that
+    does not exist or is an empty folder. A symbolic link at a name (to a folder, empty or not,
+    or dangling) is never taken: it counts as used, as a file does, so that a link planted at
+    ``./mrnea-out`` is not written through (:func:`mrnea.io.writer.own_folder` refuses one that
+    appears between this choice and the run)."""
     for k in range(1, 10_000):
         p = Path(base if k == 1 else f"{base}-{k}")
-        if not os.path.lexists(p) or (p.is_dir() and not any(p.iterdir())):
+        if not os.path.lexists(p):
+            return p
+        if not p.is_symlink() and p.is_dir() and not any(p.iterdir()):
             return p
     raise click.ClickException(f"no free output folder next to {base}")
 
