@@ -42,10 +42,13 @@ from numba.core import event as numba_event
 
 from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
+from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.payload import parse_payload, parse_vector
+from mrnea.io.program import Program
 from mrnea.io.source import parse_number
 from mrnea.model import Robot
+from mrnea.robots.sdt_profile import training_program
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report an interrupted command
@@ -358,6 +361,12 @@ def load_robot_arg(robot: str, options: RobotOptions) -> Robot:
     return load_robot_spec(robot, options=options)
 
 
+def load_program_arg(program: str) -> Program:
+    """The program a command's PROGRAM argument names: ``demo`` (:data:`DEMO_PROGRAM`, the SDT
+    demo's training profile, as ``examples/sdt_training.toml``) or a program file (.toml)."""
+    return training_program() if program == DEMO_PROGRAM else load_program(program)
+
+
 def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
     """[ROBOT] PROGRAM [--dt] [--interpolation] [--mode] [--catch-up] and the robot options:
     what a command simulating a program takes (:func:`load_run` reads them)."""
@@ -395,8 +404,9 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     """The :class:`Run` the arguments :func:`program_args` declares describe: ``[ROBOT]
     PROGRAM``, a program file (which may name its robot) or a CSV path.
 
-    One argument is the program: it must name its robot. With both, ROBOT must be the robot
-    the program names, if it names one (:meth:`mrnea.io.Program.load_robot`, which also warns
+    One argument is the program: it must name its robot. ``demo`` is the SDT demo's training
+    profile (:func:`load_program_arg`). With both, ROBOT must be the robot the program names,
+    if it names one (:meth:`mrnea.io.Program.load_robot`, which also warns
     where a resampled CSV path leaves a limit its rows respect).
     """
     if program is None:
@@ -404,10 +414,11 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     suffix = "" if program is None else Path(program).suffix.lower()
     if program is None:
         raise click.UsageError("Missing argument 'PROGRAM'.")
-    if robot is None and (suffix not in (".csv", ".toml") or (
+    if robot is None and program != DEMO_PROGRAM and (suffix not in (".csv", ".toml") or (
             suffix == ".toml" and os.path.isfile(program) and not is_program_file(program))):
         raise click.UsageError(f"Missing argument 'PROGRAM' ({quote(program)} is taken as ROBOT: a "
-                               f"program is a .toml file with a [program] table or a path .csv)")
+                               f"program is a .toml file with a [program] table, a path .csv or "
+                               f"{DEMO_PROGRAM!r})")
     if suffix == ".csv":
         if dt is None:
             raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
@@ -417,10 +428,10 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
         interpolation = interpolation or "cubic"
         _, q = from_csv(program, dt, interpolation=interpolation, robot=rob)
         return Run(rob, q, dt, None, None, None, interpolation)
-    if suffix != ".toml":
-        raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml) nor a "
-                               f"path CSV (.csv)")
-    prog = load_program(program)
+    if suffix != ".toml" and program != DEMO_PROGRAM:
+        raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml), a "
+                               f"path CSV (.csv) nor {DEMO_PROGRAM!r} (the SDT demo's profile)")
+    prog = load_program_arg(program)
     if dt is not None and not np.isclose(dt, prog.dt):
         raise click.UsageError(
             f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
