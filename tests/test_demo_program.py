@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import mrnea_cli, one_error_line
+
 from mrnea.io import load_program
 from mrnea.robots.sdt_profile import training_profile
 

@@ -3,6 +3,10 @@
 Every command module (``run``, ``info``, ``paper``...) adds its commands to :data:`main` with
 ``@main.command()`` and takes the shared options from here.
 
+Exit codes, one rule for every command: 0 achievable (a command without a verdict -- info,
+fig3, sweep -- done), 1 NOT ACHIEVABLE (the verdict of demo, simulate, check and retime, after
+their files are written: :func:`exit_with_verdict`), 2 bad input, 130 interrupted.
+
 Errors: every bad input ends the command with exactly one ``mrnea: error:`` line on stderr and
 exit code 2: an :class:`~mrnea.errors.MrneaError` or an OSError, click's usage errors (a missing
 argument, an unknown option or command, a bad value), and, as a last resort, any other exception
@@ -123,6 +127,17 @@ def exit_interrupted() -> NoReturn:
     sys.exit(EXIT_INTERRUPTED)
 
 
+def exit_with_verdict(res: Any) -> NoReturn:
+    """End a command that simulated a run (:class:`mrnea.simulate.SimulationResult`), its
+    output written, by the one rule of every command: 0 achievable, 1 NOT ACHIEVABLE (a verdict,
+    not an error), 130 interrupted (the partial result written); bad input never gets here
+    (exit 2, :func:`fail`)."""
+    if not res.completed:
+        exit_interrupted()
+    checkpoint()  # a request after the run's last checkpoint
+    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
+
+
 class _Stop:
     """Whether SIGINT or SIGTERM asked the running command to stop (see the module docstring)."""
 
@@ -193,8 +208,31 @@ def _usage_line(exc: click.UsageError) -> str:
     return f"{where}{message} (see '{command} --help')"
 
 
+#: Every command's ``--help`` epilog stating its exit codes (:meth:`_Group.add_command` sets
+#: it): the commands whose answer is a verdict by name, every other one :data:`EXIT_DONE`.
+EXIT_CODES = {
+    "demo": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the demo's verdict, on purpose; the "
+            "files are written), 2 bad input, 130 interrupted (the partial result written).",
+    "simulate": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the verdict; the files are "
+                "written), 2 bad input, 130 interrupted (the partial result written).",
+    "check": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the verdict), 2 bad input, 130 "
+             "interrupted.",
+    "retime": "Exit code: 0 retimed and verified achievable, 1 NOT ACHIEVABLE (the "
+              "verification), 2 bad input or no timing found (the error says why), 130 "
+              "interrupted (nothing written).",
+    "sweep": "Exit code: 0 done (each row holds its own verdict), 2 bad input, 130 interrupted "
+             "(the rows done written).",
+}
+EXIT_DONE = "Exit code: 0 done, 2 bad input, 130 interrupted."
+
+
 class _Group(click.Group):
-    """Turns every error into one line on stderr and exit code 2, interrupts into exit 130."""
+    """Turns every error into one line on stderr and exit code 2, interrupts into exit 130;
+    gives every command the epilog of its exit codes (:data:`EXIT_CODES`)."""
+
+    def add_command(self, cmd: click.Command, name: str | None = None) -> None:
+        cmd.epilog = EXIT_CODES.get(name or cmd.name or "", EXIT_DONE)
+        super().add_command(cmd, name)
 
     def main(self, args: Any = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True, **extra: Any) -> Any:
@@ -249,6 +287,10 @@ def main(debug: bool) -> None:
 
     Tells, cycle by cycle, which joint accelerations the actuators can achieve and simulates the
     motion the robot will really make.
+
+    Exit codes, every command: 0 achievable (or done, for info, fig3 and sweep), 1 NOT
+    ACHIEVABLE (a verdict: demo, simulate, check, retime), 2 bad input (one 'mrnea: error:'
+    line), 130 interrupted (a run writes its partial result first).
     """
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import shlex
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,8 @@ import click
 import numpy as np
 
 from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
     FRACTION,
     POSITIVE,
     checkpoint,
@@ -158,6 +161,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
                    f"{paths[REPORT]}")
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
+    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
 def _option_args(options: RobotOptions) -> list[str]:
