@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import shlex
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,12 +27,15 @@ import click
 import numpy as np
 
 from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
     FRACTION,
     POSITIVE,
     checkpoint,
     compile_notice,
     force_opt,
     json_opt,
+    load_program_arg,
     load_run,
     main,
     mode_opt,
@@ -40,7 +44,7 @@ from mrnea.cli.base import (
     robot_options,
 )
 from mrnea.errors import MrneaError, RetimeError
-from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_program, resolve_robot
+from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
@@ -112,9 +116,10 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
            no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
-    ROBOT may be left out when PROGRAM is a program file that names its robot; the robot
-    options override the program's. Writes retimed.csv, retimed.toml, summary.json and
-    report.html into --out.
+    PROGRAM is a program file (.toml), a path CSV (with --dt) or ``demo`` (the SDT demo's
+    training profile, as examples/sdt_training.toml). ROBOT may be left out when PROGRAM names
+    its robot; the robot options override the program's. Writes retimed.csv, retimed.toml,
+    summary.json and report.html into --out.
     """
     from mrnea.report.retime import write_retime_report
     from mrnea.retime import retime as retime_program
@@ -125,7 +130,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
     if csv:
         spec, options = _robot_spec(robot_arg), robot_options
     else:
-        prog = load_program(program_arg)
+        prog = load_program_arg(program_arg)
         spec = _robot_spec(robot_arg or prog.robot)
         options = robot_options.over(prog.options)
     t = np.arange(run.q_cmd.shape[0]) * run.dt
@@ -156,6 +161,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
                    f"{paths[REPORT]}")
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
+    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
 def _option_args(options: RobotOptions) -> list[str]:
