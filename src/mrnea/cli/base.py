@@ -44,6 +44,8 @@ import click
 import numpy as np
 from numba.core import event as numba_event
 
+from mrnea.cartesian import CartesianPath
+from mrnea.cartesian import solve as solve_moves
 from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
 from mrnea.io.gridfile import DEMO_PROGRAM
@@ -445,6 +447,7 @@ class Run(NamedTuple):
     f_ext_point: np.ndarray | None  # (3,) [m] or None
     mode: str | None  # the program's mode, or None
     interpolation: str | None  # of a CSV path's rows; None for waypoints
+    cartesian: CartesianPath | None = None  # a Cartesian program's tool path and verdict
 
 
 def load_run(robot: str | None, program: str | None, dt: float | None,
@@ -487,5 +490,7 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
         raise click.UsageError(
             f"--interpolation {interpolation} differs from the program's "
             f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
-    return Run(prog.load_robot(robot, options), prog.q_cmd, prog.dt, prog.f_ext,
-               prog.f_ext_point, prog.mode, prog.interpolation)
+    rob = prog.load_robot(robot, options)
+    prog = solve_moves(prog, rob)  # a Cartesian program's joint path (others: unchanged)
+    return Run(rob, prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode,
+               prog.interpolation, prog.cartesian)
