@@ -33,6 +33,7 @@ from mrnea.errors import (
     StateError,
     SweepError,
 )
+from mrnea.identify import regressor
 from mrnea.io import load_program, load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
@@ -69,6 +70,7 @@ __all__ = [
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "regressor",
     "retime",
     "robots",
     "simulate",
