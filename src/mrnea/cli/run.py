@@ -22,6 +22,7 @@ import numpy as np
 
 from mrnea import robots
 from mrnea.cli.base import (
+    EXIT_NOT_ACHIEVABLE,
     POSITIVE,
     checkpoint,
     compile_notice,
