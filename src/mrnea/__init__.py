@@ -34,6 +34,7 @@ from mrnea.errors import (
     StateError,
     SweepError,
 )
+from mrnea.identify import regressor
 from mrnea.ik import inverse_kinematics
 from mrnea.io import load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
@@ -72,6 +73,7 @@ __all__ = [
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "regressor",
     "retime",
     "robots",
     "simulate",
