@@ -367,7 +367,7 @@ def test_retime_keeps_the_tool_path(tmp_path):
     path, _, ref = _ur5()
     f = tmp_path / "pick.toml"
     f.write_text(_program(path, Q_HOME, PICK))
-    res = mrnea_cli("retime", f, "--out", tmp_path / "out", "--no-3d", "--quiet")
+    res = mrnea_cli("retime", f, "--out", tmp_path / "out", "--no-3d", "--quiet", "--dt", "0.002")
     assert res.returncode == 0, res.stderr
     rows = np.loadtxt(tmp_path / "out" / "retimed.csv", delimiter=",", skiprows=1)
     prog = mrnea.load_program(f)
@@ -381,3 +381,19 @@ def test_retime_keeps_the_tool_path(tmp_path):
         worst = max(worst, float(np.min(np.linalg.norm(a + u[:, None] * ab - p, axis=1))))
     assert worst <= 1e-5, worst
     assert rows[-1, 0] < prog.t[-1]  # and faster
+
+
+def test_simulate_writes_the_tool_errors_and_exits_1_on_a_bad_path(tmp_path):
+    """mrnea simulate of a Cartesian program past the wrist singularity: the tool path's
+    verdict on stderr, the files written (cycles.csv with the tool columns, summary.json with
+    their peaks), exit 1."""
+    path, robot, ref = _ur5()
+    f = tmp_path / "wrist.toml"
+    f.write_text(_wrist_program(path, robot, ref, 0.01))
+    res = mrnea_cli("simulate", f, "--out", tmp_path / "out", "--no-3d")
+    assert res.returncode == 1, res.stderr
+    assert "Tool path: NOT ACHIEVABLE: move 1 (linear)" in res.stderr
+    header = (tmp_path / "out" / "cycles.csv").read_text().splitlines()[0].split(",")
+    assert header[-2:] == ["tool_position_error [m]", "tool_orientation_error [rad]"]
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert {"max_tool_position_error", "max_tool_orientation_error_time"} <= set(s)
