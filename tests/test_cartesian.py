@@ -305,6 +305,11 @@ def test_bad_tool_and_mixed_tables_are_errors(tmp_path):
     bad_tool = _program(path, Q_HOME, line).replace('"tool0"', '"flange"')
     one_error_line(_check(tmp_path, bad_tool), "prog.toml", "[program]", "tool 'flange'",
                    "'tool0'")
+    nameless = tmp_path / "nameless.toml"
+    nameless.write_text(_program(path, Q_HOME, line).replace(f'robot = "{path}"\n', ""))
+    with pytest.raises(ProgramFileError, match=r"names none .*load_program\(path, robot=\.\.\.\)"):
+        mrnea.load_program(nameless)
+    assert mrnea.load_program(nameless, robot=str(path)).cartesian.achievable
     with pytest.raises(ProgramFileError, match=r"cannot have a \[path\] table"):
         loads_program(_program(path, Q_HOME, line) + '[path]\nprofile = "quintic"\n')
     with pytest.raises(ProgramFileError, match=r"'q0' belongs to a program of \[\[move\]\]"):
