@@ -3,7 +3,9 @@
 
 A robot is loaded without reading its meshes: a :class:`mrnea.visual.Visual` holds the path,
 and the report's 3D view reads the file when it draws the robot, with trimesh (a dependency,
-imported on the first mesh read, not with mrnea).
+imported on the first mesh read, not with mrnea; pyproject.toml also declares what trimesh
+imports for these formats: charset-normalizer for text that is not UTF-8, as the Latin-1 solid
+names of some CAD exports' ASCII STL files, and networkx).
 """
 
 from __future__ import annotations
