@@ -71,7 +71,16 @@ def shorten(text: str, limit: int = QUOTE_LIMIT) -> str:
 
 
 class MrneaError(ValueError):
-    """Base class of every mrnea input error."""
+    """Base class of every mrnea input error.
+
+    ``cli``: the message as the command line says it, where the library's names an API
+    argument the command line spells another way (``overwrite=True`` is ``--force`` there); the
+    ``mrnea`` command prints it instead of the message. None: the same message for both.
+    """
+
+    def __init__(self, *args: object, cli: str | None = None) -> None:
+        super().__init__(*args)
+        self.cli = cli
 
 
 class ModelError(MrneaError):

@@ -232,7 +232,7 @@ class _Group(click.Group):
             except (MrneaError, OSError) as exc:
                 if debug:
                     raise
-                fail(str(exc))
+                fail(getattr(exc, "cli", None) or str(exc))  # in the command line's words
             except MemoryError:
                 if debug:
                     raise
