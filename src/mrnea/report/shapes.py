@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError, StateError, quote
+from mrnea.errors import MeshWarning, MrneaError, StateError, quote
 from mrnea.io.mesh import read_mesh
 from mrnea.model import Robot
 from mrnea.visual import VISUAL_KINDS
@@ -156,11 +156,29 @@ def _rgb(color: tuple[float, ...] | None) -> int | None:
     return (r << 16) | (g << 8) | b
 
 
+def _missing_meshes(robot: Robot, failed: dict[str, str]) -> MeshWarning:
+    """The warning for the mesh files not drawn (``failed``: name -> why): short, the first
+    reason only; its hint names the ``package://`` packages not found and how to point mrnea at
+    them."""
+    first = next(iter(failed.values()))
+    more = f" (and {len(failed) - 1} more)" if len(failed) > 1 else ""
+    packages = sorted({name[len("package://"):].split("/")[0] for name in failed
+                       if name.startswith("package://")})
+    hint = None
+    if packages:
+        hint = (f"to draw the meshes, point mrnea at package {', '.join(map(quote, packages))}: "
+                "--package-path DIR (the package's folder or one holding it), or "
+                "ROS_PACKAGE_PATH=DIR")
+    return MeshWarning(f"3D view of {quote(robot.name)}: {len(failed)} mesh file(s) not drawn, "
+                       f"their links drawn as capsules: {first}{more}", hint)
+
+
 def robot_shapes(robot: Robot, max_faces: int = MAX_SCENE_FACES) -> list[list[Shape]]:
     """The shapes of every body: ``[base, link 0, ..., link n-1]``, each in its body's frame.
 
     Mesh files that cannot be read (not found, not installed trimesh, not a mesh) give one
-    UserWarning saying why, and a body is drawn as if it had no visual (:func:`fallback`) when
+    :class:`~mrnea.errors.MeshWarning` saying why (and, for ``package://`` names, how to point
+    mrnea at them), and a body is drawn as if it had no visual (:func:`fallback`) when
     none of its visuals is left.
     """
     bodies = [robot.base_visuals, *(lk.visuals for lk in robot.links)]
@@ -173,10 +191,7 @@ def robot_shapes(robot: Robot, max_faces: int = MAX_SCENE_FACES) -> list[list[Sh
             except MrneaError as exc:
                 failed[str(v.mesh)] = str(exc)
     if failed:
-        warnings.warn(f"3D view of {quote(robot.name)}: {len(failed)} mesh file(s) not drawn "
-                      "(a link left without any shape is drawn as a capsule): "
-                      + "; ".join(list(failed.values())[:3])
-                      + ("; ..." if len(failed) > 3 else ""), UserWarning, stacklevel=3)
+        warnings.warn(_missing_meshes(robot, failed), stacklevel=3)
     total = sum(F.shape[0] for _, F in meshes.values())
     for path, (V, F) in meshes.items():  # the budget shared in proportion to the faces
         meshes[path] = decimate(V, F, max(100, max_faces * F.shape[0] // max(total, 1)))
