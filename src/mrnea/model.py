@@ -42,7 +42,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, quote
-from mrnea.frozen import Frozen, check_name, frozen_array, real_number, rigid_transform, warn
+from mrnea.frozen import (
+    Frozen,
+    check_magnitude,
+    check_name,
+    frozen_array,
+    real_number,
+    rigid_transform,
+    warn,
+)
 from mrnea.rigid import check_inertia, combine_inertials
 from mrnea.visual import Visual, visual_tuple
 
@@ -83,8 +91,6 @@ DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 # norm is within 1.5 eps of 1, measured over 2e5 random axes)
 UNIT_TOL = 4 * np.finfo(float).eps
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
-
-
 def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
     an equal pair is stored as one number."""
@@ -147,6 +153,9 @@ class Link(Frozen):
             raise ModelError(f"{what}: mass must be >= 0, got {mass}")
         com = frozen_array(self.com, (3,), f"{what}: centre of mass")
         inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
+        check_magnitude(mass, "mass", what, "kg")
+        check_magnitude(com, "length", f"{what}: centre of mass", "m")
+        check_magnitude(inertia, "inertia", what, "kg m^2")
         check_inertia(inertia, what)
         object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
         frames = tuple(self.frames) if isinstance(self.frames, (tuple, list)) else None
@@ -188,6 +197,7 @@ class Joint(Frozen):
                 f"(supported: {', '.join(JOINT_TYPES)})"
             )
         origin = rigid_transform(self.origin, f"{what}: origin")
+        check_magnitude(origin[:3, 3], "length", f"{what}: origin", "m")
         axis = frozen_array(self.axis, (3,), f"{what}: axis")
         big = float(np.max(np.abs(axis)))
         if big < 1e-12:
@@ -214,8 +224,12 @@ class Joint(Frozen):
             v = real_number(getattr(self, name), f"{what}: {name}")
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
+            check_magnitude(v, name, what, "kg m^2" if name == "rotor_inertia" else
+                            "N s/m" if self.type == "prismatic" else "N m s/rad")
             values[name] = v
         values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
+        check_magnitude(values["coulomb_friction"], "coulomb_friction", what,
+                        "N" if self.type == "prismatic" else "N m")
         g = real_number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
@@ -321,6 +335,7 @@ class Robot(Frozen):
         self._joints = joints
         self._links = links
         self._gravity = frozen_array(gravity, (3,), f"robot '{name}': gravity")
+        check_magnitude(self._gravity, "gravity", f"robot '{name}'", "m/s^2")
         self._name = str(name)
         self._base = base
         self._base_visuals = visual_tuple(base_visuals, f"robot '{name}': base")

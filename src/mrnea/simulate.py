@@ -461,6 +461,21 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     joint = robot.joints[j]
     moved = robot.links[j:]
     bare = [lk.name for lk in moved if lk.mass == 0.0 and not np.any(lk.inertia)]
+    d = np.diag(Ha)
+    k = int(np.argmax(d))
+    if d[j] > 0.0 and d[k] > 1e12 * d[j]:  # the pivot failed against another joint's inertia
+        big = robot.joints[k]
+        rotor = big.gear_ratio ** 2 * big.rotor_inertia
+        unit = "kg" if big.is_prismatic else "kg m^2"  # H_a's diagonal entry's unit
+        cause = (f"its rotor inertia through its gear, G^2 J_m = {big.gear_ratio:.3g}^2 x "
+                 f"{big.rotor_inertia:.3g} kg m^2; check its rotor_inertia and gear_ratio"
+                 if rotor > 0.5 * d[k] else "the links it moves; check their masses, inertias "
+                 "and lengths")
+        raise SingularMassMatrixError(
+            f"robot '{robot.name}': the actuated mass matrix H_a is too ill-conditioned to "
+            f"solve: joint '{big.name}' has {d[k]:.3g} {unit} about its axis against {d[j]:.3g} at "
+            f"joint '{joint.name}' ({d[k] / d[j]:.2g} times, beyond double precision), from "
+            f"{cause}")
     if len(bare) == len(moved) and joint.rotor_inertia == 0.0:
         why = (f"joint '{joint.name}' moves no mass and no rotor inertia (link"
                f"{'s' if len(bare) > 1 else ''} {', '.join(repr(b) for b in bare)} without "

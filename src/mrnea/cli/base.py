@@ -195,6 +195,9 @@ def _warnings_as_lines() -> Iterator[None]:
         if text not in seen:
             seen.add(text)
             click.echo(f"mrnea: warning: {text}", err=True)
+            hint = getattr(message, "hint", None)  # what to do, on its own line (MeshWarning)
+            if hint:
+                click.echo(f"mrnea: hint: {one_line(hint)}", err=True)
 
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
@@ -275,7 +278,7 @@ class _Group(click.Group):
             except (MrneaError, OSError) as exc:
                 if debug:
                     raise
-                fail(str(exc))
+                fail(getattr(exc, "cli", None) or str(exc))  # in the command line's words
             except MemoryError:
                 if debug:
                     raise
@@ -379,13 +382,14 @@ class _Gravity(click.ParamType):
 
 
 def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """--actuators, --tip, --payload, --gravity: what changes the robot of a command that takes
-    one. The command receives them as one keyword, ``robot_options`` (a
+    """--actuators, --tip, --payload, --gravity, --package-path: what changes the robot of a
+    command that takes one. The command receives them as one keyword, ``robot_options`` (a
     :class:`~mrnea.io.RobotOptions`); they override a program file's keys of the same names."""
     @functools.wraps(command)
     def wrapper(*args: Any, actuators: str | None, tip: str | None, payload: Any,
-                gravity: Any, **kw: Any) -> Any:
-        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity), **kw)
+                gravity: Any, package_path: tuple[str, ...], **kw: Any) -> Any:
+        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity,
+                                                         package_path or None), **kw)
 
     for option in reversed([
         click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
@@ -398,6 +402,10 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
                           "last link's frame, or a TOML file with mass, com and inertia."),
         click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
                      help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
+        click.option("--package-path", "package_path", multiple=True, metavar="DIR",
+                     type=click.Path(file_okay=False),
+                     help="Where the URDF's package:// meshes are: a package's folder or one "
+                          "holding it (repeatable; $ROS_PACKAGE_PATH is also searched)."),
     ]):
         wrapper = option(wrapper)
     return wrapper
