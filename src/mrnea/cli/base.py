@@ -44,6 +44,8 @@ import click
 import numpy as np
 from numba.core import event as numba_event
 
+from mrnea.cartesian import CartesianPath
+from mrnea.cartesian import solve as solve_moves
 from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
 from mrnea.io.gridfile import DEMO_PROGRAM
@@ -114,10 +116,16 @@ def fail(message: str) -> NoReturn:
 
 
 def fresh_dir(base: str) -> Path:
-    """``base``, or ``base-2``, ``base-3``... : the first that does not exist or is empty."""
+    """A command's default output folder: ``base``, or ``base-2``, ``base-3``... , the first that
+    does not exist or is an empty folder. A symbolic link at a name (to a folder, empty or not,
+    or dangling) is never taken: it counts as used, as a file does, so that a link planted at
+    ``./mrnea-out`` is not written through (:func:`mrnea.io.writer.own_folder` refuses one that
+    appears between this choice and the run)."""
     for k in range(1, 10_000):
         p = Path(base if k == 1 else f"{base}-{k}")
-        if not os.path.lexists(p) or (p.is_dir() and not any(p.iterdir())):
+        if not os.path.lexists(p):
+            return p
+        if not p.is_symlink() and p.is_dir() and not any(p.iterdir()):
             return p
     raise click.ClickException(f"no free output folder next to {base}")
 
@@ -446,6 +454,7 @@ class Run(NamedTuple):
     f_ext_point: np.ndarray | None  # (3,) [m] or None
     mode: str | None  # the program's mode, or None
     interpolation: str | None  # of a CSV path's rows; None for waypoints
+    cartesian: CartesianPath | None = None  # a Cartesian program's tool path and verdict
 
 
 def load_run(robot: str | None, program: str | None, dt: float | None,
@@ -492,5 +501,7 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
         raise click.UsageError(
             f"--interpolation {interpolation} differs from the program's "
             f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
-    return Run(prog.load_robot(robot, options), prog.q_cmd, prog.dt, prog.f_ext,
-               prog.f_ext_point, prog.mode, prog.interpolation)
+    rob = prog.load_robot(robot, options)
+    prog = solve_moves(prog, rob)  # a Cartesian program's joint path (others: unchanged)
+    return Run(rob, prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode,
+               prog.interpolation, prog.cartesian)

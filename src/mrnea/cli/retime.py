@@ -7,8 +7,10 @@ csv, dt, the mode, the retimed wrench and the robot options the run used: ``mrne
 DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia goes to
 ``payload.toml`` beside it), ``summary.json`` (strict JSON:
 :meth:`mrnea.retime.RetimeResult.summary`) and ``report.html`` (the phase plane, the effort
-ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) during the retiming
-writes nothing; once it is done, the files are written together.
+ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) ends the command
+within about a second (the retiming calls :func:`mrnea.cli.base.checkpoint` between its solves
+and simulation chunks; the files are written with a checkpoint between each) and writes
+nothing: files this run had already written are removed again. Exit code 130.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
@@ -124,7 +126,8 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
     its robot; the robot options override the program's. Writes retimed.csv, retimed.toml,
     summary.json and report.html into --out.
     """
-    from mrnea.report.retime import write_retime_report
+    # toppra and SciPy take 1-4 s to import: before the run owns its folder (the stop bound)
+    import mrnea.retime.toppra  # noqa: F401
     from mrnea.retime import retime as retime_program
 
     robot_arg, program_arg = (None, robot) if program is None else (robot, program)
@@ -145,18 +148,11 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
             try:
                 res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
                                      margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                     mode=run.mode or mode)
+                                     mode=run.mode or mode, checkpoint=checkpoint)
             except RetimeError as exc:  # about the program: say which file it is
                 raise RetimeError(f"{program_arg}: {exc}") from None
-        checkpoint()
-        name = f"{Path(program_arg).stem}-retimed"
-        res.save_csv(paths[CSV], force)
-        res.save_program(paths[PROGRAM], spec, CSV, name=name,
-                         program_keys=_program_keys(options, folder, force), overwrite=force)
-        res.save_summary(paths[SUMMARY], force)
-        write_retime_report(res, paths[REPORT], force, files={
-            "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
-            "summary": paths[SUMMARY]}, view3d=not no_3d)
+        _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,
+               not no_3d)
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))
@@ -166,6 +162,39 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                    f"{paths[REPORT]}")
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
+
+
+def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
+           name: str, force: bool, view3d: bool) -> None:
+    """Write the run's files, a checkpoint before each; a stop request removes the files this
+    run wrote so far (the command leaves all of them or none of its own)."""
+    from mrnea.report.retime import write_retime_report
+
+    payload = folder / PAYLOAD
+    before = payload.exists()
+    steps = [
+        (paths[CSV], lambda: res.save_csv(paths[CSV], force)),
+        (paths[PROGRAM], lambda: res.save_program(
+            paths[PROGRAM], spec, CSV, name=name,
+            program_keys=_program_keys(options, folder, force), overwrite=force)),
+        (paths[SUMMARY], lambda: res.save_summary(paths[SUMMARY], force)),
+        (paths[REPORT], lambda: write_retime_report(res, paths[REPORT], force, files={
+            "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
+            "summary": paths[SUMMARY]}, view3d=view3d)),
+    ]
+    written: list[Path] = []
+    try:
+        for path, write in steps:
+            checkpoint()
+            write()
+            written.append(path)
+            if path == paths[PROGRAM] and payload.exists() and not before:
+                written.append(payload)
+        checkpoint()
+    except KeyboardInterrupt:
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
 
 
 def _option_args(options: RobotOptions) -> list[str]:

@@ -12,6 +12,7 @@ chunk of cycles it is computing (:func:`mrnea.cli.base.checkpoint`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -21,6 +22,7 @@ import numpy as np
 
 from mrnea import robots
 from mrnea.cli.base import (
+    EXIT_NOT_ACHIEVABLE,
     POSITIVE,
     checkpoint,
     compile_notice,
@@ -112,6 +114,26 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
             click.echo(f"Report: {report}")
 
 
+def _print_cartesian(path, quiet: bool) -> None:
+    """A Cartesian program's verdict on its tool path, when the robot cannot follow it (on
+    stderr: the dynamics' verdict follows on stdout)."""
+    if path is not None and not path.achievable and not quiet:
+        click.echo(f"Tool path: {path.verdict()}", err=True)
+
+
+def _cartesian_verdict(path, as_json: bool, quiet: bool) -> None:
+    """``check``'s answer for a Cartesian program the robot cannot follow: the first finding
+    (all of them with --json); the dynamics are not simulated on a path the robot cannot
+    take."""
+    if as_json:
+        click.echo(json.dumps({"achievable": False, "verdict": path.verdict(),
+                               "cartesian_findings": [dataclasses.asdict(f)
+                                                      for f in path.findings]},
+                              indent=2, allow_nan=False))
+    elif not quiet:
+        click.echo(path.verdict())
+
+
 @main.command()
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-demo].")
@@ -184,7 +206,8 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
     must be that robot. The robot options override the program's keys of the same names.
     """
     run = load_run(robot, program, dt, interpolation, robot_options, units)
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run[:7]
+    _print_cartesian(run.cartesian, quiet or as_json)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
@@ -210,7 +233,10 @@ def check(robot: str | None, program: str | None, dt: float | None,
     when the program file names its robot (as for simulate).
     """
     run = load_run(robot, program, dt, interpolation, robot_options, units)
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run[:7]
+    if run.cartesian is not None and not run.cartesian.achievable:
+        _cartesian_verdict(run.cartesian, as_json, quiet)
+        sys.exit(EXIT_NOT_ACHIEVABLE)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
     _print_result(res, None, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,

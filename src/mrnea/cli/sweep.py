@@ -115,8 +115,8 @@ def _axes(value: str | None, option: str, keys: list[str], count: int) -> list[s
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-sweep].")
 @click.option("--scheduler", default=None, metavar="ADDR",
-              help="A Dask scheduler, tcp://HOST:PORT [default: a local cluster, one worker "
-                   "process per core].")
+              help="A Dask scheduler, tcp://HOST:PORT, checked first: where none answers, one "
+                   "error within 12 s [default: a local cluster, one worker process per core].")
 @click.option("--workers", type=click.IntRange(1), default=None, metavar="N",
               help="Worker processes of the local cluster [default: the usable cores].")
 @click.option("--retime", is_flag=True, help="Also retime each run (column retimed_duration).")
@@ -140,6 +140,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     from mrnea.report.sweep import write_sweep_html
     from mrnea.sweep import check_grid, load_programs
     from mrnea.sweep import sweep as run_sweep
+    from mrnea.sweep.cluster import check_scheduler
 
     spec = load_grid_file(grid_file)
     robot_arg = args[0] if args and _is_robot(args[0]) else None
@@ -157,6 +158,8 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         raise SweepError(f"{spec.source}: {exc}") from None
     axes = _axes(map_axes, "--map", keys, 2)
     curve = _axes(curves, "--curves", keys, 1)
+    if scheduler is not None:  # a scheduler there, before the folder and the first line
+        check_scheduler(scheduler)
     files = [CSV, *([PARQUET] if importlib.util.find_spec("pyarrow") else []), HTML]
     with own_folder(Path(out) if out else fresh_dir("mrnea-sweep")) as folder:
         check_new([folder / f for f in files], force)

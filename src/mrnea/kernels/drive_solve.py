@@ -31,8 +31,9 @@ In HYBRID, L_i = inf fixes v_i = v_des_i (slopes -inf, +inf).
 
 Algorithm, a primal active-set method on this piecewise quadratic (W: held joints, F: free):
 
-0. tau_req (the program's requirement, below). HYBRID fast path: if every |tau_req_i| <= L_i,
-   v = v_des is optimal (its subgradient condition) and nothing is solved.
+0. tau_req (the program's requirement, below). HYBRID fast path: if every |tau_req_i| <= L_i
+   (up to rounding: kernels/drive.py ``beyond``), v = v_des is optimal (its subgradient
+   condition) and nothing is solved.
 1. Start: HYBRID v_i = v_des_i (qd_i without a drive), PAPER v = qd; each joint on the piece
    holding it, held where it sits on a breakpoint.
 2. Eq. 44 for the free joints, the held ones' accelerations known:
@@ -66,7 +67,7 @@ HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi
 qdd_des = (v_des - qd) / dt, phi_des = coulomb(v_des), and for v_des_i = 0 the same split
 (kernels/drive.py ``wanted_friction``).
 Flags: sat_i (HYBRID) v_i != v_des_i, the drive is at +-L_i and misses the program; (PAPER)
-|tau_req_i| > L_i. stuck_i: v_i == 0 exactly (friction holds the joint).
+|tau_req_i| > L_i by more than rounding. stuck_i: v_i == 0 exactly (friction holds the joint).
 """
 
 from __future__ import annotations
@@ -75,7 +76,7 @@ import math
 
 import numba as nb
 
-from mrnea.kernels.drive import coulomb, holding_friction, wanted_friction
+from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
 from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import CYCLE_LIMIT, OK
@@ -97,6 +98,12 @@ def _required(Ha, ua, qdd_des, i, v_des_i, Fp, Fn):
         h += Ha[i, j] * qdd_des[j]
     phi = wanted_friction(h, v_des_i, Fp, Fn)
     return phi, h + phi
+
+
+@nb.njit(**INLINE)
+def _over(tau_req_i, L_i):
+    """|tau_req_i| over the limit L_i by more than rounding (kernels/drive.py ``beyond``)."""
+    return beyond(abs(tau_req_i), L_i, L_i + abs(tau_req_i))
 
 
 @nb.njit(**INLINE)
@@ -176,7 +183,7 @@ def solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
         v[i] = v_des[i]
         sat[i] = False
         stuck[i] = v_des[i] == 0.0
-        fast = fast and abs(tau_req[i]) <= L[i]
+        fast = fast and not _over(tau_req[i], L[i])
     if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
         return OK
     return _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
@@ -194,7 +201,8 @@ def _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
     # 1. breakpoints, slopes and the start point
     max_iter = 1
     for i in range(n):
-        tauc[i] = min(max(tau_req[i], -L[i]), L[i])  # Eq. 44's clamp (PAPER)
+        # Eq. 44's clamp (PAPER); a requirement within the limit up to rounding is given whole
+        tauc[i] = min(max(tau_req[i], -L[i]), L[i]) if _over(tau_req[i], L[i]) else tau_req[i]
         nbp[i] = _setup_joint(i, hybrid, v_des[i], L[i], Fpos[i], Fneg[i], tauc[i], bp, sl)
         v[i] = v_des[i] if hybrid and L[i] > 0.0 else qd[i]
         pat[i] = _start(v[i], nbp[i], i, bp)
@@ -326,5 +334,5 @@ def _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sa
             phi[i] = holding_friction(h, Fpos[i], Fneg[i])
         if hybrid and v[i] == v_des[i]:  # on program: the drive gives what it takes
             tau[i] = min(max(h + phi[i], -L[i]), L[i])
-        sat[i] = v[i] != v_des[i] if hybrid else abs(tau_req[i]) > L[i]
+        sat[i] = v[i] != v_des[i] if hybrid else _over(tau_req[i], L[i])
         stuck[i] = v[i] == 0.0
