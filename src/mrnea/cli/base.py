@@ -49,7 +49,7 @@ from mrnea.cartesian import solve as solve_moves
 from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
 from mrnea.io.gridfile import DEMO_PROGRAM
-from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.pathcsv import CSV_UNITS, INTERPOLATIONS
 from mrnea.io.payload import parse_payload, parse_vector
 from mrnea.io.program import Program
 from mrnea.io.source import parse_number
@@ -425,9 +425,15 @@ def load_program_arg(program: str) -> Program:
     return training_program() if program == DEMO_PROGRAM else load_program(program)
 
 
+units_opt = click.option(
+    "--units", type=click.Choice(list(CSV_UNITS)), default=None,
+    help="The joint columns of a CSV PROGRAM: rad (SI: rad, m) [default] or deg (degrees for "
+         "revolute joints, mm for prismatic ones); a program file sets it in [path].")
+
+
 def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """[ROBOT] PROGRAM [--dt] [--interpolation] [--mode] [--catch-up] and the robot options:
-    what a command simulating a program takes (:func:`load_run` reads them)."""
+    """[ROBOT] PROGRAM [--dt] [--interpolation] [--units] [--mode] [--catch-up] and the robot
+    options: what a command simulating a program takes (:func:`load_run` reads them)."""
     for option in reversed([
         click.argument("robot", required=False, metavar="[ROBOT]"),
         click.argument("program", required=False, metavar="PROGRAM",
@@ -437,6 +443,7 @@ def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
                      help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic]; "
                           "a program file sets it in [path]."),
+        units_opt,
         mode_opt,
         catch_opt,
         robot_options,
@@ -459,7 +466,7 @@ class Run(NamedTuple):
 
 
 def load_run(robot: str | None, program: str | None, dt: float | None,
-             interpolation: str | None, options: RobotOptions) -> Run:
+             interpolation: str | None, options: RobotOptions, units: str | None = None) -> Run:
     """The :class:`Run` the arguments :func:`program_args` declares describe: ``[ROBOT]
     PROGRAM``, a program file (which may name its robot) or a CSV path.
 
@@ -473,6 +480,9 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     suffix = "" if program is None else Path(program).suffix.lower()
     if program is None:
         raise click.UsageError("Missing argument 'PROGRAM'.")
+    if units is not None and suffix != ".csv":
+        raise click.UsageError("--units applies to a CSV PROGRAM; a program file sets 'units' in "
+                               "its [path]")
     if robot is None and program != DEMO_PROGRAM and (suffix not in (".csv", ".toml") or (
             suffix == ".toml" and os.path.isfile(program) and not is_program_file(program))):
         raise click.UsageError(f"Missing argument 'PROGRAM' ({quote(program)} is taken as ROBOT: a "
@@ -485,7 +495,8 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
             raise click.UsageError("a CSV program needs ROBOT (ROBOT PATH.csv --dt SECONDS)")
         rob = load_robot_spec(robot, options=options)
         interpolation = interpolation or "cubic"
-        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob)
+        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob,
+                        units=units or "rad")
         return Run(rob, q, dt, None, None, None, interpolation)
     if suffix != ".toml" and program != DEMO_PROGRAM:
         raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml), a "
