@@ -155,7 +155,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     programs = load_programs(programs, robot)  # each against the robot's joint count
     keys = list(spec.grid)
     try:
-        check_grid(robot, spec.grid, spec.zip)
+        check_grid(robot, spec.grid, spec.zip, programs)
     except SweepError as exc:
         raise SweepError(f"{spec.source}: {exc}") from None
     axes = _axes(map_axes, "--map", keys, 2)
