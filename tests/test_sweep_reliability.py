@@ -22,7 +22,7 @@ from collections.abc import Iterator
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import environment, mrnea_cli, one_error_line
+from conftest import environment, mrnea_cli, one_error_line, random_chain
 from test_cli import run as run_in_process
 from test_sweep_cli import session
 
@@ -214,3 +214,62 @@ def test_the_library_names_the_time_scale_too():
                                          r"time-scaling program 'sdt_training'"):
         mrnea.sweep(sdt(), "demo", {"time_scale": [1e9]}, client="tcp://127.0.0.1:9",
                     progress=False)
+
+
+def test_every_summary_number_has_its_unit_in_the_files():
+    """Each number a row takes from the summary is in QUANTITY (a new summary entry must say
+    its unit), and the units follow the joint's kind: checked against a robot with a
+    prismatic joint and JOINT_UNITS, the model's own table."""
+    from mrnea.model import JOINT_UNITS
+    from mrnea.simulate import simulate
+    from mrnea.sweep.rows import QUANTITY, column_units, summary_row
+
+    robot = random_chain(np.random.default_rng(3), 4, prismatic_fraction=0.5)
+    robot = robot.with_actuators(effort_limit=50.0)
+    q = np.repeat(np.clip(np.zeros(4), robot.lower, robot.upper)[None], 50, axis=0)
+    row = summary_row(simulate(robot, q, 0.01).summary())
+    numbers = {c.partition(".")[0] for c, v in row.items()
+               if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))}
+    text = {"achievable", "first_infeasible_joint", "first_infeasible_reason"}
+    assert numbers - text <= set(QUANTITY), numbers - set(QUANTITY)
+    kinds = {j.name: j.is_prismatic for j in robot.joints}
+    assert any(kinds.values()) and not all(kinds.values())  # both kinds of joint
+    units = column_units(robot, list(row))
+    for j, prismatic in kinds.items():
+        assert units[f"peak_effort.{j}"] == JOINT_UNITS["tau"][prismatic]
+        assert units[f"peak_speed.{j}"] == JOINT_UNITS["qd"][prismatic]
+        assert units[f"final_position_error.{j}"] == JOINT_UNITS["q"][prismatic]
+        assert units[f"peak_motor_torque.{j}"] == "N m"  # the motor turns: a torque
+        assert units[f"peak_axial_force.{j}"] == "N" and units[f"time_stuck.{j}"] == "s"
+        assert f"program_effort_ratio.{j}" not in units
+    assert units["duration"] == "s" and units["max_tracking_error"] == "rad | m"
+    assert "worst_effort_ratio" not in units and "worst_joint" not in units
+
+
+def test_the_files_name_their_units_and_say_when_parquet_is_missing(tmp_path, monkeypatch):
+    """sweep.csv and sweep.parquet: every result column with its unit in its name as
+    cycles.csv's are, the parameters as the grid's keys; without pyarrow, one warning line
+    says sweep.parquet is not written and how to get it."""
+    from mrnea.cli import sweep as cli_sweep
+
+    (tmp_path / "g.toml").write_text('[grid]\n"motor_torque_limit.cab_yaw" = [50.0]\n')
+    r = run_in_process("sweep", "sdt", "demo", "--grid", str(tmp_path / "g.toml"), "--out",
+                       str(tmp_path / "a"), "--quiet", "--workers", "1")
+    assert r.exit_code == 0, r.stderr
+    csv = pd.read_csv(tmp_path / "a/sweep.csv", index_col="case")
+    assert list(pd.read_parquet(tmp_path / "a/sweep.parquet").columns) == list(csv.columns)
+    cols = list(csv.columns)
+    assert cols[:4] == ["motor_torque_limit.cab_yaw", "program", "error", "achievable"]
+    for name in ("duration [s]", "peak_motor_torque.cab_yaw [N m]", "peak_effort.planetary [N m]",
+                 "peak_speed.cab_yaw [rad/s]", "worst_effort_ratio",
+                 "first_infeasible_time [s]", "program_effort_ratio.cab_yaw"):
+        assert name in cols, (name, cols)
+    assert sum(" [" not in c for c in cols) < 25  # only names, flags, text and ratios bare
+    monkeypatch.setattr(cli_sweep, "has_pyarrow", lambda: False)
+    r = run_in_process("sweep", "sdt", "demo", "--grid", str(tmp_path / "g.toml"), "--out",
+                       str(tmp_path / "b"), "--quiet", "--workers", "1")
+    assert r.exit_code == 0, r.stderr
+    assert r.stderr.splitlines() == [
+        "mrnea: warning: sweep.parquet is not written: pyarrow is not installed (python -m pip "
+        "install 'mrnea[parquet]'); sweep.csv holds the same rows"], r.stderr
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["sweep.csv", "sweep.html"]

@@ -34,8 +34,8 @@ from mrnea.retime.core import retime as retime_program
 from mrnea.simulate import simulate
 from mrnea.sweep.variants import variant
 
-__all__ = ["FIRST_COLUMNS", "RETIME_COLUMNS", "TOP_COLUMNS", "code_version", "run_batch",
-           "run_case", "summary_row", "warm"]
+__all__ = ["FIRST_COLUMNS", "QUANTITY", "RETIME_COLUMNS", "TOP_COLUMNS", "code_version",
+           "column_units", "run_batch", "run_case", "summary_row", "warm"]
 
 #: Top-level summary entries copied into each row (those the summary has).
 TOP_COLUMNS = ("achievable", "worst_joint", "worst_effort_ratio", "duration",
@@ -44,6 +44,46 @@ TOP_COLUMNS = ("achievable", "worst_joint", "worst_effort_ratio", "duration",
 FIRST_COLUMNS = ("first_infeasible_time", "first_infeasible_joint", "first_infeasible_reason")
 #: The columns of ``retime=True``: the retimed duration [s] and why retiming failed (or None).
 RETIME_COLUMNS = ("retimed_duration", "retime_error")
+#: The quantity of each number column (a summary entry, per joint as ``<entry>.<joint>``), for
+#: its unit (:func:`column_units`); None: a pure number or a flag. A summary entry not listed
+#: here has no unit in the files (tests/test_sweep_reliability.py checks every entry is).
+QUANTITY = {
+    "duration": "time", "max_tracking_error": "position", "worst_effort_ratio": None,
+    "first_infeasible_time": "time", "retimed_duration": "time",
+    "effort_limit": "effort", "program_peak_effort": "effort", "program_peak_time": "time",
+    "program_rms_effort": "effort", "program_peak_motor_torque": "motor",
+    "program_rms_motor_torque": "motor", "program_effort_ratio": None,
+    "program_ratio_time": "time", "program_effort_at_ratio": "effort",
+    "program_limit_at_ratio": "effort", "program_beyond_no_load_speed": None,
+    "program_first_over_time": "time", "time_saturated": "time", "time_stuck": "time",
+    "peak_motor_torque": "motor", "rms_motor_torque": "motor", "peak_effort": "effort",
+    "peak_speed": "speed", "peak_reaction_force": "force", "peak_axial_force": "force",
+    "peak_radial_force": "force", "peak_reaction_moment": "moment",
+    "peak_bending_moment": "moment", "max_tracking_error_time": "time",
+    "final_position_error": "position"}
+#: SI unit of each quantity: (revolute joint, prismatic joint).
+_UNIT = {"time": ("s", "s"), "position": ("rad", "m"), "speed": ("rad/s", "m/s"),
+         "effort": ("N m", "N"), "motor": ("N m", "N m"), "force": ("N", "N"),
+         "moment": ("N m", "N m")}
+
+
+def column_units(robot: Robot, columns: Sequence[str]) -> dict[str, str]:
+    """The unit of each result column of a sweep of ``robot`` that has one: a top-level
+    column's (``"rad | m"`` for ``max_tracking_error`` on a robot with both kinds of joint),
+    a per-joint column's by its joint's kind. Parameters, text, flags and ratios: none."""
+    kinds = {j.name: j.is_prismatic for j in robot.joints}
+    out = {}
+    for col in columns:
+        entry, _, joint = col.partition(".")
+        quantity = QUANTITY.get(entry)
+        if quantity is None:
+            continue
+        if joint in kinds:
+            out[col] = _UNIT[quantity][kinds[joint]]
+        elif not joint:
+            out[col] = " | ".join(dict.fromkeys(_UNIT[quantity][p]
+                                                for p in sorted(set(kinds.values()))))
+    return out
 
 
 def summary_row(summary: Mapping[str, Any]) -> dict[str, Any]:
