@@ -302,7 +302,8 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
     batches = [jobs[k:k + size] for k in range(0, len(jobs), size)]
     info["tasks"] = len(batches)
     r_fut, p_fut = c.scatter([robot, dict(scaled)], broadcast=True, hash=False)
-    futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime, pure=False)
+    futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime,
+                    client_pid=os.getpid(), pure=False)
     which = {f.key: b for f, b in builtins.zip(futures, batches, strict=True)}
     try:
         _collect(futures, which, rows, report, len(jobs))

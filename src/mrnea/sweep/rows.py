@@ -15,6 +15,7 @@ failed variant is a row, never a lost sweep. With ``retime``, :data:`RETIME_COLU
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import functools
 import hashlib
 import math
@@ -35,7 +36,7 @@ from mrnea.simulate import simulate
 from mrnea.sweep.variants import variant
 
 __all__ = ["FIRST_COLUMNS", "QUANTITY", "RETIME_COLUMNS", "TOP_COLUMNS", "code_version",
-           "column_units", "run_batch", "run_case", "summary_row", "warm"]
+           "column_units", "run_batch", "run_case", "summary_row", "tune_worker", "warm"]
 
 #: Top-level summary entries copied into each row (those the summary has).
 TOP_COLUMNS = ("achievable", "worst_joint", "worst_effort_ratio", "duration",
@@ -139,16 +140,47 @@ def retime_columns(robot: Robot, program: Program) -> dict[str, Any]:
 
 
 def run_batch(jobs: Sequence[tuple[int, tuple[int, float], Mapping[str, Any]]], robot: Robot,
-              programs: Mapping[tuple[int, float], Program], retime: bool = False
-              ) -> list[tuple[int, dict[str, Any]]]:
+              programs: Mapping[tuple[int, float], Program], retime: bool = False,
+              client_pid: int = 0) -> list[tuple[int, dict[str, Any]]]:
     """A Dask task: ``(job index, row)`` for each ``(index, program key, params)`` job, the
-    program key being (program number, time scale).
-
-    Numba's parallel kernels run on one thread here (a thread-local setting): the sweep is
-    parallel over tasks already, and more threads than cores would only wait for each other.
-    """
-    numba.set_num_threads(1)
+    program key being (program number, time scale); in a worker process (not the client's,
+    ``client_pid``), :func:`tune_worker` first (a worker that joined after the warm-up)."""
+    tune_worker(client_pid, retime)
     return [(k, run_case(robot, programs[key], params, retime)) for k, key, params in jobs]
+
+
+#: glibc's ``mallopt`` parameters M_TRIM_THRESHOLD and M_MMAP_THRESHOLD.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_TUNED: set[int] = set()  # the process ids tune_worker has tuned (a fork copies the set)
+
+
+def tune_worker(client_pid: int, retime: bool) -> None:
+    """Give a worker of any cluster (a user's ``LocalCluster``, ``dask worker`` processes)
+    what mrnea's own LocalCluster gives its workers, so that both run a sweep alike.
+
+    * In a worker process (not the client's), once: glibc's heap kept for the runs' arrays
+      (``mallopt``, the values of :data:`mrnea.sweep.cluster.WORKER_MALLOC`: distributed's
+      default trim threshold of 64 kB makes glibc map and fault in each run's MB-sized arrays
+      afresh, +35 % CPU per run). Elsewhere than glibc: nothing.
+    * Numba's parallel kernels on one thread in this task's thread (a thread-local setting):
+      the sweep is parallel over tasks already. Only with ``retime`` (a run without it calls
+      no parallel kernel): ``numba.set_num_threads`` starts Numba's thread pool, of
+      ``NUMBA_NUM_THREADS`` threads (the machine's logical CPUs unless set), in every worker;
+      mrnea's LocalCluster starts its workers with ``NUMBA_NUM_THREADS=1``, and so should a
+      cluster of one's own that retimes (docs/sweeps.md).
+    """
+    if retime:
+        numba.set_num_threads(1)
+    pid = os.getpid()
+    if pid == client_pid or pid in _TUNED:
+        return
+    _TUNED.add(pid)
+    from mrnea.sweep.cluster import WORKER_MALLOC
+
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None)
+        libc.mallopt(_M_TRIM_THRESHOLD, int(WORKER_MALLOC["MALLOC_TRIM_THRESHOLD_"]))
+        libc.mallopt(_M_MMAP_THRESHOLD, int(WORKER_MALLOC["MALLOC_MMAP_THRESHOLD_"]))
 
 
 @functools.cache
@@ -171,13 +203,14 @@ def code_version() -> str:
 def warm(robot: Robot, client_pid: int, retime: bool = False) -> dict[str, Any]:
     """Run on each worker before a sweep: load mrnea's compiled kernels (a 3-cycle run of
     ``robot`` and its summary; with ``retime``, a retiming of a short move too, which also
-    imports toppra) and, in a worker process of its own, silence ModelWarning (each variant
-    would repeat its base robot's). Returns what the client checks and says: the
-    :func:`code_version`, the process id and the seconds taken."""
+    imports toppra), tune the worker (:func:`tune_worker`) and, in a worker process of its
+    own, silence ModelWarning (each variant would repeat its base robot's). Returns what the
+    client checks and says: the :func:`code_version`, the process id and the seconds
+    taken."""
     t0 = time.perf_counter()
     if os.getpid() != client_pid:
         warnings.simplefilter("ignore", ModelWarning)
-    numba.set_num_threads(1)
+    tune_worker(client_pid, retime)
     q0 = np.clip(np.zeros(robot.n), robot.lower, robot.upper)
     with contextlib.suppress(MrneaError):
         simulate(robot, np.repeat(q0[None], 3, axis=0), 0.005).summary()
