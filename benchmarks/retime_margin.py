@@ -23,7 +23,6 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 import mrnea
-from mrnea.trajectory import quintic
 
 DT = 0.004
 
@@ -57,15 +56,18 @@ def variant(robot: mrnea.Robot, friction: bool) -> mrnea.Robot:
                                 effort_limit=robot.effort_limit)
 
 
-def random_path(robot: mrnea.Robot, seed: int, waypoints: int = 4) -> tuple:
-    """(t, q): a quintic through random waypoints in the middle half of the joint ranges."""
+def random_path(robot: mrnea.Robot, seed: int, waypoints: int = 5) -> tuple:
+    """(t, q): the clamped cubic spline (at rest at both ends, not at the waypoints between)
+    through random waypoints in the middle half of the joint ranges, 1 s apart, at DT."""
+    from scipy.interpolate import CubicSpline
+
     rng = np.random.default_rng(seed)
     lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
     hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
     mid, half = (lo + hi) / 2, (hi - lo) / 4
     wp = mid + half * rng.uniform(-1, 1, (waypoints, robot.n))
-    t, q = quintic(wp, DT, robot.velocity_limit * 0.5, robot.velocity_limit)
-    return t - t[0], q
+    t = np.arange(round((waypoints - 1) / DT) + 1) * DT
+    return t, CubicSpline(np.arange(waypoints), wp, bc_type="clamped")(t)
 
 
 def pinocchio_toppra(robot: mrnea.Robot, t, q, grid, scale: float) -> tuple[float, float]:

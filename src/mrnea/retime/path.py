@@ -85,8 +85,8 @@ def piece_rows(spline: CubicSpline, s: NDArray, first: NDArray, last: NDArray
     return r[keep], s[keep]
 
 
-def polyline_error(spline: CubicSpline, q: NDArray, dt: float, rows: NDArray, s: NDArray
-                   ) -> tuple[NDArray, NDArray, NDArray]:
+def polyline_error(spline: CubicSpline, q: NDArray, dt: float, rows: NDArray, s: NDArray,
+                   cache: dict | None = None) -> tuple[NDArray, NDArray, NDArray]:
     """How far a piece's retimed rows leave its path, per joint (n,) [rad | m].
 
     ``q`` (K, n) the program's rows of the piece at ``k dt`` (``spline`` through them), ``rows``
@@ -95,13 +95,19 @@ def polyline_error(spline: CubicSpline, q: NDArray, dt: float, rows: NDArray, s:
     around it (linear in s, as in time within a cycle). Returns ``(own, err, where)``: the
     program's own bulge (its rows' straight lines against the spline half-way between them),
     the retimed rows' largest deviation, and the path position [s] of that largest deviation.
+    ``cache``: a dict kept for the same piece (its path side is computed once).
     """
-    k = np.arange(q.shape[0]) * dt
-    mid = k[:-1] + dt / 2
-    own = np.max(np.abs(spline(mid) - (q[:-1] + q[1:]) / 2), axis=0)
-    ref = np.sort(np.concatenate([k, mid]))
+    cache = {} if cache is None else cache
+    if "ref" not in cache:
+        k = np.arange(q.shape[0]) * dt
+        mid = k[:-1] + dt / 2
+        path_mid = spline(mid)
+        cache["own"] = np.max(np.abs(path_mid - (q[:-1] + q[1:]) / 2), axis=0)
+        cache["ref"] = np.concatenate([k, mid])
+        cache["path"] = np.concatenate([q, path_mid])
+    own, ref = cache["own"], cache["ref"]
     line = np.stack([np.interp(ref, s, rows[:, c]) for c in range(rows.shape[1])], axis=1)
-    dev = np.abs(spline(ref) - line)
+    dev = np.abs(cache["path"] - line)
     return own, dev.max(axis=0), ref[np.argmax(dev, axis=0)]
 
 
