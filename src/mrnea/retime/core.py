@@ -135,12 +135,12 @@ def retime(
         phase = _phase(job, paths, {j: np.full(v[1].s.size, 1.0 / f) for j, v in paths.items()})
         return _result(job, Q, FE, PE, sim, "scale", used, phase, [log], f, log["estimate"])
     m, phase, Q, FE, PE, sim, logs = _retime_toppra(job, margin, acc, grid)
-    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None)
+    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None, margin)
 
 
 def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: Any,
             method: str, margin: float, phase: tuple, log: list, factor: float | None,
-            estimate: float | None) -> RetimeResult:
+            estimate: float | None, margin_asked: float | None = None) -> RetimeResult:
     M = Q.shape[0]
     return RetimeResult(
         t=np.arange(M) * job.dt, q_cmd=Q, f_ext=FE, f_ext_point=PE, dt=job.dt, mode=job.mode,
@@ -148,7 +148,8 @@ def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: A
         method=method, margin=float(margin), achievable=bool(sim.achievable), simulation=sim,
         factor=factor, estimate=estimate, phase=phase, original_q_cmd=job.q,
         original_dt=job.program_dt, original_f_ext=job.f_ext,
-        original_f_ext_point=job.f_ext_point, log=log, timings=job.timings)
+        original_f_ext_point=job.f_ext_point, log=log, timings=job.timings,
+        margin_asked=margin_asked)
 
 
 def _check_holds(job: Job, margin: float) -> None:

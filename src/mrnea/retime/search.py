@@ -19,7 +19,8 @@ Only then is the plan simulated. If the simulation still refuses it, the next ma
 the program's own requirement over the true limits (what the verdict reports as
 ``program_effort_ratio``), never from ``tau_required``, which includes the drive catching up
 after it saturated (1.28-1.70 where the program itself needed 1.0004-1.05: issue 24). The
-search then bisects between the highest margin that failed and the highest that verified, on a
+search then probes 0.1 % above the highest margin that verified and bisects between it and the
+highest that failed, on a
 lattice of :data:`LATTICE` so that every asked margin above a bracket lands on the same points,
 until the bracket is narrower than :data:`SEARCH_TOL`; the fastest verified plan is returned.
 """
@@ -200,9 +201,11 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
             best = last
         else:
             hi = last
-    lo = best
+    lo, probe = best, True
     while hi.margin / lo.margin - 1 > SEARCH_TOL:
         mid = _lattice(math.sqrt(hi.margin * lo.margin))
+        if probe:  # the own requirement's step is usually right: probe just above it first
+            mid, probe = min(mid, _lattice(lo.margin * (1 + SEARCH_TOL))), False
         if mid <= lo.margin or mid >= hi.margin:
             break
         p = plan_at(job, paths, mid, acc, logs)
