@@ -23,7 +23,7 @@ grid point from ONE batched call of :func:`mrnea.actuators.actuator_mass_matrix_
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -180,7 +180,8 @@ class PathCoefficients:
     sign : sign(q_s) where it is the same at the point and both neighbours, else NaN (there the
         direction of the Coulomb friction is not known over the adjacent intervals).
     qs_range, qss_range : (N, n, 2) min and max of q_s and q_ss over each interval (sampled at
-        9 points), for the interval-robust acceleration rows.
+        9 points), for the interval-robust acceleration rows (computed when first asked:
+        only acceleration limits need them).
     """
 
     s: NDArray
@@ -191,8 +192,25 @@ class PathCoefficients:
     b: NDArray
     c: NDArray
     sign: NDArray
-    qs_range: NDArray
-    qss_range: NDArray
+    spline: CubicSpline = field(repr=False, compare=False)
+    _ranges: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def _range(self, k: int) -> NDArray:
+        if not self._ranges:
+            s = self.s
+            sub = s[:-1, None] + np.diff(s)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
+            for d in (1, 2):  # (N, 9, n) -> (N, n, 2)
+                v = self.spline(sub, d)
+                self._ranges[d] = np.stack([v.min(axis=1), v.max(axis=1)], axis=-1)
+        return self._ranges[k]
+
+    @property
+    def qs_range(self) -> NDArray:
+        return self._range(1)
+
+    @property
+    def qss_range(self) -> NDArray:
+        return self._range(2)
 
 
 def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDArray | None,
@@ -221,9 +239,5 @@ def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDAr
     b = np.einsum("kij,kj->ki", H2[:G], qss) + u1 - c
     padded = np.concatenate([sgn[:1], sgn, sgn[-1:]])
     same = (padded[:-2] == sgn) & (padded[2:] == sgn)
-    sub = s[:-1, None] + np.diff(s)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
-    ranges = [np.stack([v.min(axis=1), v.max(axis=1)], axis=-1)
-              for v in (spline(sub, 1), spline(sub, 2))]  # (N, 9, n) -> (N, n, 2)
     return PathCoefficients(s=s, q=q, qs=qs, qss=qss, a=a, b=b, c=c,
-                            sign=np.where(same, sgn, np.nan), qs_range=ranges[0],
-                            qss_range=ranges[1])
+                            sign=np.where(same, sgn, np.nan), spline=spline)

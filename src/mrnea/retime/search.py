@@ -50,6 +50,7 @@ SLACK = 1e-6  # ... by this much more than the cycle's excess (TOPP-RA's rows ho
 SEARCH_TOL = 1e-3  # the margin search stops when hi / lo - 1 is below this
 LATTICE = 2.5e-4  # bisection margins are multiples of this
 MIN_MARGIN = 0.5  # the search gives up below this planning margin
+CHUNK = 2000  # cycles of the own requirement per compiled call (a checkpoint between)
 
 
 @dataclass
@@ -84,7 +85,16 @@ def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
     velocity (backward difference) to the velocity limit and, with acceleration limits, of the
     acceleration (as the simulation forms it) to its limit. Unscaled: compare with the
     margin."""
-    tau, lim = program_requirement(job.robot, Q, job.dt, FE, PE)
+    tau, lim = np.empty_like(Q), np.empty_like(Q)
+    for a in range(0, Q.shape[0], CHUNK):  # a checkpoint between chunks (the stop bound)
+        job.checkpoint()
+        b = min(a + CHUNK, Q.shape[0])
+        lo, hi = max(a - 1, 0), min(b + 1, Q.shape[0])  # the cycle rule's neighbours
+        part = [X if X is None or X.ndim == 1 else X[lo:hi] for X in (FE, PE)]
+        t, L = program_requirement(job.robot, Q[lo:hi], job.dt, *part)
+        if lo < a:  # the chunk's first row starts from the row before it, not from rest
+            t, L = t[1:], L[1:]
+        tau[a:b], lim[a:b] = t[:b - a], L[:b - a]
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where(lim > 0, np.abs(tau) / lim, np.where(tau != 0, np.inf, 0.0))
         v = np.abs(np.diff(Q, axis=0, prepend=Q[:1])) / job.dt / job.robot.velocity_limit

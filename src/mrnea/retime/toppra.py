@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import linprog  # here, not on the first stall: 1-2 s (the stop bound)
 from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
 
 from mrnea.errors import RetimeError
@@ -152,8 +153,6 @@ def _unstall(A: NDArray, B: NDArray, C: NDArray, ds: float, Kj: NDArray, Ki: NDA
              ) -> float:
     """The largest x_j in Kj from which stage j (rows ``A u + B x_j + C <= 0``, u = (x_i -
     x_j) / (2 ds)) reaches the highest x_i in Ki it can: two LPs in (x_j, x_i)."""
-    from scipy.optimize import linprog
-
     G = np.stack([B - A / (2 * ds), A / (2 * ds)], axis=1)  # G (x_j, x_i) <= -C
     bounds = [(Kj[0], Kj[1]), (Ki[0], Ki[1])]
     top = linprog([0.0, -1.0], A_ub=G, b_ub=-C, bounds=bounds)
