@@ -177,12 +177,18 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             "final_position_error": float(r.tracking_error[-1, i]),
         })
     worst = _worst(joints)
+    tool = {}
+    if r.tool_position_error is not None:  # a Cartesian program: the tool's error, its peak
+        for key, e in (("max_tool_position_error", r.tool_position_error),
+                       ("max_tool_orientation_error", r.tool_orientation_error)):
+            k = int(np.argmax(e))
+            tool |= {key: float(e[k]), f"{key}_time": float(r.t[k])}
     return {**head, "first_infeasible": _first_infeasible(r),
             "start_infeasible": start_violations(r),
             "max_tracking_error": float(err.max()) if err.size else 0.0,
             "worst_joint": None if worst is None else worst["joint"],
             "worst_effort_ratio": None if worst is None else worst["program_effort_ratio"],
-            "joints": joints}
+            **tool, "joints": joints}
 
 
 def _worst(joints: list[dict[str, Any]]) -> dict[str, Any] | None:

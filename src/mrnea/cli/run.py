@@ -47,7 +47,7 @@ TABLE, SUMMARY, REPORT = "cycles.csv", "summary.json", "report.html"
 
 def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
          f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool,
-         out: Path | None = None, force: bool = False):
+         out: Path | None = None, force: bool = False, cartesian=None):
     """Simulate with a progress bar; with ``out``, stream the per-cycle table to cycles.csv.
 
     A stop request (Ctrl-C, SIGTERM) ends the simulation after the current chunk of cycles: the
@@ -69,7 +69,8 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
 
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
-                       stream=None if out is None else out / TABLE, overwrite=force)
+                       stream=None if out is None else out / TABLE, overwrite=force,
+                       cartesian=cartesian)
     if not res.completed:
         click.echo(f"mrnea: interrupted after {res.K} cycles; writing the partial result.",
                    err=True)
@@ -116,7 +117,7 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
 
 def _print_cartesian(path, quiet: bool) -> None:
     """A Cartesian program's verdict on its tool path, when the robot cannot follow it (on
-    stderr: the dynamics' verdict follows on stdout)."""
+    stderr: the dynamics' verdict follows on stdout; the command then exits 1)."""
     if path is not None and not path.achievable and not quiet:
         click.echo(f"Tool path: {path.verdict()}", err=True)
 
@@ -211,11 +212,14 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
-                   force)
+                   force, run.cartesian)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)
+    if res.completed and run.cartesian is not None and not run.cartesian.achievable:
+        checkpoint()
+        sys.exit(EXIT_NOT_ACHIEVABLE)  # the tool path cannot be followed, whatever the dynamics
     exit_with_verdict(res)
 
 
@@ -237,7 +241,8 @@ def check(robot: str | None, program: str | None, dt: float | None,
     if run.cartesian is not None and not run.cartesian.achievable:
         _cartesian_verdict(run.cartesian, as_json, quiet)
         sys.exit(EXIT_NOT_ACHIEVABLE)
-    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
+    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet,
+               cartesian=run.cartesian)
     _print_result(res, None, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)

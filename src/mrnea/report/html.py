@@ -243,7 +243,24 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
 {_table([_head("joint"), _head("peak motor torque", motor), _head("RMS motor torque", motor),
          _head("peak reaction force", "N"), _head("peak axial force", "N"),
          _head("peak radial force", "N"), _head("peak reaction moment", "N m"),
-         _head("peak bending moment", "N m")], loads, "joints-loads")}"""
+         _head("peak bending moment", "N m")], loads, "joints-loads")}""" + _tool_html(result, link)
+
+
+def _tool_html(result: SimulationResult, link: bool) -> str:
+    """A Cartesian program's tool errors (the real motion against the programmed pose): the
+    peaks, in mm and mrad, and when; nothing for a joint program."""
+    s = result.summary()
+    if "max_tool_position_error" not in s:
+        return ""
+    cells = [_e("tool (Cartesian program)"),
+             _e(f"max position error {fmt_number(s['max_tool_position_error'] * 1e3)} mm"),
+             _instant(s["max_tool_position_error_time"], result.dt, link),
+             _e(f"max orientation error {fmt_number(s['max_tool_orientation_error'] * 1e3)} "
+                f"mrad"),
+             _instant(s["max_tool_orientation_error_time"], result.dt, link)]
+    head = ["tool path", "position", "at t [s]", "orientation", "at t [s]"]
+    return (f'<table class="tool">{_row([_e(h) for h in head], head=True)}'
+            f"{_row(cells)}</table>")
 
 
 def _params_html(result: SimulationResult, interpolation: str | None) -> str:
