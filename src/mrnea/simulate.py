@@ -279,7 +279,7 @@ class SimulationResult:
     def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed
         (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
-        self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
+        self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows], self.qd[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
         err = self.q_cmd[rows] - self.q[rows]
         self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)
