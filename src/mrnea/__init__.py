@@ -30,6 +30,7 @@ from mrnea.errors import (
     RetimeError,
     RobotFileError,
     SingularMassMatrixError,
+    SizingError,
     StateError,
     SweepError,
 )
@@ -38,6 +39,7 @@ from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
+from mrnea.sizing import size_drives
 from mrnea.sweep import sweep  # the function, as simulate (above)
 
 __version__ = "0.1.0"
@@ -56,6 +58,7 @@ __all__ = [
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
+    "SizingError",
     "StateError",
     "SweepError",
     "__version__",
@@ -72,6 +75,7 @@ __all__ = [
     "retime",
     "robots",
     "simulate",
+    "size_drives",
     "sweep",
     "transform",
 ]
