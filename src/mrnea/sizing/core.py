@@ -206,7 +206,7 @@ def _duties(robot: Robot, cases: list[Case], sized: list[int], dwell: float) -> 
     if dwell > 0:  # held at rest at the last program's final pose
         last = cases[-1]
         hold, _ = program_requirement(bare, np.repeat(last.q_cmd[-1:], 2, axis=0), last.dt,
-                                      None if last.f_ext is None else last.f_ext[-1:],
+                                      None if last.f_ext is None else last.f_ext[-1],
                                       last.f_ext_point, friction=False)
         z = np.zeros((1, robot.n))
         parts.append((hold[1:], z, z, z, np.array([dwell])))
