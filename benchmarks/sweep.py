@@ -43,7 +43,8 @@ from distributed import Client, LocalCluster
 from mrnea.robots import sdt
 from mrnea.robots.sdt_profile import training_program
 from mrnea.sweep import check_grid, sweep
-from mrnea.sweep.engine import _frame, _spawning
+from mrnea.sweep.cluster import spawning
+from mrnea.sweep.engine import _frame
 from mrnea.sweep.rows import run_case
 
 
@@ -81,7 +82,7 @@ def cluster(**kw):
     """A LocalCluster started as mrnea.sweep starts its own, a client of it, and the seconds
     the start took."""
     t = time.perf_counter()
-    with _spawning():
+    with spawning():
         lc = LocalCluster(dashboard_address=None, silence_logs=logging.CRITICAL,
                           scheduler_kwargs={"dashboard_address": ":0"}, **kw)
     with lc, Client(lc) as c:

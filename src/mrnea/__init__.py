@@ -12,6 +12,7 @@ which Python resolves to the attribute, the function.
 
 from mrnea import robots
 from mrnea.achievable import achievable_accelerations
+from mrnea.cartesian import load_program
 from mrnea.dynamics import (
     forward_dynamics,
     forward_kinematics,
@@ -34,7 +35,9 @@ from mrnea.errors import (
     StateError,
     SweepError,
 )
-from mrnea.io import load_program, load_robot, load_urdf
+from mrnea.identify import regressor
+from mrnea.ik import inverse_kinematics
+from mrnea.io import load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
@@ -66,12 +69,14 @@ __all__ = [
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",
+    "inverse_kinematics",
     "jacobian",
     "joint_reactions",
     "load_program",
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "regressor",
     "retime",
     "robots",
     "simulate",

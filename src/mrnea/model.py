@@ -130,15 +130,35 @@ def _pairs_per_joint(key: str, value: object, n: int, pair: str) -> list[object]
 
 
 @dataclass(frozen=True, eq=False)
+class Frame(Frozen):
+    """A named frame fixed to a link: ``origin`` (4, 4), its pose in the link's frame.
+
+    What a URDF's fixed joints merge into a chain link keeps its frame here (a flange, a tool
+    centre point such as the Panda's ``panda_hand_tcp``), so that a tool can be named
+    (:mod:`mrnea.tool`). Kinematics only: the dynamics never read frames.
+    """
+
+    name: str
+    origin: ArrayLike = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        check_name(self.name, "frame")
+        object.__setattr__(self, "origin", rigid_transform(self.origin,
+                                                           f"frame '{self.name}': origin"))
+
+
+@dataclass(frozen=True, eq=False)
 class Link(Frozen):
     """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com];
-    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics)."""
+    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics);
+    ``frames``, named frames fixed to it (:class:`Frame`, e.g. the URDF links merged into it)."""
 
     name: str
     mass: float = 0.0
     com: ArrayLike = (0.0, 0.0, 0.0)
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
     visuals: tuple[Visual, ...] = ()
+    frames: tuple[Frame, ...] = ()
 
     def __post_init__(self) -> None:
         check_name(self.name, "link")
@@ -150,6 +170,11 @@ class Link(Frozen):
         inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
         check_inertia(inertia, what)
         object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
+        frames = tuple(self.frames) if isinstance(self.frames, (tuple, list)) else None
+        if frames is None or not all(isinstance(f, Frame) for f in frames):
+            raise ModelError(f"{what}: frames must be a sequence of mrnea.model.Frame, got "
+                             f"{quote(self.frames)}")
+        object.__setattr__(self, "frames", frames)
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
@@ -497,7 +522,7 @@ class Robot(Frozen):
         last = self._links[-1]
         m, c, inertia_sum = combine_inertials([(last.mass, last.com, last.inertia),
                                                (p.mass, p.com, p.inertia)])
-        merged = Link(last.name, m, c, inertia_sum, last.visuals)
+        merged = Link(last.name, m, c, inertia_sum, last.visuals, last.frames)
         return self._replace(links=(*self._links[:-1], merged))
 
     def _replace(self, **kw: object) -> Robot:

@@ -19,6 +19,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.kernels.drive import LIMIT_RTOL, beyond
+
+_beyond = beyond.py_func  # the kernels' limit comparison, run as Python (nothing to compile)
+
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
 
@@ -40,18 +44,20 @@ def finite_or_none(x: float) -> float | None:
 
 
 def start_violations(r: SimulationResult) -> list[dict[str, Any]]:
-    """The joints whose start state is outside their limits: a position outside [lower, upper]
-    or a speed above the velocity limit (each a dict: joint, reason, value, limits)."""
+    """The joints whose start state is outside their limits by more than rounding
+    (kernels/drive.py ``beyond``): a position outside [lower, upper] or a speed above the
+    velocity limit (each a dict: joint, reason, value, limits)."""
     if r.K == 0:
         return []
     out = []
     rob = r.robot
     for i, j in enumerate(rob.joints):
         q, qd = float(r.q[0, i]), float(r.qd[0, i])
-        if not j.lower <= q <= j.upper:
+        if (_beyond(q, j.upper, abs(q) + abs(j.upper))  # outside by more than rounding
+                or _beyond(-q, -j.lower, abs(q) + abs(j.lower))):
             out.append({"joint": j.name, "reason": "start outside the position limits",
                         "value": q, "limits": [finite_or_none(j.lower), finite_or_none(j.upper)]})
-        if abs(qd) > j.velocity_limit:
+        if _beyond(abs(qd), j.velocity_limit, abs(qd) + j.velocity_limit):
             out.append({"joint": j.name, "reason": "start faster than the velocity limit",
                         "value": qd, "limits": [finite_or_none(-j.velocity_limit),
                                                 finite_or_none(j.velocity_limit)]})
@@ -83,7 +89,7 @@ def _program(r: SimulationResult, i: int) -> dict[str, Any]:
         with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf (or 0 / 0)
             ratio = np.where(req > 0.0, req / lim, 0.0)
     kr = int(np.argmax(ratio))
-    over = np.flatnonzero(req > lim)
+    over = np.flatnonzero(req > lim + LIMIT_RTOL * (lim + req))  # as the kernels compare
     out.update({
         "drive": drive,
         # peak of |required| / limit at the program's speed; null: no limit to compare with
@@ -218,7 +224,8 @@ def _shortfall(r: SimulationResult, s: dict[str, Any], worst: dict[str, Any] | N
         return (f"{worst['joint']} needs {_g(worst['program_effort_at_ratio'])} {u} at t = "
                 f"{worst['program_ratio_time']:.3f} s, where the program drives it beyond its "
                 "no-load speed (no effort left)")
-    if worst is not None and worst["program_effort_ratio"] > 1.0:
+    if (worst is not None and worst["program_effort_ratio"] > 1.0
+            and worst["program_first_over_time"] is not None):  # over by more than rounding
         u = EFFORT_UNIT[units[worst["joint"]]]
         return (f"{worst['joint']} needs {_g(worst['program_effort_at_ratio'])} {u}, "
                 f"{worst['program_effort_ratio']:.2f} {TIMES} its "

@@ -29,6 +29,7 @@ from mrnea.cli.base import (
     exit_interrupted,
     force_opt,
     fresh_dir,
+    load_program_arg,
     main,
     quiet_opt,
     robot_options,
@@ -39,16 +40,13 @@ from mrnea.io import (
     RobotOptions,
     is_program_file,
     load_grid_file,
-    load_program,
     load_robot_spec,
     resolve_robot,
 )
 from mrnea.io.dispatch import same_robot
-from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
-from mrnea.robots.sdt_profile import training_program
 
 CSV, PARQUET, HTML = "sweep.csv", "sweep.parquet", "sweep.html"
 
@@ -117,8 +115,8 @@ def _axes(value: str | None, option: str, keys: list[str], count: int) -> list[s
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-sweep].")
 @click.option("--scheduler", default=None, metavar="ADDR",
-              help="A Dask scheduler, tcp://HOST:PORT [default: a local cluster, one worker "
-                   "process per core].")
+              help="A Dask scheduler, tcp://HOST:PORT, checked first: where none answers, one "
+                   "error within 12 s [default: a local cluster, one worker process per core].")
 @click.option("--workers", type=click.IntRange(1), default=None, metavar="N",
               help="Worker processes of the local cluster [default: the usable cores].")
 @click.option("--retime", is_flag=True, help="Also retime each run (column retimed_duration).")
@@ -142,6 +140,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     from mrnea.report.sweep import write_sweep_html
     from mrnea.sweep import check_grid, load_programs
     from mrnea.sweep import sweep as run_sweep
+    from mrnea.sweep.cluster import check_scheduler
 
     spec = load_grid_file(grid_file)
     robot_arg = args[0] if args and _is_robot(args[0]) else None
@@ -149,7 +148,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     if not names:
         raise SweepError("no program: give PROGRAM files, or 'programs' in the grid file's "
                          "[sweep]")
-    programs = [training_program() if n == DEMO_PROGRAM else load_program(n) for n in names]
+    programs = [load_program_arg(n) for n in names]
     robot = _robot(robot_arg, spec.robot, programs, robot_options)
     programs = load_programs(programs, robot)  # each against the robot's joint count
     keys = list(spec.grid)
@@ -159,6 +158,8 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         raise SweepError(f"{spec.source}: {exc}") from None
     axes = _axes(map_axes, "--map", keys, 2)
     curve = _axes(curves, "--curves", keys, 1)
+    if scheduler is not None:  # a scheduler there, before the folder and the first line
+        check_scheduler(scheduler)
     files = [CSV, *([PARQUET] if importlib.util.find_spec("pyarrow") else []), HTML]
     with own_folder(Path(out) if out else fresh_dir("mrnea-sweep")) as folder:
         check_new([folder / f for f in files], force)

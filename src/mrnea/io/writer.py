@@ -179,19 +179,25 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
     behind, harmless). A folder this call created is removed again if the block fails before
     writing anything into it (a bad program leaves no empty folder behind).
 
+    ``folder`` itself must not be a symbolic link (checked before and after creating it): the
+    files of a run are never written through a link, a planted one at a default folder's name
+    included.
+
     Raises
     ------
     OutputError
-        ``folder`` cannot be created, or another run holds it.
+        ``folder`` is a symbolic link, cannot be created, or another run holds it.
     """
     folder = as_path(folder, "folder", OutputError)
     created = not os.path.lexists(folder)
+    _refuse_link(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
         raise OutputError(f"{folder} exists and is not a folder") from None
     except OSError as exc:
         raise OutputError(f"{folder}: cannot create the output folder: {exc.strerror}") from None
+    _refuse_link(folder)  # a link planted between the check and mkdir
     lock = folder / LOCK_NAME
     fd = _lock(folder, lock)
     failed = True
@@ -205,6 +211,18 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
         if failed and created:
             with contextlib.suppress(OSError):
                 folder.rmdir()  # only if empty: nothing written, nothing lost
+
+
+def _refuse_link(folder: Path) -> None:
+    """An OutputError if ``folder`` (its last component) is a symbolic link: an output folder is
+    never written through one, whether the user named it or it is a command's default."""
+    if os.path.islink(folder):
+        try:
+            target = f" (to {quote(os.readlink(folder))})"
+        except OSError:
+            target = ""
+        raise OutputError(f"{folder} is a symbolic link{target}; mrnea never writes through a "
+                          "link: name a real folder (the link's target itself, if that is meant)")
 
 
 def _lock(folder: Path, lock: Path) -> int:

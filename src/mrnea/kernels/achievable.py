@@ -33,7 +33,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite
-from mrnea.kernels.drive import actuator_terms, coulomb, effort_box
+from mrnea.kernels.drive import actuator_terms, beyond, coulomb, effort_box
 from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
 from mrnea.kernels.layout import (
     ACHIEVABLE,
@@ -132,16 +132,20 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, 
         flags = 0
         qc = q_cmd[i]  # read only: the caller's command is never modified
         vc = qd_cmd[i]
-        if vc > act[i, VLIM] or vc < -act[i, VLIM]:
-            vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
+        lo, hi, vlim = act[i, LOWER], act[i, UPPER], act[i, VLIM]
+        # beyond a limit by more than rounding (kernels/drive.py): the velocity is a difference
+        # of positions over dt, so its rounding scales with |q| / dt
+        vscale = vlim + (abs(qc) + abs(q[i])) / dt
+        if beyond(vc, vlim, vscale) or beyond(-vc, vlim, vscale):
+            vc = min(max(vc, -vlim), vlim)
             flags |= CLAMP_VELOCITY
-        if qc > act[i, UPPER]:  # approach the limit, do not pass it
-            vc = min(vc, (act[i, UPPER] - q[i]) / dt)
+        if beyond(qc, hi, abs(hi) + abs(qc)):  # approach the limit, do not pass it
+            vc = min(vc, (hi - q[i]) / dt)
             flags |= CLAMP_POSITION
-        elif qc < act[i, LOWER]:
-            vc = max(vc, (act[i, LOWER] - q[i]) / dt)
+        elif beyond(-qc, -lo, abs(lo) + abs(qc)):
+            vc = max(vc, (lo - q[i]) / dt)
             flags |= CLAMP_POSITION
-        if vc > act[i, VLIM] or vc < -act[i, VLIM]:  # coming back from past a limit
+        if beyond(vc, vlim, vscale) or beyond(-vc, vlim, vscale):  # coming back from past a limit
             vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
             flags |= CLAMP_VELOCITY
         clamp[i] = flags

@@ -52,6 +52,14 @@ and the motor torque of a joint-side effort tau is (``motor_side``)::
     tau eta_b / G     back-driven (tau qd < 0)
 
 eta = 1 (the default) gives the ideal gear's numbers bit for bit (x 1.0 and / 1.0 are exact).
+
+Limits and rounding: a value is over a limit (effort, velocity, position) only when it exceeds
+it by more than rounding, ``beyond(x, limit, scale)``: x > limit + LIMIT_RTOL * scale, with
+LIMIT_RTOL = 8 ulps of 1 (8 eps, 1.8e-15) and ``scale`` the magnitude of the quantities x is
+computed from (velocity: the limit and |q| / dt of the positions it is the difference of;
+position: the limit and |q|; effort: the limit and |tau_req|). A program planned exactly to a
+limit (a commanded speed of 2.0000000000000004 against 2.0) is within it; one over it by a real
+amount (1e-12 relative and more) is not.
 """
 
 from __future__ import annotations
@@ -77,6 +85,16 @@ from mrnea.kernels.layout import (
     own_scratch,
 )
 from mrnea.kernels.status import OK
+
+LIMIT_RTOL = 8.0 * float(np.finfo(np.float64).eps)
+"""Relative tolerance of a limit comparison (module docstring, 'Limits and rounding')."""
+
+
+@nb.njit(**INLINE)
+def beyond(x, limit, scale):
+    """True if x exceeds limit by more than rounding: x > limit + LIMIT_RTOL * scale, ``scale``
+    >= 0 the magnitude of the quantities x and limit are computed from (inf: never beyond)."""
+    return x > limit + LIMIT_RTOL * scale
 
 
 @nb.njit(**INLINE)

@@ -37,8 +37,8 @@ In HYBRID, D_i = U_i = inf fixes v_i = v_des_i (slopes -inf, +inf).
 Algorithm, a primal active-set method on this piecewise quadratic (W: held joints, F: free):
 
 0. tau_req (the program's requirement, below). HYBRID fast path: if every tau_req_i lies in
-   [-D_i, U_i],
-   v = v_des is optimal (its subgradient condition) and nothing is solved.
+   [-D_i, U_i] (up to rounding: kernels/drive.py ``beyond``), v = v_des is optimal (its
+   subgradient condition) and nothing is solved.
 1. Start: HYBRID v_i = v_des_i (qd_i without a drive), PAPER v = qd; each joint on the piece
    holding it, held where it sits on a breakpoint.
 2. Eq. 44 for the free joints, the held ones' accelerations known:
@@ -72,7 +72,8 @@ HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi
 qdd_des = (v_des - qd) / dt, phi_des = coulomb(v_des), and for v_des_i = 0 the same split
 (kernels/drive.py ``wanted_friction``).
 Flags: sat_i (HYBRID) v_i != v_des_i, the drive is at U_i or -D_i and misses the program;
-(PAPER) tau_req_i outside [-D_i, U_i]. stuck_i: v_i == 0 exactly (friction holds the joint).
+(PAPER) tau_req_i outside [-D_i, U_i] by more than rounding. stuck_i: v_i == 0 exactly (friction
+holds the joint).
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ import math
 
 import numba as nb
 
-from mrnea.kernels.drive import coulomb, holding_friction, wanted_friction
+from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
 from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import CYCLE_LIMIT, OK
@@ -103,6 +104,14 @@ def _required(Ha, ua, qdd_des, i, v_des_i, Fp, Fn):
         h += Ha[i, j] * qdd_des[j]
     phi = wanted_friction(h, v_des_i, Fp, Fn)
     return phi, h + phi
+
+
+@nb.njit(**INLINE)
+def _over(tau_req_i, Llo_i, Lhi_i):
+    """tau_req_i outside the box [-Llo_i, Lhi_i] by more than rounding (kernels/drive.py
+    ``beyond``; for a symmetric box, |tau_req_i| over L_i)."""
+    scale = abs(tau_req_i)
+    return beyond(tau_req_i, Lhi_i, Lhi_i + scale) or beyond(-tau_req_i, Llo_i, Llo_i + scale)
 
 
 @nb.njit(**INLINE)
@@ -184,7 +193,7 @@ def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         v[i] = v_des[i]
         sat[i] = False
         stuck[i] = v_des[i] == 0.0
-        fast = fast and -Llo[i] <= tau_req[i] <= Lhi[i]
+        fast = fast and not _over(tau_req[i], Llo[i], Lhi[i])
     if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
         return OK
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
@@ -202,7 +211,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     # 1. breakpoints, slopes and the start point
     max_iter = 1
     for i in range(n):
-        tauc[i] = min(max(tau_req[i], -Llo[i]), Lhi[i])  # Eq. 44's clamp (PAPER)
+        # Eq. 44's clamp (PAPER); a requirement within the limit up to rounding is given whole
+        tauc[i] = (min(max(tau_req[i], -Llo[i]), Lhi[i]) if _over(tau_req[i], Llo[i], Lhi[i])
+                   else tau_req[i])
         nbp[i] = _setup_joint(i, hybrid, v_des[i], Llo[i], Lhi[i], Fpos[i], Fneg[i], tauc[i],
                               bp, sl)
         v[i] = v_des[i] if hybrid and Llo[i] + Lhi[i] > 0.0 else qd[i]
@@ -335,6 +346,5 @@ def _efforts(Ha, ua, v_des, Llo, Lhi, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_
             phi[i] = holding_friction(h, Fpos[i], Fneg[i])
         if hybrid and v[i] == v_des[i]:  # on program: the drive gives what it takes
             tau[i] = min(max(h + phi[i], -Llo[i]), Lhi[i])
-        sat[i] = (v[i] != v_des[i] if hybrid
-                  else tau_req[i] > Lhi[i] or tau_req[i] < -Llo[i])
+        sat[i] = v[i] != v_des[i] if hybrid else _over(tau_req[i], Llo[i], Lhi[i])
         stuck[i] = v[i] == 0.0

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numbers
 import time
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -41,6 +42,7 @@ def retime(
     acceleration_limit: ArrayLike | None = None,
     grid: int | None = None,
     mode: Literal["hybrid", "paper"] | None = None,
+    checkpoint: Callable[[], None] | None = None,
 ) -> RetimeResult:
     """Retime a program: keep its path (the sequence of joint positions), change its timing to
     the fastest the robot can make, and verify the result by simulation.
@@ -77,6 +79,12 @@ def retime(
         Grid intervals per moving piece (default: half its rows, clipped to [200, 1000]).
     mode : ``"hybrid"`` or ``"paper"``, optional (keyword)
         The verifying simulation's mode; default the program's, else ``"hybrid"``.
+    checkpoint : callable, optional (keyword)
+        Called with no argument between the steps of the retiming (each piece's path
+        coefficients, each TOPP-RA solve, each chunk of 2000 cycles of a verifying simulation:
+        well under a second apart on the cases of docs/retime.md); an exception it raises
+        (KeyboardInterrupt: the CLI's stop request) ends the retiming, which then returns
+        nothing.
 
     Returns
     -------
@@ -103,7 +111,7 @@ def retime(
     """
     method = validate.choice("method", method, METHODS)
     margin = validate.fraction(margin, "margin")
-    job = Job.of(robot, program, dt, f_ext, f_ext_point, mode)
+    job = Job.of(robot, program, dt, f_ext, f_ext_point, mode, checkpoint)
     acc = None
     if acceleration_limit is not None:
         acc = validate.per_joint(acceleration_limit, "acceleration_limit", robot.n)
@@ -114,7 +122,9 @@ def retime(
         raise StateError(f"grid: expected an int >= 10, got {grid!r}")
     if method == "scale" and acc is not None:
         raise StateError("acceleration_limit: only method 'toppra' takes it")
+    job.checkpoint()
     _check_holds(job, margin if method == "toppra" else 1.0)
+    job.checkpoint()
     if not job.moving:
         raise RetimeError("the program never moves: there is nothing to retime")
     if (acc is None and not np.isfinite(robot.effort_limit).any()
@@ -177,7 +187,10 @@ def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
     """Every moving piece j: :func:`_piece`; its time counts as the retiming's
     ``coefficients`` if ``timed``."""
     t0 = time.perf_counter()
-    out = {j: _piece(job, j, None, grid) for j, _, _ in job.moving}
+    out = {}
+    for j, _, _ in job.moving:
+        job.checkpoint()
+        out[j] = _piece(job, j, None, grid)
     if timed:
         job.timings["coefficients"] += time.perf_counter() - t0
     return out
@@ -220,12 +233,13 @@ def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | Non
             k0, k1 = job.runs[j][1:]
             static_check(job.robot, need, job.clock[k0] + pc.s, m)
             t0 = time.perf_counter()
-            sd, log = toppra_profile(pc, lim, job.dt)
+            sd, log = toppra_profile(pc, lim, job.dt, job.checkpoint)
             t1 = time.perf_counter()
             job.timings["toppra"] += log["solver_time"]
             job.timings["rows"] += t1 - t0 - log["solver_time"]
             retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt, job.robot.n),
                                     job.q[k0], job.q[k1])
+            job.check_resolution(j, spline, *retimed[j], _largest_acceleration(pc, sd))
             job.timings["sampling"] += time.perf_counter() - t1
             speeds[j] = sd
             logs.append({"margin": m, "piece": j, "grid": pc.s.size, **log})
@@ -242,6 +256,15 @@ def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | Non
                               f"simulation accepts; the last one: {sim.verdict()}")
         m = max(MIN_MARGIN, m * min(0.99, 1 / max(peak_ratio(sim), over_acc, 1 + 1e-6)))
     return m, _phase(job, paths, speeds, acc), Q, FE, PE, sim, logs
+
+
+def _largest_acceleration(pc: Any, sd: NDArray) -> NDArray:
+    """(n,) the largest |qdd| = |q_s sdd + q_ss sd^2| [rad/s^2 | m/s^2] of a profile sd at the
+    grid points, with the path acceleration of either adjacent interval."""
+    x = sd ** 2
+    u = np.diff(x) / (2 * np.diff(pc.s))
+    return np.max([np.max(np.abs(pc.qs * uu[:, None] + pc.qss * x[:, None]), axis=0)
+                   for uu in (np.append(u, u[-1]), np.insert(u, 0, u[0]))], axis=0)
 
 
 def _phase(job: Job, paths: dict[int, tuple], speeds: dict[int, NDArray],

@@ -85,6 +85,26 @@ def piece_rows(spline: CubicSpline, s: NDArray, first: NDArray, last: NDArray
     return r[keep], s[keep]
 
 
+def polyline_error(spline: CubicSpline, q: NDArray, dt: float, rows: NDArray, s: NDArray
+                   ) -> tuple[NDArray, NDArray, NDArray]:
+    """How far a piece's retimed rows leave its path, per joint (n,) [rad | m].
+
+    ``q`` (K, n) the program's rows of the piece at ``k dt`` (``spline`` through them), ``rows``
+    (M, n) the retimed rows at path positions ``s`` (M,). At each program row and half-way
+    between two, the path (the spline) against the straight line between the retimed rows
+    around it (linear in s, as in time within a cycle). Returns ``(own, err, where)``: the
+    program's own bulge (its rows' straight lines against the spline half-way between them),
+    the retimed rows' largest deviation, and the path position [s] of that largest deviation.
+    """
+    k = np.arange(q.shape[0]) * dt
+    mid = k[:-1] + dt / 2
+    own = np.max(np.abs(spline(mid) - (q[:-1] + q[1:]) / 2), axis=0)
+    ref = np.sort(np.concatenate([k, mid]))
+    line = np.stack([np.interp(ref, s, rows[:, c]) for c in range(rows.shape[1])], axis=1)
+    dev = np.abs(spline(ref) - line)
+    return own, dev.max(axis=0), ref[np.argmax(dev, axis=0)]
+
+
 def grid_points(s: NDArray, q: NDArray, N: int, qss: NDArray | None = None,
                 grading: int = 4) -> NDArray:
     """About N + 1 grid points in [s_0, s_end] for a moving piece's rows q at s: equal steps of

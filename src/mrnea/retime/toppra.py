@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -209,7 +210,8 @@ def duration_of(s: NDArray, sd: NDArray) -> float:
         return float(np.sum(2 * np.diff(s) / (sd[1:] + sd[:-1])))
 
 
-def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
+def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0,
+                   checkpoint: Callable[[], None] | None = None
                    ) -> tuple[NDArray, dict[str, Any]]:
     """The time-optimal path speed sd (N + 1,) of a piece under the full actuator model.
 
@@ -230,6 +232,7 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
     profile [s]), ``relaxed`` (the relaxation's), ``solver_time`` [s] (TOPP-RA alone),
     ``solver_failures`` (rounds seidel failed; the last good profile is kept),
     ``stalls_repaired`` (grid points where TOPP-RA's forward pass stalled, :func:`_solve`).
+    ``checkpoint`` is called before each solve (:func:`mrnea.retime`).
     """
     vcap = velocity_cap(pc, lim)
     stage = acceleration_rows(pc, lim)
@@ -237,6 +240,8 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
                            "stalls_repaired": 0}
 
     def solve(rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray) -> NDArray:
+        if checkpoint is not None:
+            checkpoint()
         t0 = time.perf_counter()
         try:
             sd, repaired = _solve(pc.s, rows, xmax, stage)

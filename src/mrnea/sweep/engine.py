@@ -5,7 +5,8 @@
 
 * ``client=None`` starts a ``distributed.LocalCluster`` of one single-threaded worker process
   per usable core and closes it afterwards; a ``distributed.Client``, or a scheduler address
-  (``"tcp://host:8786"``), runs the same sweep on an existing cluster. Processes, not threads:
+  (``"tcp://host:8786"``, checked first: :func:`~mrnea.sweep.cluster.check_scheduler`), runs
+  the same sweep on an existing cluster. Processes, not threads:
   a run holds the GIL for about half its time (docs/sweeps.md), so threads of one process
   would give at most 2x however many cores.
 * The robot and every (program, time scale) are sent to each worker once; a task is a batch
@@ -27,24 +28,22 @@ from __future__ import annotations
 
 import builtins
 import contextlib
-import logging
 import math
 import os
 import queue
-import signal
 import sys
-import threading
 import time
-import warnings
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from mrnea import validate
+from mrnea.cartesian import solve
 from mrnea.errors import MrneaError, SweepError, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
 from mrnea.model import Robot
 from mrnea.robots.sdt_profile import training_program
+from mrnea.sweep import cluster
 from mrnea.sweep.rows import (
     FIRST_COLUMNS,
     RETIME_COLUMNS,
@@ -64,11 +63,8 @@ __all__ = ["DEMO_PROGRAM", "TARGET_CYCLES", "batch_size", "load_programs", "swee
 TARGET_CYCLES = 250_000
 #: Tasks per worker thread at least, for load balance and a progress bar that moves.
 TASKS_PER_THREAD = 4
-#: glibc settings of the LocalCluster's workers (:func:`_spawning`): trim at 128 MB, arrays of
-#: up to 32 MB from the heap.
-WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 134217728, "MALLOC_MMAP_THRESHOLD_": 33554432}
-#: Seconds to wait for a cluster's first worker, and for a scheduler to answer.
-WORKER_TIMEOUT, CONNECT_TIMEOUT = 60, 10
+#: Seconds to wait for a cluster's first worker.
+WORKER_TIMEOUT = 60
 #: Seconds between two calls of a progress callback while no task finishes.
 POLL = 0.25
 
@@ -106,7 +102,7 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
         if prog.n != robot.n:
             raise SweepError(f"program {quote(prog.name)} ({prog.source or 'object'}) commands "
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
-        out.append(prog)
+        out.append(solve(prog, robot))  # a Cartesian program's joint path (others: unchanged)
     return out
 
 
@@ -135,77 +131,6 @@ def _scaled(programs: Sequence[Program], cases: Sequence[Mapping[str, Any]]
 
 
 # --- the cluster ---------------------------------------------------------------------------
-
-
-@contextlib.contextmanager
-def _spawning() -> Iterator[None]:
-    """The settings under which this process starts its LocalCluster's worker processes.
-
-    * SIGINT ignored while they start, so they inherit it ignored: Ctrl-C in a terminal reaches
-      the whole process group, and only this process should act on it (cancel, keep the rows,
-      close the cluster), not every worker with a traceback of its own. A Ctrl-C during those
-      1-3 s is lost (blocking the signal instead did not keep it pending: a thread distributed
-      starts takes it).
-    * glibc's heap kept for the runs' arrays: distributed's ``MALLOC_TRIM_THRESHOLD_=65536``
-      also fixes glibc's mmap threshold at 128 kB, so each run's MB-sized arrays are mapped and
-      faulted in afresh (5x the page faults, +35 % CPU per run, measured); trim at 128 MB with
-      a 32 MB mmap threshold instead (:data:`WORKER_MALLOC`).
-    * ``os.environ`` restored afterwards: distributed's Nanny writes its worker variables
-      (``OMP_NUM_THREADS=1``...) into this process's environment.
-    """
-    import dask
-
-    environ = dict(os.environ)
-    main = threading.current_thread() is threading.main_thread()
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-    try:
-        key = "distributed.nanny.pre-spawn-environ"
-        with dask.config.set({key: {**dask.config.get(key), **WORKER_MALLOC}}):
-            yield
-    finally:
-        os.environ.clear()
-        os.environ.update(environ)
-        if main:
-            signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def _quiet() -> Iterator[None]:
-    """distributed's logs and warnings off (a failed task becomes its rows' error)."""
-    log = logging.getLogger("distributed")
-    level = log.level
-    log.setLevel(logging.CRITICAL)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            yield
-    finally:
-        log.setLevel(level)
-
-
-@contextlib.contextmanager
-def _client(client: Any, workers: int | None) -> Iterator[Any]:
-    """A ``distributed.Client``: the one given, one connected to a scheduler address, or one
-    of a new LocalCluster (closed on exit)."""
-    from distributed import Client, LocalCluster
-
-    if client is None:
-        n = workers or len(os.sched_getaffinity(0))
-        with _spawning():  # the dashboard off, and the scheduler's HTTP server on a free port:
-            cluster = LocalCluster(  # on 8787 it warns when another cluster holds that port
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                silence_logs=logging.CRITICAL, scheduler_kwargs={"dashboard_address": ":0"})
-        with cluster, Client(cluster) as c:
-            yield c
-    elif isinstance(client, str):
-        try:
-            c = Client(client, timeout=f"{CONNECT_TIMEOUT}s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise SweepError(f"scheduler {quote(client)}: cannot connect ({exc})") from None
-        with c:
-            yield c
-    else:
-        yield client
 
 
 def batch_size(jobs: int, cycles: float, threads: int) -> int:
@@ -328,7 +253,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
     report = bar or (progress if callable(progress) else None)
     completed = True
     try:
-        with _quiet(), _client(client, workers) as c:
+        with cluster.quiet(), cluster.client(client, workers) as c:
             clock["cluster"] = time.perf_counter() - t0 - clock["prepare"]
             _run(c, robot, scaled, jobs, retime, report, bar, rows, info, clock)
     except KeyboardInterrupt:  # rows holds what was done; the cluster is closed or left as given
