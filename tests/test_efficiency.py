@@ -84,6 +84,12 @@ def test_motor_torque_and_requirement_limit():
     assert back.any() and (~back & (req != 0)).any()
     np.testing.assert_array_equal(lim[back], L / 0.5)
     np.testing.assert_array_equal(lim[~back], 0.9 * L)
+    # the summary's motor side of the requirement, by the law
+    motor = np.where(back, req * 0.5 / G, req / (G * 0.9))
+    j = res.summary()["joints"][0]
+    assert j["program_peak_motor_torque"] == pytest.approx(np.abs(motor).max(), rel=1e-14)
+    assert j["program_rms_motor_torque"] == pytest.approx(np.sqrt(np.mean(motor**2)),
+                                                          rel=1e-14)
 
 
 def test_efficiency_field_inputs(tmp_path):

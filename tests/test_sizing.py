@@ -290,3 +290,25 @@ def test_bad_catalogue_is_one_error_naming_entry_and_field(text, words):
         loads_catalogue(text, "cat.toml")
     for w in ["cat.toml", *words]:
         assert w in str(exc.value)
+
+
+def test_dwell_holds_the_load_in_the_rms():
+    """``dwell`` seconds at rest after the program: the motor holds m g (driving, at rest:
+    m g / (G eta_d)), so RMS^2 (T + D) = sum of the program's motor torque^2 dt + D (m g /
+    (G eta_d))^2; the program's part recomputed from a simulation with the chosen drive."""
+    robot = Robot([Joint("z", "prismatic", "base", "carriage", axis=(0, 0, 1))],
+                  [Link("carriage", 20.0)])
+    _, q = trapezoidal([[0.5], [0.0]], 0.005, [0.5], [8.0])
+    D = 2.0
+    res = size_drives(robot, [(q, 0.005)], loads_catalogue(LIFT), dwell=D)
+    js = res.joints[0]
+    t = res.chosen["z"]
+    run = mrnea.simulate(by_hand(robot, {"z": t}), q, 0.005, reactions=False)
+    tau, qd = run.program_effort[:, 0], run.qd_cmd[:, 0]
+    motor = np.where(tau * qd < 0, tau * 0.7 / 500, tau / (500 * 0.9))
+    hold = 20 * 9.81 / (500 * 0.9)
+    T = len(q) * 0.005
+    want = np.sqrt((np.sum(motor**2) * 0.005 + D * hold**2) / (T + D))
+    assert js.judged.rms[js.chosen] == pytest.approx(want, rel=1e-12)
+    assert js.judged.ratios[js.chosen, 1] == pytest.approx(want / t.motor.rated_torque,
+                                                           rel=1e-12)
