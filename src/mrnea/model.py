@@ -531,7 +531,8 @@ class Robot(Frozen):
     # --- export ---------------------------------------------------------------------------------
     def to_urdf(self, path: str | Path, overwrite: bool = False) -> Path:
         """Write this robot as a URDF file: :func:`mrnea.io.write_urdf` (what URDF cannot hold,
-        the rotor inertia and a torque-speed curve, is dropped). Returns ``path``."""
+        the rotor inertia, a torque-speed curve and the gear efficiency, is dropped). Returns
+        ``path``."""
         return WRITERS["urdf"](self, path, overwrite)
 
     def to_toml(self, path: str | Path, overwrite: bool = False) -> Path:
