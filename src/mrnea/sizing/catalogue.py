@@ -79,8 +79,12 @@ class Train:
 
     @property
     def price(self) -> float | None:
-        prices = [p for p in (self.motor.price, self.gearbox.price) if p is not None]
-        return sum(prices) if prices else None
+        """The motor's and the gearbox's price (a unit's: its own); None if one is not given."""
+        if self.unit:
+            return self.motor.price
+        if self.motor.price is None or self.gearbox.price is None:
+            return None
+        return self.motor.price + self.gearbox.price
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ from mrnea.errors import SizingError, listing, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
 from mrnea.model import Link, Robot
+from mrnea.resources import require_memory
 from mrnea.rigid import combine_inertials
 from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import SimulationResult, simulate
@@ -272,6 +273,10 @@ def size_drives(
             raise SizingError(f"{c.name}: q_cmd has shape {c.q_cmd.shape}, the robot has "
                               f"{robot.n} joints")
     trains = cat.combinations()
+    K = sum(len(c.q_cmd) for c in cases) + 1
+    # judge() holds about 10 (combinations, cycles) float arrays per joint at once
+    require_memory(10 * 8.0 * len(trains) * K, f"sizing {len(trains)} combinations over {K} "
+                   f"cycles", "use a smaller catalogue or fewer, shorter programs", SizingError)
     chosen: dict[str, Train] = {}
     seen: list[dict[str, str]] = []
     rounds = 0
