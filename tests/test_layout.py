@@ -66,7 +66,7 @@ def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndar
 SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's docstring
     "pose": ["n33", "n3", "n3", "n3", "n33"], "mrnea": ["n3"] * 4, "force": ["n3"] * 2,
     "effort": ["n"], "solve": ["nn", "nn", "n", "n"],
-    "achievable": ["nn", *["n"] * 6],
+    "achievable": ["nn", *["n"] * 7],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
 }
 

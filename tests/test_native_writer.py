@@ -60,7 +60,7 @@ def with_every_field(robot: Robot, rng: np.random.Generator) -> Robot:
         "velocity_limit": rng.uniform(0.5, 5.0, n), "effort_limit": rng.uniform(1.0, 300.0, n),
         "gear_ratio": rng.uniform(1.0, 200.0, n), "rotor_inertia": rng.uniform(1e-6, 1e-3, n),
         "viscous_friction": rng.uniform(0.0, 2.0, n),
-        "coulomb_friction": rng.uniform(0.0, 5.0, n),
+        "coulomb_friction": rng.uniform(0.0, 5.0, n), "efficiency": rng.uniform(0.3, 1.0, n),
     }
     curves = [(float(rng.uniform(10, 100)), float(rng.uniform(0.5, 2)), float(rng.uniform(2, 9)))
               if i % 2 else None for i in range(n)]

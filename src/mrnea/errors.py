@@ -128,6 +128,11 @@ class SweepError(MrneaError):
     the grid entry, file or program at fault; it is raised before any simulation runs."""
 
 
+class SizingError(MrneaError):
+    """Drive sizing cannot start: its catalogue file (the message names the entry and field at
+    fault), a joint it was asked to size, an objective or an option."""
+
+
 class ModelWarning(UserWarning):
     """A robot description is valid but physically doubtful (an inertia that violates the
     triangle inequality, a massless moving link); mrnea goes on and says so."""

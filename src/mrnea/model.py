@@ -24,6 +24,10 @@ Conventions (the same as URDF's, so URDF files map one to one):
   limit is ``peak`` up to the corner speed, then the smaller of constant power
   ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
   no-load speed; zero beyond it. With a curve, ``effort_limit`` equals ``peak``.
+* ``efficiency`` η of the gear (one value in (0, 1], or two, ``(driving, back-driven)``).
+  ``effort_limit`` and the curve are the ideal gear's, G times the motor's; the drive gives
+  η times them while it delivers power (effort and speed of the same sign, or at rest) and
+  1/η times them while the load drives it back (docs/achievable.md, kernels/drive.py).
 
 A :class:`Robot` is validated once, at construction; every error names the link or joint at fault.
 """
@@ -82,6 +86,9 @@ ACTUATOR_FIELDS = (
     ActuatorField("torque_speed", "curve", "N m or N, rad/s or m/s",
                   "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
+    ActuatorField("efficiency", "eta", "-",
+                  "gear efficiency in (0, 1]: one value, or two (driving, back-driven); the "
+                  "limit is eta times the effort limit driving, 1 / eta times it back-driven"),
 )
 #: SI unit of each joint quantity, (revolute, prismatic): position, velocity, acceleration, effort.
 JOINT_UNITS = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "qdd": ("rad/s^2", "m/s^2"),
@@ -104,13 +111,27 @@ def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     return p if p == m else (p, m)
 
 
-def _coulomb_per_joint(value: object, n: int) -> list[object]:
-    """with_actuators' coulomb_friction: one number, or n entries (a number or a pair each)."""
+def _efficiency(value: object, what: str) -> float | tuple[float, float]:
+    """Gear efficiency: a value in (0, 1], or two ``(driving, back-driven)``; an equal pair is
+    stored as one number."""
+    pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
+    if len(pair) != 2:
+        raise ModelError(f"{what}: efficiency must be a number or two, [driving, back-driven], "
+                         f"got {value!r}")
+    d, b = (real_number(v, f"{what}: efficiency") for v in pair)
+    if not (0.0 < d <= 1.0 and 0.0 < b <= 1.0):
+        raise ModelError(f"{what}: efficiency must be in (0, 1], got {value!r}")
+    return d if d == b else (d, b)
+
+
+def _pairs_per_joint(key: str, value: object, n: int, pair: str) -> list[object]:
+    """with_actuators' coulomb_friction or efficiency: one number, or n entries (a number or a
+    pair each)."""
     if not isinstance(value, (list, tuple)) and np.ndim(value) == 0:  # type: ignore[arg-type]
         return [value] * n
     if len(value) != n:
-        raise ModelError(f"with_actuators: coulomb_friction must be a number or {n} entries (a "
-                         f"number or a [positive, negative] pair each), got {value!r}")
+        raise ModelError(f"with_actuators: {key} must be a number or {n} entries (a "
+                         f"number or a [{pair}] pair each), got {value!r}")
     return [tuple(e) if isinstance(e, (list, tuple, np.ndarray)) else e for e in value]
 
 
@@ -187,6 +208,7 @@ class Joint(Frozen):
     viscous_friction: float = 0.0
     coulomb_friction: float | tuple[float, float] = 0.0
     torque_speed: tuple[float, float, float] | None = None
+    efficiency: float | tuple[float, float] = 1.0
 
     def __post_init__(self) -> None:
         check_name(self.name, "joint")
@@ -230,6 +252,7 @@ class Joint(Frozen):
         values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
         check_magnitude(values["coulomb_friction"], "coulomb_friction", what,
                         "N" if self.type == "prismatic" else "N m")
+        values["efficiency"] = _efficiency(self.efficiency, what)
         g = real_number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
@@ -264,6 +287,13 @@ class Joint(Frozen):
         """``(F+, F-)``: the Coulomb friction magnitudes opposing positive and negative motion."""
         c = self.coulomb_friction
         return c if isinstance(c, tuple) else (c, c)
+
+    @property
+    def efficiency_pair(self) -> tuple[float, float]:
+        """``(driving, back-driven)``: the gear efficiencies while the drive delivers power and
+        while the load drives it back."""
+        e = self.efficiency
+        return e if isinstance(e, tuple) else (e, e)
 
     def unit(self, quantity: str) -> str:
         """SI unit of its ``"q"``, ``"qd"``, ``"qdd"`` or ``"tau"`` (:data:`JOINT_UNITS`)."""
@@ -387,6 +417,9 @@ class Robot(Frozen):
         lambda self: np.array([j.coulomb_pair for j in self._joints], dtype=np.float64),
         doc="(n, 2) Coulomb friction magnitudes [F+, F-] per joint (opposing positive, "
             "negative motion) [N m or N], joint side.")
+    efficiency = property(
+        lambda self: np.array([j.efficiency_pair for j in self._joints], dtype=np.float64),
+        doc="(n, 2) gear efficiencies [driving, back-driven] per joint.")
 
     @property
     def torque_speed(self) -> tuple[tuple[float, float, float] | None, ...]:
@@ -413,7 +446,9 @@ class Robot(Frozen):
         ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
         or an ``(n,)`` sequence (per joint, root to tip); ``coulomb_friction`` also an ``(n, 2)``
         array, or a sequence of n entries each a number or a pair ``[positive direction,
-        negative direction]`` (asymmetric friction). ``effort_limit`` sets a constant limit
+        negative direction]`` (asymmetric friction); ``efficiency`` likewise (one value in (0, 1]
+        for all joints, n of them, or n entries each a number or a pair ``[driving,
+        back-driven]``). ``effort_limit`` sets a constant limit
         at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
@@ -464,7 +499,12 @@ class Robot(Frozen):
         if "effort_limit" in fields:
             per_joint["torque_speed"] = [None] * n
         if "coulomb_friction" in fields:
-            per_joint["coulomb_friction"] = _coulomb_per_joint(fields.pop("coulomb_friction"), n)
+            per_joint["coulomb_friction"] = _pairs_per_joint(
+                "coulomb_friction", fields.pop("coulomb_friction"), n,
+                "positive, negative")
+        if "efficiency" in fields:
+            per_joint["efficiency"] = _pairs_per_joint("efficiency", fields.pop("efficiency"), n,
+                                                       "driving, back-driven")
         for k, v in fields.items():
             per_joint[k] = values(k, v)
         joints = [
@@ -506,7 +546,8 @@ class Robot(Frozen):
     # --- export ---------------------------------------------------------------------------------
     def to_urdf(self, path: str | Path, overwrite: bool = False) -> Path:
         """Write this robot as a URDF file: :func:`mrnea.io.write_urdf` (what URDF cannot hold,
-        the rotor inertia and a torque-speed curve, is dropped). Returns ``path``."""
+        the rotor inertia, a torque-speed curve and the gear efficiency, is dropped). Returns
+        ``path``."""
         return WRITERS["urdf"](self, path, overwrite)
 
     def to_toml(self, path: str | Path, overwrite: bool = False) -> Path:

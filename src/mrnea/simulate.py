@@ -32,13 +32,12 @@ from scipy.spatial.transform import Rotation
 
 from mrnea import compiled, validate
 from mrnea.achievable import MODES
-from mrnea.actuators import motor_torque
 from mrnea.cartesian import CartesianPath
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
-from mrnea.kernels.drive import actuator_terms
+from mrnea.kernels.drive import actuator_terms, motor_torques
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import POSE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
@@ -323,7 +322,10 @@ class SimulationResult:
     def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed
         (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
-        self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
+        # the motor side of each cycle's effort at its starting speed (kernels/drive.py
+        # motor_side, as mrnea.actuators.motor_torque without its argument checks)
+        motor_torques(compiled.of(self.robot)[3], self.qd[rows], self.tau[rows],
+                      self.tau_motor[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
         err = self.q_cmd[rows] - self.q[rows]
         self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)

@@ -82,11 +82,16 @@ def _program(r: SimulationResult, i: int) -> dict[str, Any]:
     req, lim, t = np.abs(r.program_effort[:, i]), r.program_limit[:, i], r.t
     k = int(np.argmax(req))
     rms = float(np.sqrt(np.mean(r.program_effort[:, i] ** 2)))
+    # the motor side, with the gear's efficiency (kernels/drive.py motor_side): x 1 / eta_d
+    # driving, x eta_b back-driven, then / G (an ideal gear: exactly today's tau / G)
+    eta_d, eta_b = j.efficiency_pair
+    back = r.program_effort[:, i] * r.qd_cmd[:, i] < 0.0
+    motor = np.abs(r.program_effort[:, i]) * np.where(back, eta_b, 1.0 / eta_d)
     out: dict[str, Any] = {
         "program_peak_effort": float(req[k]), "program_peak_time": float(t[k]),
         "program_rms_effort": rms,
-        "program_peak_motor_torque": float(req[k]) / j.gear_ratio,
-        "program_rms_motor_torque": rms / j.gear_ratio,
+        "program_peak_motor_torque": float(motor.max()) / j.gear_ratio,
+        "program_rms_motor_torque": float(np.sqrt(np.mean(motor ** 2))) / j.gear_ratio,
     }
     drive = ("unpowered" if j.effort_limit == 0 else
              "unlimited" if math.isinf(j.effort_limit) else "limited")

@@ -233,6 +233,9 @@ EXIT_CODES = {
               "interrupted (nothing written).",
     "sweep": "Exit code: 0 done (each row holds its own verdict), 2 bad input, 130 interrupted "
              "(the rows done written).",
+    "size": "Exit code: 0 every joint sized and the sized robot verified achievable, 1 no "
+            "drive in the catalogue fits a joint (the files are written), 2 bad input, 130 "
+            "interrupted.",
 }
 EXIT_DONE = "Exit code: 0 done, 2 bad input, 130 interrupted."
 
