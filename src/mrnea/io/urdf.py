@@ -421,8 +421,8 @@ def load_urdf(
                 f"joint {quote(j.name)}: <mimic> joints (coupled to another joint) are not "
                 f"supported: keep the links whose paths avoid it with tip=<link name> "
                 f"(command line: --tip LINK, once per branch), and it is lumped at q = 0 into "
-                f"the link it hangs from; candidate tip links, heaviest chain first: "
-                f"{listing(candidates)}")
+                f"the link it hangs from" + (f"; candidate tip links, heaviest chain first: "
+                                             f"{listing(candidates)}" if candidates else ""))
 
     # --- lump every link into its chain body ---------------------------------------------------
     # body 0 is the fixed base; pose[name] is the link's frame in its body's frame (q = 0 for
