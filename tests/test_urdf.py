@@ -131,11 +131,13 @@ def test_ur5_known_values() -> None:
 
 def test_panda_needs_a_tip_and_matches_reduced_pinocchio() -> None:
     path = erd("panda_description/urdf/panda.urdf")
-    with pytest.raises(RobotFileError, match="tip") as info:
+    # whole, the tree keeps panda_finger_joint2, a <mimic> of finger 1: refused, naming it
+    with pytest.raises(RobotFileError, match=r"panda_finger_joint2.*<mimic>.*tip") as info:
         load_urdf(path)
     msg = str(info.value)
-    # the fingers' chains move the hand and a finger, the tool point's the hand alone
-    assert "panda_leftfinger, panda_rightfinger, panda_hand_tcp" in msg
+    # the candidates avoid the mimic joint: the left finger's chain moves the hand and a
+    # finger, the tool point's the hand alone
+    assert msg.endswith("panda_leftfinger, panda_hand_tcp")
     assert str(path) in msg and "--tip LINK" in msg
 
     full = pin.buildModelFromUrdf(str(path))
@@ -306,9 +308,10 @@ def test_tip_lumps_moving_side_branch_at_zero(tmp_path: Path) -> None:
         joint("tool", "l2", "tool_link", "fixed", xyz="0 0 0.5"),
         link("tool_link", 2.0),
     ]))
-    # tool_link's chain moves l1 + l2 + tool_link = 5 kg, l3's l1 + l3 = 2 kg
-    with pytest.raises(RobotFileError, match=r"heaviest chain first: tool_link, l3$"):
-        load_urdf(p)
+    # whole: a tree, j2 and j3 both hang from l1 (file order)
+    whole = load_urdf(p)
+    assert whole.joint_names == ("j1", "j2", "j3") and whole.parents == (-1, 0, 0)
+    assert load_urdf(p, tip=["tool_link", "l3"]) == whole  # both tips: the same subtree
     r = load_urdf(p, tip="tool_link")
     assert r.joint_names == ("j1", "j2")
     # l1 + l3 at q3 = 0: 2 kg, com (0, 0.2, 0); Ixx = Izz = 2 * 1 kg * 0.2^2 = 0.08
@@ -552,3 +555,13 @@ def test_rotation_helper_is_urdf_convention() -> None:
 
 def test_model_error_is_the_base_class() -> None:
     assert issubclass(RobotFileError, ModelError)
+
+
+def test_a_branching_file_loads_whole_as_a_tree() -> None:
+    """A file whose moving joints branch (two arms on the base; once refused without a tip):
+    every moving joint, depth first, children in file order."""
+    path = Path(__file__).parent / "malformed" / "urdf" / "branching_without_tip.urdf"
+    robot = load_urdf(path)
+    assert robot.joint_names == ("shoulder", "elbow", "second_shoulder")
+    assert robot.parents == (-1, 0, -1) and not robot.is_serial
+    assert load_urdf(path, tip="tool").joint_names == ("shoulder", "elbow")

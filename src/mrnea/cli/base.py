@@ -389,17 +389,19 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
     command that takes one. The command receives them as one keyword, ``robot_options`` (a
     :class:`~mrnea.io.RobotOptions`); they override a program file's keys of the same names."""
     @functools.wraps(command)
-    def wrapper(*args: Any, actuators: str | None, tip: str | None, payload: Any,
+    def wrapper(*args: Any, actuators: str | None, tip: tuple[str, ...], payload: Any,
                 gravity: Any, package_path: tuple[str, ...], **kw: Any) -> Any:
-        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity,
+        tips = None if not tip else tip[0] if len(tip) == 1 else tuple(tip)
+        return command(*args, robot_options=RobotOptions(actuators, tips, payload, gravity,
                                                          package_path or None), **kw)
 
     for option in reversed([
         click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
                      help="Sidecar actuator file (TOML: rotor inertia, gear, friction, "
                           "torque-speed curves per joint; docs/robot-format.md)."),
-        click.option("--tip", metavar="LINK",
-                     help="The URDF chain's last link (when the moving joints branch)."),
+        click.option("--tip", metavar="LINK", multiple=True,
+                     help="Keep the URDF's joints up to this link (a chain); repeated, the "
+                          "subtree holding all the tips (default: the whole tree)."),
         click.option("--payload", type=_Payload(), metavar="KG[@X,Y,Z]|FILE",
                      help="A payload fixed to the last link: a mass [kg] at a point [m] of the "
                           "last link's frame, or a TOML file with mass, com and inertia."),

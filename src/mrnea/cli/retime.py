@@ -78,7 +78,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
     if options.actuators is not None:
         keys["actuators"] = str(Path(options.actuators).resolve())
     if options.tip is not None:
-        keys["tip"] = options.tip
+        keys["tip"] = options.tip if isinstance(options.tip, str) else list(options.tip)
     if options.payload is not None:
         keys["payload"] = _point_mass(options) or PAYLOAD
         if keys["payload"] == PAYLOAD:
@@ -204,7 +204,8 @@ def _option_args(options: RobotOptions) -> list[str]:
     if options.actuators is not None:
         args += ["--actuators", options.actuators]
     if options.tip is not None:
-        args += ["--tip", options.tip]
+        for t in (options.tip,) if isinstance(options.tip, str) else options.tip:
+            args += ["--tip", t]
     if options.payload is not None:
         args += ["--payload", _point_mass(options) or "FILE"]
     if options.gravity is not None:

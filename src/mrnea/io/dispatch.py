@@ -155,7 +155,8 @@ class RobotOptions:
     Attributes
     ----------
     actuators : the path of a sidecar actuator file (:func:`apply_actuator_file`), or None.
-    tip : the URDF chain's last link (:func:`mrnea.io.urdf.load_urdf`), or None.
+    tip : the URDF chain's last link, or several (the subtree holding them), or None (the
+        whole tree): :func:`mrnea.io.urdf.load_urdf`.
     payload : a :class:`~mrnea.io.payload.Payload` fixed to the last link, or None.
     gravity : (3,) gravity [m/s^2] in base coordinates replacing the robot's, or None.
     package_path : folders where the robot file's ``package://`` mesh names not found at load
@@ -164,7 +165,7 @@ class RobotOptions:
     """
 
     actuators: str | None = None
-    tip: str | None = None
+    tip: str | tuple[str, ...] | None = None
     payload: Payload | None = None
     gravity: tuple[float, float, float] | None = None
     package_path: tuple[str, ...] | None = None
