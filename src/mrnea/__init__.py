@@ -31,6 +31,7 @@ from mrnea.errors import (
     RetimeError,
     RobotFileError,
     SingularMassMatrixError,
+    SizingError,
     StateError,
     SweepError,
 )
@@ -41,6 +42,7 @@ from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
+from mrnea.sizing import size_drives
 from mrnea.sweep import sweep  # the function, as simulate (above)
 
 __version__ = "0.1.0"
@@ -59,6 +61,7 @@ __all__ = [
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
+    "SizingError",
     "StateError",
     "SweepError",
     "__version__",
@@ -77,6 +80,7 @@ __all__ = [
     "retime",
     "robots",
     "simulate",
+    "size_drives",
     "sweep",
     "transform",
 ]

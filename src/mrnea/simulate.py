@@ -32,13 +32,12 @@ from scipy.spatial.transform import Rotation
 
 from mrnea import compiled, validate
 from mrnea.achievable import MODES
-from mrnea.actuators import motor_torque
 from mrnea.cartesian import CartesianPath
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
-from mrnea.kernels.drive import actuator_terms
+from mrnea.kernels.drive import actuator_terms, motor_torques
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import POSE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
@@ -51,13 +50,20 @@ from mrnea.summary import start_violations, summarize, verdict
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-# The per-joint columns of the per-cycle table and the quantity of model.JOINT_UNITS giving each
-# one's unit (None: a boolean). tau_motor = tau / G with G dimensionless: the effort's unit.
-_PER_JOINT = {"q_cmd": "q", "qd_cmd": "qd", "qdd_des": "qdd", "q": "q", "qd": "qd", "qdd": "qdd",
-              "tau": "tau", "tau_motor": "tau", "tau_required": "tau", "limit": "tau",
-              "margin": "tau", "saturated": None, "position_clamped": None,
-              "velocity_clamped": None, "tracking_error": "q", "coulomb": "tau", "stuck": None,
-              "program_effort": "tau", "program_limit": "tau"}
+# The per-joint columns of the per-cycle table, in order: the result's array (program_qdd: the
+# method), the column's name, and the quantity of model.JOINT_UNITS giving its unit (None: a
+# boolean). First the program and its own requirement, then the simulated response, last what
+# each cycle asked for from the robot's own state (the catch-up once the robot lags).
+# tau_motor = tau / G with G dimensionless: the effort's unit.
+_PER_JOINT = (
+    ("q_cmd", "q_cmd", "q"), ("qd_cmd", "qd_cmd", "qd"), ("program_qdd", "program_qdd", "qdd"),
+    ("program_effort", "program_effort", "tau"), ("program_limit", "program_limit", "tau"),
+    ("q", "q", "q"), ("qd", "qd", "qd"), ("qdd", "qdd", "qdd"), ("tau", "tau", "tau"),
+    ("tau_motor", "tau_motor", "tau"), ("limit", "limit", "tau"), ("margin", "margin", "tau"),
+    ("saturated", "saturated", None), ("position_clamped", "position_clamped", None),
+    ("velocity_clamped", "velocity_clamped", None), ("tracking_error", "tracking_error", "q"),
+    ("coulomb", "coulomb", "tau"), ("stuck", "stuck", None),
+    ("qdd_des", "catch_up_qdd", "qdd"), ("tau_required", "catch_up_effort", "tau"))
 #: A tracking error at most this many times max(1, max |q_cmd|) of its joint [rad | m] is 0:
 #: rounding, not lag (q's float resolution is 2.2e-16 |q|; this leaves room for the rounding of
 #: many cycles and is far below any drive's resolution).
@@ -246,17 +252,37 @@ class SimulationResult:
                                            strict=True))
         return f"The robot did not reach the program's end: final position error {errors}."
 
+    def program_qdd(self, rows: slice = slice(None)) -> NDArray:
+        """The program's own acceleration [rad/s^2 | m/s^2] at the cycles ``rows``: the one
+        :attr:`program_effort` is computed for, ``(qd_cmd[k + 1] - qd_cmd[k]) / dt`` (the next
+        velocity 0 after the last row; unclamped). What the drive asked for once the robot lags
+        is ``qdd_des`` (the catch-up)."""
+        start, stop, _ = rows.indices(self.K)
+        v = self.qd_cmd[start:stop]
+        following = np.zeros_like(v)
+        nxt = self.qd_cmd[start + 1:stop + 1]
+        following[:nxt.shape[0]] = nxt
+        return (following - v) / self.dt
+
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns: ``t [s]``, then ``<quantity>_<joint>
         [<unit>]`` (SI units of that joint, :data:`mrnea.model.JOINT_UNITS`; the flags
-        ``saturated``, ``position_clamped``, ``velocity_clamped`` are booleans, without a unit),
-        then ``reaction_<fx..nz>_<joint> [N | N m]``, then for a Cartesian program
-        ``tool_position_error [m]`` and ``tool_orientation_error [rad]``."""
+        ``saturated``, ``position_clamped``, ``velocity_clamped``, ``stuck`` are booleans,
+        without a unit), then ``reaction_<fx..nz>_<joint> [N | N m]``.
+
+        The quantities, in order: the program (``q_cmd``, ``qd_cmd``) and its own requirement
+        (``program_qdd``, ``program_effort``, ``program_limit``: the limit at the program's
+        speed), the simulated response (``q``, ``qd``, ``qdd``, ``tau``, ``tau_motor``,
+        ``limit``, ``margin``, the flags, ``tracking_error``, ``coulomb``), and last what each
+        cycle asked for from the robot's own state: ``catch_up_qdd`` (:attr:`qdd_des`) and
+        ``catch_up_effort`` (:attr:`tau_required`), the program's own while the robot keeps
+        up, the catch-up of the whole lag in one cycle once it lags. For a Cartesian program,
+        ``tool_position_error [m]`` and ``tool_orientation_error [rad]`` come last."""
         if not isinstance(rows, slice):
             raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
         cols: dict[str, NDArray] = {"t [s]": self.t[rows]}
-        for name, quantity in _PER_JOINT.items():
-            a = getattr(self, name)[rows]
+        for attr, name, quantity in _PER_JOINT:
+            a = self.program_qdd(rows) if attr == "program_qdd" else getattr(self, attr)[rows]
             for i, j in enumerate(self.robot.joints):
                 unit = "" if quantity is None else f" [{j.unit(quantity)}]"
                 cols[f"{name}_{j.name}{unit}"] = a[:, i]
@@ -296,7 +322,10 @@ class SimulationResult:
     def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed
         (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
-        self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
+        # the motor side of each cycle's effort at its starting speed (kernels/drive.py
+        # motor_side, as mrnea.actuators.motor_torque without its argument checks)
+        motor_torques(compiled.of(self.robot)[3], self.qd[rows], self.tau[rows],
+                      self.tau_motor[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
         err = self.q_cmd[rows] - self.q[rows]
         self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)
@@ -502,6 +531,21 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     joint = robot.joints[j]
     moved = robot.links[j:]
     bare = [lk.name for lk in moved if lk.mass == 0.0 and not np.any(lk.inertia)]
+    d = np.diag(Ha)
+    k = int(np.argmax(d))
+    if d[j] > 0.0 and d[k] > 1e12 * d[j]:  # the pivot failed against another joint's inertia
+        big = robot.joints[k]
+        rotor = big.gear_ratio ** 2 * big.rotor_inertia
+        unit = "kg" if big.is_prismatic else "kg m^2"  # H_a's diagonal entry's unit
+        cause = (f"its rotor inertia through its gear, G^2 J_m = {big.gear_ratio:.3g}^2 x "
+                 f"{big.rotor_inertia:.3g} kg m^2; check its rotor_inertia and gear_ratio"
+                 if rotor > 0.5 * d[k] else "the links it moves; check their masses, inertias "
+                 "and lengths")
+        raise SingularMassMatrixError(
+            f"robot '{robot.name}': the actuated mass matrix H_a is too ill-conditioned to "
+            f"solve: joint '{big.name}' has {d[k]:.3g} {unit} about its axis against {d[j]:.3g} at "
+            f"joint '{joint.name}' ({d[k] / d[j]:.2g} times, beyond double precision), from "
+            f"{cause}")
     if len(bare) == len(moved) and joint.rotor_inertia == 0.0:
         why = (f"joint '{joint.name}' moves no mass and no rotor inertia (link"
                f"{'s' if len(bare) > 1 else ''} {', '.join(repr(b) for b in bare)} without "
