@@ -73,7 +73,7 @@ SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's d
     "pose": ["n33", "n3", "n3", "n3", "n33"], "mrnea": ["n3"] * 4, "force": ["n3"] * 2,
     "effort": ["n"], "solve": ["nn", "nn", "n", "n"], "branch": ["n3"] * 3, "stash": ["n3"] * 2,
     "column": ["nn"], "solve_hu": ["nn", "n"],
-    "achievable": ["nn", *["n"] * 6],
+    "achievable": ["nn", *["n"] * 7],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
 }
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import site
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -514,18 +515,30 @@ def test_round_trip_real_arm(tmp_path: Path, rel: str) -> None:
 
 
 def test_round_trip_extreme_values(tmp_path: Path) -> None:
-    """Finite values near float64's limit survive the round trip: the loader neither overflows
-    symmetrising an inertia ((I + I^T) / 2) nor multiplies a massless link's far-away centre of
-    mass (0 * inf) (found by the fuzz test)."""
-    big = 8.98846567431158e307  # 2 * big overflows
-    joints = [Joint("j1", "revolute", "base", "l1", transform((1e200, 0.0, 0.0))),
+    """Values at the largest magnitudes mrnea accepts (mrnea.frozen.MAGNITUDES) survive the round
+    trip bit for bit; a file beyond them (an inertia near float64's limit, whose symmetrising
+    (I + I^T) / 2 would overflow, found by the fuzz test; a joint 1e200 m from its parent) is
+    one ModelError naming the link or joint and the field, with no overflow on the way."""
+    big = np.nextafter(1e10, 0.0)  # kg m^2, 17 digits
+    joints = [Joint("j1", "revolute", "base", "l1", transform((1e4, 0.0, 0.0))),
               Joint("j2", "revolute", "l1", "l2", transform((0.0, 0.0, 0.5)))]
-    links = [Link("l1", 0.0, (1e200, 0.0, 0.0), np.diag([1.0, 1.0, 1.0])),
+    links = [Link("l1", 0.0, (-1e4, 0.0, 0.0), np.diag([1.0, 1.0, 1.0])),
              Link("l2", 1.0, (0.0, 0.0, 0.1), np.diag([big, big, big]))]
     robot = Robot(joints, links)
-    back = load_urdf(write_urdf(robot, tmp_path / "x.urdf"))
+    path = write_urdf(robot, tmp_path / "x.urdf")
+    back = load_urdf(path)
     assert np.array_equal(back.links[1].inertia, robot.links[1].inertia)
-    assert np.array_equal(back.links[0].inertia, robot.links[0].inertia)
+    assert np.array_equal(back.joints[0].origin, robot.joints[0].origin)
+    text = path.read_text()
+    huge = text.replace('ixx="9999999999.999998"', 'ixx="8.98846567431158e307"')
+    far = text.replace('xyz="10000.0 0.0 0.0"', 'xyz="1e200 0.0 0.0"')
+    assert huge != text and far != text
+    for variant, field in ((huge, "link 'l2'.*inertia"), (far, "joint 'j1'.*origin")):
+        (tmp_path / "y.urdf").write_text(variant)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # no overflow on the way
+            with pytest.raises(ModelError, match=f"{field}.*largest mrnea"):
+                load_urdf(tmp_path / "y.urdf")
 
 
 def test_write_into_missing_directory(tmp_path: Path) -> None:

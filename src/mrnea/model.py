@@ -26,6 +26,10 @@ Conventions (the same as URDF's, so URDF files map one to one):
   limit is ``peak`` up to the corner speed, then the smaller of constant power
   ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
   no-load speed; zero beyond it. With a curve, ``effort_limit`` equals ``peak``.
+* ``efficiency`` η of the gear (one value in (0, 1], or two, ``(driving, back-driven)``).
+  ``effort_limit`` and the curve are the ideal gear's, G times the motor's; the drive gives
+  η times them while it delivers power (effort and speed of the same sign, or at rest) and
+  1/η times them while the load drives it back (docs/achievable.md, kernels/drive.py).
 
 A :class:`Robot` is validated once, at construction; every error names the link or joint at fault.
 """
@@ -44,7 +48,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, quote
-from mrnea.frozen import Frozen, check_name, frozen_array, real_number, rigid_transform, warn
+from mrnea.frozen import (
+    Frozen,
+    check_magnitude,
+    check_name,
+    frozen_array,
+    real_number,
+    rigid_transform,
+    warn,
+)
 from mrnea.rigid import check_inertia, combine_inertials
 from mrnea.visual import Visual, visual_tuple
 
@@ -76,6 +88,9 @@ ACTUATOR_FIELDS = (
     ActuatorField("torque_speed", "curve", "N m or N, rad/s or m/s",
                   "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
+    ActuatorField("efficiency", "eta", "-",
+                  "gear efficiency in (0, 1]: one value, or two (driving, back-driven); the "
+                  "limit is eta times the effort limit driving, 1 / eta times it back-driven"),
 )
 #: SI unit of each joint quantity, (revolute, prismatic): position, velocity, acceleration, effort.
 JOINT_UNITS = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "qdd": ("rad/s^2", "m/s^2"),
@@ -85,8 +100,6 @@ DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 # norm is within 1.5 eps of 1, measured over 2e5 random axes)
 UNIT_TOL = 4 * np.finfo(float).eps
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
-
-
 def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
     an equal pair is stored as one number."""
@@ -100,26 +113,60 @@ def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     return p if p == m else (p, m)
 
 
-def _coulomb_per_joint(value: object, n: int) -> list[object]:
-    """with_actuators' coulomb_friction: one number, or n entries (a number or a pair each)."""
+def _efficiency(value: object, what: str) -> float | tuple[float, float]:
+    """Gear efficiency: a value in (0, 1], or two ``(driving, back-driven)``; an equal pair is
+    stored as one number."""
+    pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
+    if len(pair) != 2:
+        raise ModelError(f"{what}: efficiency must be a number or two, [driving, back-driven], "
+                         f"got {value!r}")
+    d, b = (real_number(v, f"{what}: efficiency") for v in pair)
+    if not (0.0 < d <= 1.0 and 0.0 < b <= 1.0):
+        raise ModelError(f"{what}: efficiency must be in (0, 1], got {value!r}")
+    return d if d == b else (d, b)
+
+
+def _pairs_per_joint(key: str, value: object, n: int, pair: str) -> list[object]:
+    """with_actuators' coulomb_friction or efficiency: one number, or n entries (a number or a
+    pair each)."""
     if not isinstance(value, (list, tuple)) and np.ndim(value) == 0:  # type: ignore[arg-type]
         return [value] * n
     if len(value) != n:
-        raise ModelError(f"with_actuators: coulomb_friction must be a number or {n} entries (a "
-                         f"number or a [positive, negative] pair each), got {value!r}")
+        raise ModelError(f"with_actuators: {key} must be a number or {n} entries (a "
+                         f"number or a [{pair}] pair each), got {value!r}")
     return [tuple(e) if isinstance(e, (list, tuple, np.ndarray)) else e for e in value]
+
+
+@dataclass(frozen=True, eq=False)
+class Frame(Frozen):
+    """A named frame fixed to a link: ``origin`` (4, 4), its pose in the link's frame.
+
+    What a URDF's fixed joints merge into a chain link keeps its frame here (a flange, a tool
+    centre point such as the Panda's ``panda_hand_tcp``), so that a tool can be named
+    (:mod:`mrnea.tool`). Kinematics only: the dynamics never read frames.
+    """
+
+    name: str
+    origin: ArrayLike = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        check_name(self.name, "frame")
+        object.__setattr__(self, "origin", rigid_transform(self.origin,
+                                                           f"frame '{self.name}': origin"))
 
 
 @dataclass(frozen=True, eq=False)
 class Link(Frozen):
     """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com];
-    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics)."""
+    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics);
+    ``frames``, named frames fixed to it (:class:`Frame`, e.g. the URDF links merged into it)."""
 
     name: str
     mass: float = 0.0
     com: ArrayLike = (0.0, 0.0, 0.0)
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
     visuals: tuple[Visual, ...] = ()
+    frames: tuple[Frame, ...] = ()
 
     def __post_init__(self) -> None:
         check_name(self.name, "link")
@@ -129,8 +176,16 @@ class Link(Frozen):
             raise ModelError(f"{what}: mass must be >= 0, got {mass}")
         com = frozen_array(self.com, (3,), f"{what}: centre of mass")
         inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
+        check_magnitude(mass, "mass", what, "kg")
+        check_magnitude(com, "length", f"{what}: centre of mass", "m")
+        check_magnitude(inertia, "inertia", what, "kg m^2")
         check_inertia(inertia, what)
         object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
+        frames = tuple(self.frames) if isinstance(self.frames, (tuple, list)) else None
+        if frames is None or not all(isinstance(f, Frame) for f in frames):
+            raise ModelError(f"{what}: frames must be a sequence of mrnea.model.Frame, got "
+                             f"{quote(self.frames)}")
+        object.__setattr__(self, "frames", frames)
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
@@ -155,6 +210,7 @@ class Joint(Frozen):
     viscous_friction: float = 0.0
     coulomb_friction: float | tuple[float, float] = 0.0
     torque_speed: tuple[float, float, float] | None = None
+    efficiency: float | tuple[float, float] = 1.0
 
     def __post_init__(self) -> None:
         check_name(self.name, "joint")
@@ -165,6 +221,7 @@ class Joint(Frozen):
                 f"(supported: {', '.join(JOINT_TYPES)})"
             )
         origin = rigid_transform(self.origin, f"{what}: origin")
+        check_magnitude(origin[:3, 3], "length", f"{what}: origin", "m")
         axis = frozen_array(self.axis, (3,), f"{what}: axis")
         big = float(np.max(np.abs(axis)))
         if big < 1e-12:
@@ -191,8 +248,13 @@ class Joint(Frozen):
             v = real_number(getattr(self, name), f"{what}: {name}")
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
+            check_magnitude(v, name, what, "kg m^2" if name == "rotor_inertia" else
+                            "N s/m" if self.type == "prismatic" else "N m s/rad")
             values[name] = v
         values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
+        check_magnitude(values["coulomb_friction"], "coulomb_friction", what,
+                        "N" if self.type == "prismatic" else "N m")
+        values["efficiency"] = _efficiency(self.efficiency, what)
         g = real_number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
@@ -227,6 +289,13 @@ class Joint(Frozen):
         """``(F+, F-)``: the Coulomb friction magnitudes opposing positive and negative motion."""
         c = self.coulomb_friction
         return c if isinstance(c, tuple) else (c, c)
+
+    @property
+    def efficiency_pair(self) -> tuple[float, float]:
+        """``(driving, back-driven)``: the gear efficiencies while the drive delivers power and
+        while the load drives it back."""
+        e = self.efficiency
+        return e if isinstance(e, tuple) else (e, e)
 
     def unit(self, quantity: str) -> str:
         """SI unit of its ``"q"``, ``"qd"``, ``"qdd"`` or ``"tau"`` (:data:`JOINT_UNITS`)."""
@@ -316,6 +385,7 @@ class Robot(Frozen):
         self._links = links
         self._parents = tuple(parents)
         self._gravity = frozen_array(gravity, (3,), f"robot '{name}': gravity")
+        check_magnitude(self._gravity, "gravity", f"robot '{name}'", "m/s^2")
         self._name = str(name)
         self._base = base
         self._base_visuals = visual_tuple(base_visuals, f"robot '{name}': base")
@@ -378,6 +448,9 @@ class Robot(Frozen):
         lambda self: np.array([j.coulomb_pair for j in self._joints], dtype=np.float64),
         doc="(n, 2) Coulomb friction magnitudes [F+, F-] per joint (opposing positive, "
             "negative motion) [N m or N], joint side.")
+    efficiency = property(
+        lambda self: np.array([j.efficiency_pair for j in self._joints], dtype=np.float64),
+        doc="(n, 2) gear efficiencies [driving, back-driven] per joint.")
 
     @property
     def torque_speed(self) -> tuple[tuple[float, float, float] | None, ...]:
@@ -404,7 +477,9 @@ class Robot(Frozen):
         ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
         or an ``(n,)`` sequence (per joint, root to tip); ``coulomb_friction`` also an ``(n, 2)``
         array, or a sequence of n entries each a number or a pair ``[positive direction,
-        negative direction]`` (asymmetric friction). ``effort_limit`` sets a constant limit
+        negative direction]`` (asymmetric friction); ``efficiency`` likewise (one value in (0, 1]
+        for all joints, n of them, or n entries each a number or a pair ``[driving,
+        back-driven]``). ``effort_limit`` sets a constant limit
         at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
@@ -455,7 +530,12 @@ class Robot(Frozen):
         if "effort_limit" in fields:
             per_joint["torque_speed"] = [None] * n
         if "coulomb_friction" in fields:
-            per_joint["coulomb_friction"] = _coulomb_per_joint(fields.pop("coulomb_friction"), n)
+            per_joint["coulomb_friction"] = _pairs_per_joint(
+                "coulomb_friction", fields.pop("coulomb_friction"), n,
+                "positive, negative")
+        if "efficiency" in fields:
+            per_joint["efficiency"] = _pairs_per_joint("efficiency", fields.pop("efficiency"), n,
+                                                       "driving, back-driven")
         for k, v in fields.items():
             per_joint[k] = values(k, v)
         joints = [
@@ -488,7 +568,7 @@ class Robot(Frozen):
         last = self._links[-1]
         m, c, inertia_sum = combine_inertials([(last.mass, last.com, last.inertia),
                                                (p.mass, p.com, p.inertia)])
-        merged = Link(last.name, m, c, inertia_sum, last.visuals)
+        merged = Link(last.name, m, c, inertia_sum, last.visuals, last.frames)
         return self._replace(links=(*self._links[:-1], merged))
 
     def _replace(self, **kw: object) -> Robot:
@@ -497,7 +577,8 @@ class Robot(Frozen):
     # --- export ---------------------------------------------------------------------------------
     def to_urdf(self, path: str | Path, overwrite: bool = False) -> Path:
         """Write this robot as a URDF file: :func:`mrnea.io.write_urdf` (what URDF cannot hold,
-        the rotor inertia and a torque-speed curve, is dropped). Returns ``path``."""
+        the rotor inertia, a torque-speed curve and the gear efficiency, is dropped). Returns
+        ``path``."""
         return WRITERS["urdf"](self, path, overwrite)
 
     def to_toml(self, path: str | Path, overwrite: bool = False) -> Path:

@@ -20,6 +20,9 @@ How a URDF tree becomes a Robot
   and moved to the combined centre of mass with the parallel-axis theorem. This is the same
   lumping Pinocchio does for fixed joints and for :func:`pinocchio.buildReducedModel` with the
   locked joints at 0.
+* A link joined to a kept link by fixed joints only keeps its frame there
+  (:attr:`mrnea.model.Link.frames`: its pose in the kept link's frame, Pinocchio's fixed-joint
+  frames), so a tool can be named by it (``panda_hand_tcp``, :mod:`mrnea.tool`).
 * Links before the first moving joint are part of the fixed base: their inertia is dropped, and
   the first moving joint's origin is expressed in the root link's frame.
 * ``<mimic>`` joints (a joint driven as a linear function of another: gripper fingers, coupled
@@ -53,7 +56,7 @@ from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
 from mrnea.io.urdf_transmission import transmissions
 from mrnea.io.urdf_visual import materials, visuals
-from mrnea.model import DEFAULT_GRAVITY, Joint, Link, Robot
+from mrnea.model import DEFAULT_GRAVITY, Frame, Joint, Link, Robot
 from mrnea.rigid import combine_inertials, transform
 from mrnea.visual import Visual
 
@@ -432,14 +435,21 @@ def load_urdf(
     chain_origin: dict[str, NDArray] = {}
     parts: list[list[tuple[float, NDArray, NDArray]]] = [[] for _ in range(len(chain) + 1)]
     looks: list[list[Visual]] = [[] for _ in range(len(chain) + 1)]  # visuals, body frames
+    # the links joined to a chain link by fixed joints only keep their frames (a tool frame)
+    rigid = {base}
+    fixed_frames: list[list[Frame]] = [[] for _ in range(len(chain) + 1)]
     for name in order:
         if name != base:
             j = parent_joint[name]
             if j.name in chain:
                 chain_origin[j.name] = pose[j.parent] @ j.origin
                 body[name], pose[name] = chain[j.name], np.eye(4)
+                rigid.add(name)
             else:
                 body[name], pose[name] = body[j.parent], pose[j.parent] @ j.origin
+                if j.type == "fixed" and j.parent in rigid:
+                    rigid.add(name)
+                    fixed_frames[body[name]].append(Frame(name, pose[name]))
         looks[body[name]] += [v.moved(pose[name]) for v in links[name].visuals]
         if body[name] == 0:  # part of the fixed base: dropped, hence not validated either
             continue
@@ -464,7 +474,8 @@ def load_urdf(
             robot_joints.append(Joint(j.name, j.type, kept_link[body[j.parent]], j.child,
                                       chain_origin[j.name], **kw))
             mass, com, inertia = combine_inertials(parts[i])
-            robot_links.append(Link(j.child, mass, com, inertia, tuple(looks[i])))
+            robot_links.append(Link(j.child, mass, com, inertia, tuple(looks[i]),
+                                    tuple(fixed_frames[i])))
         robot = Robot(robot_joints, robot_links, DEFAULT_GRAVITY, name=robot_name, base=base,
                       base_visuals=looks[0])
     except ModelError as exc:  # Joint/Link/Robot errors name the joint or link: add the file

@@ -42,6 +42,7 @@ for joint i (fields: :data:`mrnea.model.ACTUATOR_FIELDS`)::
     FPOS, FNEG  Coulomb friction F+, F- (magnitudes opposing positive, negative motion)
     PEAK, CORNER, NOLOAD   the torque-speed curve (a constant limit: CORNER = NOLOAD = inf)
     LOWER, UPPER, VLIM     position and velocity limits
+    ETAD, ETAB  gear efficiency driving, back-driven (kernels/drive.py ``effort_box``)
 
 The kernels that need both take them as one tuple, ``compiled = (model, act)``.
 
@@ -62,7 +63,7 @@ holds because every kernel writes a slot before it reads it::
     column_stash      S[n:2n]                                      mRNEA's, on a tree
     effort_buffer     S[0]                                         reactions' efforts
     solve_buffers     H, L = S[:2n]; u', rhs = S[2n:2n + 2]         forward dynamics
-    achievable_buffers  H_a = S[:n]; S[3n:3n + 6]                  one cycle's problem
+    achievable_buffers  H_a = S[:n]; S[3n:3n + 6], S[3n + 15]      one cycle's problem
     drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
@@ -91,8 +92,8 @@ NCOL = 57
 PRISMATIC = 1.0
 
 # --- the actuator array ---------------------------------------------------------------------------
-GEAR, JM, FV, FPOS, FNEG, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(11)
-NACT = 11
+GEAR, JM, FV, FPOS, FNEG, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM, ETAD, ETAB = range(13)
+NACT = 13
 
 # --- Numba options, set in one place: compiled code is cached on disk next to the sources --------
 # JIT: a kernel that allocates nothing runs without reference counting ("_nrt": False). Every
@@ -223,7 +224,7 @@ def compile_actuators(robot: Robot) -> np.ndarray:
     for i, j in enumerate(robot.joints):
         curve = j.torque_speed or (j.effort_limit, math.inf, math.inf)
         a[i] = (j.gear_ratio, j.rotor_inertia, j.viscous_friction, *j.coulomb_pair,
-                *curve, j.lower, j.upper, j.velocity_limit)
+                *curve, j.lower, j.upper, j.velocity_limit, *j.efficiency_pair)
     a.setflags(write=False)
     return a
 
@@ -239,7 +240,7 @@ BATCH_PAD = 8  # unused rows after each thread's scratch in a batch stack (``new
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
-        return 3 * n + 15, 4
+        return 3 * n + 16, 4
     if kind == SOLVE:
         return 2 * n + 2, 0
     return 1, 0  # POSE: S[0], the reactions' efforts
@@ -365,11 +366,12 @@ def solve_buffers(ws, n):
 @nb.njit(**INTO_CALLER)
 def achievable_buffers(ws, n):
     """One cycle's problem (kernels/achievable.py): H_a (n, n) and the (n,) rows u'_a, F+, F-
-    (the Coulomb friction the solve resolves), v_des (the velocity wanted), v (the new one)
-    and rest (zeros: the start velocity of the one-state form)."""
+    (the Coulomb friction the solve resolves), v_des (the velocity wanted), v (the new one),
+    rest (zeros: the start velocity of the one-state form) and the magnitude of the lower
+    effort limit (kernels/drive.py ``effort_box``; the caller's ``limit`` holds the upper)."""
     S = ws[2]
     return (S[:n], S[3 * n], S[3 * n + 1], S[3 * n + 2], S[3 * n + 3], S[3 * n + 4],
-            S[3 * n + 5])
+            S[3 * n + 5], S[3 * n + 15])
 
 
 @nb.njit(**INTO_CALLER)
