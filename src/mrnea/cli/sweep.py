@@ -33,6 +33,7 @@ from mrnea.cli.base import (
     exit_interrupted,
     force_opt,
     fresh_dir,
+    load_program_arg,
     main,
     quiet_opt,
     robot_options,
@@ -43,16 +44,13 @@ from mrnea.io import (
     RobotOptions,
     is_program_file,
     load_grid_file,
-    load_program,
     load_robot_spec,
     resolve_robot,
 )
 from mrnea.io.dispatch import same_robot
-from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
-from mrnea.robots.sdt_profile import training_program
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -173,7 +171,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     if not names:
         raise SweepError("no program: give PROGRAM files, or 'programs' in the grid file's "
                          "[sweep]")
-    programs = [training_program() if n == DEMO_PROGRAM else load_program(n) for n in names]
+    programs = [load_program_arg(n) for n in names]
     robot = _robot(robot_arg, spec.robot, programs, robot_options)
     programs = load_programs(programs, robot)  # each against the robot's joint count
     keys = list(spec.grid)

@@ -39,6 +39,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from mrnea import validate
+from mrnea.cartesian import solve
 from mrnea.errors import MrneaError, SweepError, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
@@ -103,7 +104,7 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
         if prog.n != robot.n:
             raise SweepError(f"program {quote(prog.name)} ({prog.source or 'object'}) commands "
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
-        out.append(prog)
+        out.append(solve(prog, robot))  # a Cartesian program's joint path (others: unchanged)
     return out
 
 
