@@ -107,14 +107,16 @@ def test_nothing_listening_is_one_error_at_once(address, words):
 @pytest.mark.slow
 def test_the_command_line_gives_up_on_a_silent_listener(tmp_path):
     """``mrnea sweep --scheduler`` at a port that accepts and stays silent: one error line
-    within the documented 12 s (the default timeouts), no output folder."""
+    after the default timeouts (not a hang), no output folder."""
     with silent_listener() as address:
         t0 = time.monotonic()
         r = mrnea_cli("sweep", "sdt", "demo", "--grid", "g.toml", "--scheduler", address,
                       "--out", "o", cwd=tmp_path_with_grid(tmp_path), timeout=120)
         seconds = time.monotonic() - t0
     one_error_line(r, address, "nothing answered as a Dask scheduler")
-    assert seconds < 12 + 20, seconds  # 12 s, and the start and imports (a loaded machine)
+    # 12 s, plus the interpreter's start and imports: 5 s on an idle machine, 25 s at a load
+    # average of 20 on 2 cores (the bound itself is timed in-process above); it used to hang
+    assert seconds < 12 + 60, seconds
     assert not (tmp_path / "o").exists()
 
 
