@@ -107,14 +107,16 @@ def test_nothing_listening_is_one_error_at_once(address, words):
 @pytest.mark.slow
 def test_the_command_line_gives_up_on_a_silent_listener(tmp_path):
     """``mrnea sweep --scheduler`` at a port that accepts and stays silent: one error line
-    within the documented 12 s (the default timeouts), no output folder."""
+    after the default timeouts (not a hang), no output folder."""
     with silent_listener() as address:
         t0 = time.monotonic()
         r = mrnea_cli("sweep", "sdt", "demo", "--grid", "g.toml", "--scheduler", address,
                       "--out", "o", cwd=tmp_path_with_grid(tmp_path), timeout=120)
         seconds = time.monotonic() - t0
     one_error_line(r, address, "nothing answered as a Dask scheduler")
-    assert seconds < 12 + 20, seconds  # 12 s, and the start and imports (a loaded machine)
+    # 12 s, plus the interpreter's start and imports: 5 s on an idle machine, 25 s at a load
+    # average of 20 on 2 cores (the bound itself is timed in-process above); it used to hang
+    assert seconds < 12 + 60, seconds
     assert not (tmp_path / "o").exists()
 
 
@@ -273,3 +275,33 @@ def test_the_files_name_their_units_and_say_when_parquet_is_missing(tmp_path, mo
         "mrnea: warning: sweep.parquet is not written: pyarrow is not installed (python -m pip "
         "install 'mrnea[parquet]'); sweep.csv holds the same rows"], r.stderr
     assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["sweep.csv", "sweep.html"]
+
+
+def test_workers_get_one_numba_thread_and_the_heap_settings():
+    """A cluster started as mrnea's own: its workers' environment has NUMBA_NUM_THREADS=1 and
+    the glibc settings; a sweep without retime starts no Numba thread pool in them (it used to
+    start one of the machine's size in every worker); the rows are still the serial loop's."""
+    import logging
+
+    from distributed import Client, LocalCluster
+    from test_sweep import check_rows, serial
+
+    from mrnea.robots.sdt_profile import training_program
+
+    def state() -> dict:
+        import numba.np.ufunc.parallel as parallel
+
+        keys = ("NUMBA_NUM_THREADS", *cluster.WORKER_MALLOC)
+        return {"env": {k: os.environ.get(k) for k in keys},
+                "pool": bool(parallel._is_initialized)}
+
+    with cluster.spawning():
+        lc = LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                          dashboard_address=None, silence_logs=logging.CRITICAL)
+    grid = {"payload": [0.0, 300.0]}
+    with lc, Client(lc) as c:
+        df = mrnea.sweep(sdt(), "demo", grid, client=c, progress=False)
+        (got,) = c.run(state).values()
+    assert got["env"] == {k: str(v) for k, v in cluster.WORKER_ENVIRON.items()}, got
+    assert got["pool"] is False
+    check_rows(df, serial(sdt(), training_program(), grid), "sdt_training")

@@ -55,6 +55,7 @@ QUANTITY = {
     "program_rms_effort": "effort", "program_peak_motor_torque": "motor",
     "program_rms_motor_torque": "motor", "program_effort_ratio": None,
     "program_ratio_time": "time", "program_effort_at_ratio": "effort",
+    "program_speed_at_ratio": "speed",
     "program_limit_at_ratio": "effort", "program_beyond_no_load_speed": None,
     "program_first_over_time": "time", "time_saturated": "time", "time_stuck": "time",
     "peak_motor_torque": "motor", "rms_motor_torque": "motor", "peak_effort": "effort",
