@@ -136,3 +136,28 @@ def test_a_stop_while_writing_removes_what_was_written(tmp_path: Path, monkeypat
     assert res.exit_code == 130, res.output
     assert sorted(seen[0]) == ["retimed.csv", "retimed.toml"]
     assert not out.exists() or not any(out.iterdir()), list(out.iterdir())
+
+
+def test_the_phase_plane_draws_no_spike_at_the_dwells() -> None:
+    """Issue 22: the phase plane drew vertical spikes to the top of the axis at every dwell
+    boundary (the path speed where the path is at rest, where it means nothing). No drawn point
+    of the retimed speed reaches the top of the axis, and it stays within 3 times its own
+    median (the limit curve may leave the axis: it rises steeply towards a rest)."""
+    from conftest import erd_path
+
+    from mrnea.report.retime import retime_figures
+
+    prog = mrnea.load_program(EXAMPLES / "ur5_pick.toml")  # 4 dwells
+    res = mrnea.retime(prog.load_robot(str(erd_path("ur_description/urdf/ur5_robot.urdf"))),
+                       prog)
+    ax = retime_figures(res)["phase_plane"].axes[0]
+    top = ax.get_ylim()[1]
+    lines = [ln for ln in ax.get_lines() if ln.get_linestyle() == "-"]
+    assert len(lines) == 2 * len(res.phase)
+    for ln in lines[1::2]:  # each piece: its limit curve, then its retimed speed
+        y = np.asarray(ln.get_ydata(), dtype=float)
+        y = y[np.isfinite(y)]
+        assert y.size and np.all(y < top), (y.max(), top)
+    blue = np.concatenate([np.asarray(ln.get_ydata(), dtype=float) for ln in lines[1::2]])
+    blue = blue[np.isfinite(blue)]
+    assert blue.max() <= 3 * np.median(blue), (blue.max(), np.median(blue))
