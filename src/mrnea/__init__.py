@@ -12,6 +12,7 @@ which Python resolves to the attribute, the function.
 
 from mrnea import robots
 from mrnea.achievable import achievable_accelerations
+from mrnea.cartesian import load_program
 from mrnea.dynamics import (
     forward_dynamics,
     forward_kinematics,
@@ -30,14 +31,18 @@ from mrnea.errors import (
     RetimeError,
     RobotFileError,
     SingularMassMatrixError,
+    SizingError,
     StateError,
     SweepError,
 )
-from mrnea.io import load_program, load_robot, load_urdf
+from mrnea.identify import regressor
+from mrnea.ik import inverse_kinematics
+from mrnea.io import load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
+from mrnea.sizing import size_drives
 from mrnea.sweep import sweep  # the function, as simulate (above)
 
 __version__ = "0.1.0"
@@ -56,6 +61,7 @@ __all__ = [
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
+    "SizingError",
     "StateError",
     "SweepError",
     "__version__",
@@ -63,15 +69,18 @@ __all__ = [
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",
+    "inverse_kinematics",
     "jacobian",
     "joint_reactions",
     "load_program",
     "load_robot",
     "load_urdf",
     "mass_matrix_and_bias",
+    "regressor",
     "retime",
     "robots",
     "simulate",
+    "size_drives",
     "sweep",
     "transform",
 ]
