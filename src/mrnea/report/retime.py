@@ -157,8 +157,7 @@ def _numbers(res: RetimeResult) -> list[tuple[str, str]]:
                         f"({res.t.size:,} rows at {res.dt:g} s; the simulation runs one cycle "
                         f"per row, {fmt_number(res.t.size * res.dt)} s)"),
             ("speed-up", f"{s['speedup']:.3g} x" if s["speedup"] else "-"),
-            ("method", "toppra: TOPP-RA along the path, the fastest timing within the planning "
-                       "margin of every limit on its grid, held at every cycle"
+            ("method", "toppra: TOPP-RA along the path, held at every cycle"
              if res.method == "toppra"
              else "scale: uniform time scaling (Hollerbach), bisected on the simulation")]
     if res.method == "toppra":
