@@ -197,3 +197,9 @@ def test_tool_arguments_are_checked():
         mrnea.inverse_kinematics(robot, 2 * np.eye(4), q)
     with pytest.raises(StateError, match=r"q0: expected shape \(7,\)"):
         mrnea.inverse_kinematics(robot, np.eye(4), np.zeros(6))
+    from test_tree_pinocchio import random_tree
+
+    tree = random_tree(np.random.default_rng(5), 6)
+    assert not tree.is_serial
+    with pytest.raises(StateError, match=r"is a kinematic tree: .* needs a serial chain"):
+        mrnea.inverse_kinematics(tree, np.eye(4), np.zeros(tree.n))

@@ -226,3 +226,20 @@ def test_the_stash_stack_fits_its_slot_for_every_tree() -> None:
         # joint but the last is a branch point, and all their stashes are open at once
         cols = tree_columns(tuple(range(-1, m - 1)) + tuple(range(m - 1, -1, -1)))
         assert (cols[:m - 1, STASH - PARENT] >= 0).all()
+
+
+def test_native_toml_round_trips_a_tree_with_parent_keys(tmp_path) -> None:
+    """The native format's ``parent`` (the joint carrying this one; default the previous):
+    written only where it is not the previous joint, read back equal, and checked."""
+    from mrnea.errors import RobotFileError
+    from mrnea.io import load_robot
+
+    robot = two_arms()
+    path = robot.to_toml(tmp_path / "two_arms.toml")
+    text = path.read_text()
+    assert text.count("\nparent = ") == 1 and '\nparent = "waist"' in text  # joint r1
+    assert load_robot(path) == robot
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('parent = "waist"', 'parent = "r2"'))
+    with pytest.raises(RobotFileError, match=r"joint 'r1'.*parent 'r2' is neither the base"):
+        load_robot(bad)

@@ -114,3 +114,21 @@ def test_a_kept_mimic_joint_is_refused_naming_it() -> None:
     # one tip: the chain to it, as before trees
     arm = mrnea.load_urdf(path, tip="left_wrist")
     assert arm.n == 7 and arm.is_serial
+
+
+def test_a_program_keeps_several_tips(tmp_path) -> None:
+    """A program's ``tip`` may list links (the subtree holding them), as --tip repeated."""
+    from mrnea.io import RobotOptions, load_robot_spec
+    from mrnea.io.program import _options
+    from mrnea.io.tomlcheck import TomlCheck
+
+    check = TomlCheck(str(tmp_path / "p.toml"), RobotFileError)
+    opts = _options(check, {"tip": ["head", "left_wrist"]}, tmp_path)
+    assert opts.tip == ("head", "left_wrist")
+    path = erd_path("baxter_description/urdf/baxter.urdf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = load_robot_spec(str(path), options=RobotOptions(tip=opts.tip))
+    assert robot.n == 8 and robot.parents == (-1, -1, 1, 2, 3, 4, 5, 6)
+    with pytest.raises(RobotFileError, match="'tip' must be a non-empty string"):
+        _options(check, {"tip": ["head", 3]}, tmp_path)

@@ -12,7 +12,9 @@ link's frame (mrnea's link frame n, :mod:`mrnea.model`); the tool's pose in the 
   tool frame in the last link's frame with URDF's roll-pitch-yaw convention;
 * a (4, 4) homogeneous transform, the same.
 
-A frame fixed to another link than the last is refused (it does not move with the tool).
+A frame fixed to another link than the last is refused (it does not move with the tool), and
+so is a robot that is a kinematic tree (:attr:`mrnea.Robot.is_serial` False): the tool, the
+inverse kinematics (:mod:`mrnea.ik`) and Cartesian programs assume a serial chain.
 """
 
 from __future__ import annotations
@@ -49,6 +51,10 @@ def tool_transform(robot: Robot, tool: Tool) -> NDArray[np.float64]:
         link than the last, a mapping with other keys than ``xyz`` and ``rpy``, or values that
         are not a rigid transform.
     """
+    if not robot.is_serial:
+        raise StateError(f"robot {quote(robot.name)} is a kinematic tree: a tool frame (and the "
+                         f"inverse kinematics and Cartesian programs built on it) needs a serial "
+                         f"chain; load one branch of it (--tip LINK, load_urdf(..., tip=...))")
     if tool is None:
         return np.eye(4)
     if isinstance(tool, str):
