@@ -150,14 +150,19 @@ def retime_figures(result: RetimeResult) -> dict[str, Figure]:
 
 def _numbers(res: RetimeResult) -> list[tuple[str, str]]:
     s = res.summary()
-    rows = [("program", f"{fmt_number(res.original_duration)} s ({res.original_q_cmd.shape[0]:,} "
-                        f"cycles of {res.original_dt:g} s)"),
-            ("retimed", f"{fmt_number(res.duration)} s ({res.t.size:,} cycles of {res.dt:g} s)"),
+    # a program of M rows lasts (M - 1) dt from its first row to its last (issue 22)
+    rows = [("program", f"{fmt_number(res.original_duration)} s from its first row to its last "
+                        f"({res.original_q_cmd.shape[0]:,} rows at {res.original_dt:g} s)"),
+            ("retimed", f"{fmt_number(res.duration)} s from its first row to its last "
+                        f"({res.t.size:,} rows at {res.dt:g} s; the simulation runs one cycle "
+                        f"per row, {fmt_number(res.t.size * res.dt)} s)"),
             ("speed-up", f"{s['speedup']:.3g} x" if s["speedup"] else "-"),
-            ("method", "toppra: time-optimal along the path (TOPP-RA)" if res.method == "toppra"
+            ("method", "toppra: TOPP-RA along the path, held at every cycle"
+             if res.method == "toppra"
              else "scale: uniform time scaling (Hollerbach), bisected on the simulation")]
     if res.method == "toppra":
-        rows += [("planning margin", f"{res.margin:.4g} (margins tried: "
+        rows += [("planning margin", f"{res.margin:.4g} (asked {s['margin_asked']:.4g}; margins "
+                                     "tried: "
                                      f"{', '.join(f'{m:.4g}' for m in s['margins_tried'])})"),
                  ("TOPP-RA solves", str(s["toppra_solves"]))]
     else:
