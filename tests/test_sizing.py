@@ -312,3 +312,16 @@ def test_dwell_holds_the_load_in_the_rms():
     assert js.judged.rms[js.chosen] == pytest.approx(want, rel=1e-12)
     assert js.judged.ratios[js.chosen, 1] == pytest.approx(want / t.motor.rated_torque,
                                                            rel=1e-12)
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"joints": "j1"}, ["joints", "sequence"]), ({"joints": ["elbow"]}, ["elbow", "j1, j2"]),
+    ({"objective": "speed"}, ["objective", "mass"]), ({"dwell": -1.0}, ["dwell"]),
+    ({"programs": [object()]}, ["programs[0]"]), ({"programs": []}, ["programs"]),
+])
+def test_bad_arguments_name_the_argument(cat, kw, words):
+    args = {"robot": arm(), "programs": [(arm_program(), DT)], "catalogue": cat, **kw}
+    with pytest.raises(SizingError) as exc:
+        size_drives(**args)
+    for w in words:
+        assert w in str(exc.value)

@@ -140,8 +140,14 @@ class SizingResult:
         return out
 
 
+def _is_pair(p: object) -> bool:
+    """A ``(q_cmd, dt)`` or ``(q_cmd, dt, f_ext, f_ext_point)`` tuple."""
+    return (isinstance(p, tuple) and len(p) in (2, 4) and isinstance(p[1], (int, float))
+            and not isinstance(p[1], bool))
+
+
 def _cases(programs: object) -> list[Case]:
-    if isinstance(programs, (str, Path, Program, Case, tuple)):
+    if isinstance(programs, (str, Path, Program, Case)) or _is_pair(programs):
         programs = [programs]
     if not isinstance(programs, Sequence) or not programs:
         raise SizingError(f"programs: expected one or more programs (Program, path, or "
@@ -154,7 +160,7 @@ def _cases(programs: object) -> list[Case]:
             out.append(Case(p.name, np.asarray(p.q_cmd), p.dt, p.f_ext, p.f_ext_point))
         elif isinstance(p, Case):
             out.append(p)
-        elif isinstance(p, tuple) and len(p) in (2, 4):
+        elif _is_pair(p):
             out.append(Case(f"program {k + 1}", np.asarray(p[0], dtype=float), float(p[1]),
                             *(p[2:] if len(p) == 4 else ())))
         else:
@@ -259,6 +265,8 @@ def size_drives(
             or not np.isfinite(dwell):
         raise SizingError(f"dwell: expected seconds >= 0, got {quote(dwell)}")
     cat = catalogue if isinstance(catalogue, Catalogue) else load_catalogue(catalogue)
+    if isinstance(joints, str) or not (joints is None or isinstance(joints, Sequence)):
+        raise SizingError(f"joints: expected a sequence of joint names, got {quote(joints)}")
     names = list(robot.joint_names) if joints is None else list(joints)
     for nm in names:
         if nm not in robot.joint_names:
