@@ -305,8 +305,100 @@ def test_bad_tool_and_mixed_tables_are_errors(tmp_path):
     bad_tool = _program(path, Q_HOME, line).replace('"tool0"', '"flange"')
     one_error_line(_check(tmp_path, bad_tool), "prog.toml", "[program]", "tool 'flange'",
                    "'tool0'")
+    nameless = tmp_path / "nameless.toml"
+    nameless.write_text(_program(path, Q_HOME, line).replace(f'robot = "{path}"\n', ""))
+    with pytest.raises(ProgramFileError, match=r"names none .*load_program\(path, robot=\.\.\.\)"):
+        mrnea.load_program(nameless)
+    assert mrnea.load_program(nameless, robot=str(path)).cartesian.achievable
     with pytest.raises(ProgramFileError, match=r"cannot have a \[path\] table"):
         loads_program(_program(path, Q_HOME, line) + '[path]\nprofile = "quintic"\n')
     with pytest.raises(ProgramFileError, match=r"'q0' belongs to a program of \[\[move\]\]"):
         loads_program('[program]\ndt = 0.01\nq0 = [0.0]\n[path]\nprofile = "quintic"\n'
                       'waypoints = [[0.0], [1.0]]\nvelocity_limit = 1\nacceleration_limit = 1\n')
+
+
+def test_simulated_tool_errors_against_pinocchio(tmp_path):
+    """A payload the wrist cannot carry: the real motion leaves the programmed path; its tool
+    errors (table, summary, report) are Pinocchio's distance of the real q's tool0 frame from
+    the programmed pose."""
+    path, robot, ref = _ur5()
+    heavy = robot.with_payload(30.0, [0.0, 0.0, 0.1])
+    prog = solve(loads_program(_program(path, Q_HOME, PICK)), heavy)
+    res = mrnea.simulate(heavy, prog.q_cmd, prog.dt, cartesian=prog.cartesian)
+    assert not res.achievable
+    pe, oe = res.tool_position_error, res.tool_orientation_error
+    for k in range(0, res.K, 37):
+        T = ref.pose(res.q[k])
+        P = prog.cartesian.pose[k]
+        assert abs(pe[k] - np.linalg.norm(T[:3, 3] - P[:3, 3])) <= 1e-9
+        assert abs(oe[k] - np.linalg.norm(pin.log3(P[:3, :3].T @ T[:3, :3]))) <= 1e-9
+    assert pe.max() > 0.1  # it falls far off the path
+    s = res.summary()
+    k = int(np.argmax(pe))
+    assert s["max_tool_position_error"] == pe[k] and s["max_tool_position_error_time"] == res.t[k]
+    assert s["max_tool_orientation_error"] == oe.max()
+    cols = res.columns()
+    np.testing.assert_array_equal(cols["tool_position_error [m]"], pe)
+    np.testing.assert_array_equal(cols["tool_orientation_error [rad]"], oe)
+    from mrnea.report import write_report
+    html = write_report(res, tmp_path / "report.html", view3d=False).read_text()
+    assert f"max position error {pe.max() * 1e3:,.0f} mm" in html
+    # the 3D view draws the tool point's paths: the commanded one is the programmed path
+    from mrnea.report.view3d import result_scene
+    assert result_scene(res)["tip"] == [0.0, 0.0823, 0.0] == list(res.tool_point)
+    # a program the robot follows: the tool stays on the programmed pose
+    light = solve(loads_program(_program(path, Q_HOME, PICK)), robot)
+    ok = mrnea.simulate(robot, light.q_cmd, light.dt, cartesian=light.cartesian)
+    assert ok.achievable and ok.summary()["max_tool_position_error"] <= 1e-9
+    assert ok.summary()["max_tool_orientation_error"] <= 1e-9
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.mark.parametrize("example, urdf", [
+    ("ur5_cartesian_pick.toml", UR5),
+    ("panda_cartesian_hand.toml", "panda_description/urdf/panda.urdf"),
+])
+def test_examples_are_achievable(example, urdf):
+    res = mrnea_cli("check", erd_path(urdf), EXAMPLES / example)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert res.stdout.startswith("ACHIEVABLE:")
+
+
+def test_retime_keeps_the_tool_path(tmp_path):
+    """mrnea retime of a Cartesian program: the retimed joint rows, run through Pinocchio's
+    forward kinematics, stay on the programmed segments and arc (to the resampling's accuracy)."""
+    path, _, ref = _ur5()
+    f = tmp_path / "pick.toml"
+    f.write_text(_program(path, Q_HOME, PICK))
+    res = mrnea_cli("retime", f, "--out", tmp_path / "out", "--no-3d", "--quiet", "--dt", "0.002")
+    assert res.returncode == 0, res.stderr
+    rows = np.loadtxt(tmp_path / "out" / "retimed.csv", delimiter=",", skiprows=1)
+    prog = mrnea.load_program(f)
+    a, b = prog.cartesian.pose[:-1, :3, 3], prog.cartesian.pose[1:, :3, 3]
+    ab = b - a
+    L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    worst = 0.0
+    for q in rows[:, 1:]:  # the distance to the polyline through the programmed cycles
+        p = ref.pose(q)[:3, 3]
+        u = np.clip(np.einsum("ij,ij->i", p - a, ab) / L2, 0.0, 1.0)
+        worst = max(worst, float(np.min(np.linalg.norm(a + u[:, None] * ab - p, axis=1))))
+    assert worst <= 1e-5, worst
+    assert rows[-1, 0] < prog.t[-1]  # and faster
+
+
+def test_simulate_writes_the_tool_errors_and_exits_1_on_a_bad_path(tmp_path):
+    """mrnea simulate of a Cartesian program past the wrist singularity: the tool path's
+    verdict on stderr, the files written (cycles.csv with the tool columns, summary.json with
+    their peaks), exit 1."""
+    path, robot, ref = _ur5()
+    f = tmp_path / "wrist.toml"
+    f.write_text(_wrist_program(path, robot, ref, 0.01))
+    res = mrnea_cli("simulate", f, "--out", tmp_path / "out", "--no-3d")
+    assert res.returncode == 1, res.stderr
+    assert "Tool path: NOT ACHIEVABLE: move 1 (linear)" in res.stderr
+    header = (tmp_path / "out" / "cycles.csv").read_text().splitlines()[0].split(",")
+    assert header[-2:] == ["tool_position_error [m]", "tool_orientation_error [rad]"]
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert {"max_tool_position_error", "max_tool_orientation_error_time"} <= set(s)

@@ -183,7 +183,7 @@ def test_ik_reports_an_unreachable_pose():
 def test_tool_arguments_are_checked():
     robot, _, _ = _urdf(PANDA)
     q = np.zeros(robot.n)
-    with pytest.raises(StateError, match=r"'nope' is no frame .* 'panda_hand_tcp'"):
+    with pytest.raises(StateError, match=r"'nope' is no frame of the last link .* 'panda_hand_"):
         mrnea.forward_kinematics(robot, q, tool="nope")
     with pytest.raises(StateError, match=r"fixed to link 'panda_link3', not to the last link"):
         mrnea.forward_kinematics(robot, q, tool="panda_link3")

@@ -104,7 +104,7 @@ def test_what_toml_must_escape_and_what_a_float_can_be(tmp_path: Path) -> None:
     joints = [Joint('a "quoted" \\ joint', "continuous", "bäse\twith tab", "l1", origin=origin,
                     axis=(0.6, 0.0, 0.8), viscous_friction=-0.0),
               Joint("j2", "prismatic", "l1", "Glied 2 ✓", lower=-1e300, upper=5e-324,
-                    velocity_limit=math.inf, rotor_inertia=1.7976931348623157e308)]
+                    velocity_limit=math.inf, rotor_inertia=np.nextafter(1e3, 0.0))]  # 17 digits
     links = [Link("l1", 2.0, (-0.0, 1e-310, 3.0), asym),
              Link("Glied 2 ✓", 0.1, (0.0, 0.0, 0.1), np.diag([1e-3, 1e-3, 1e-3]))]
     robot = Robot(joints, links, gravity=(0.0, 9.81, -0.0), name="it's a \"robot\"",

@@ -1,13 +1,15 @@
-"""The robot description: an immutable, validated serial chain of links and joints.
+"""The robot description: an immutable, validated serial chain or tree of links and joints.
 
 Conventions (the same as URDF's, so URDF files map one to one):
 
-* Frames. Each moving link ``i`` has a frame. Joint ``i`` connects the parent link ``i-1``
-  (``i = 0``: the fixed base) to link ``i``. Its ``origin`` is the fixed homogeneous transform from
-  the parent link's frame to the joint frame; link ``i``'s frame is the joint frame moved by the
-  joint: ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``, where ``motion`` is a rotation of ``q_i``
-  [rad] about ``axis_i`` (revolute, continuous) or a translation of ``q_i`` [m] along it
-  (prismatic). ``axis_i`` is a unit vector in the joint frame.
+* Frames. Each moving link ``i`` has a frame. Joint ``i`` connects its parent link (the link
+  of joint ``λ(i) = parents[i]``, or the fixed base: ``λ(i) = -1``) to link ``i``; on a serial
+  chain ``λ(i) = i - 1``. A tree's joints are in depth-first order from the base (each subtree's
+  joints together, right after its root), so ``λ(i) < i``. Its ``origin`` is the fixed
+  homogeneous transform from the parent link's frame to the joint frame; link ``i``'s frame
+  is the joint frame moved by the joint: ``T_i = T_{λ(i)} @ origin_i @ motion_i(q_i)``, where
+  ``motion`` is a rotation of ``q_i`` [rad] about ``axis_i`` (revolute, continuous) or a
+  translation of ``q_i`` [m] along it (prismatic). ``axis_i`` is a unit vector in the joint frame.
 * Inertials. Link mass [kg]; centre of mass ``com`` [m] in the link frame; inertia [kg m^2] about
   the centre of mass, in axes parallel to the link frame.
 * Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
@@ -46,7 +48,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, quote
-from mrnea.frozen import Frozen, check_name, frozen_array, real_number, rigid_transform, warn
+from mrnea.frozen import (
+    Frozen,
+    check_magnitude,
+    check_name,
+    frozen_array,
+    real_number,
+    rigid_transform,
+    warn,
+)
 from mrnea.rigid import check_inertia, combine_inertials
 from mrnea.visual import Visual, visual_tuple
 
@@ -90,8 +100,6 @@ DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 # norm is within 1.5 eps of 1, measured over 2e5 random axes)
 UNIT_TOL = 4 * np.finfo(float).eps
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
-
-
 def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
     an equal pair is stored as one number."""
@@ -168,6 +176,9 @@ class Link(Frozen):
             raise ModelError(f"{what}: mass must be >= 0, got {mass}")
         com = frozen_array(self.com, (3,), f"{what}: centre of mass")
         inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
+        check_magnitude(mass, "mass", what, "kg")
+        check_magnitude(com, "length", f"{what}: centre of mass", "m")
+        check_magnitude(inertia, "inertia", what, "kg m^2")
         check_inertia(inertia, what)
         object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
         frames = tuple(self.frames) if isinstance(self.frames, (tuple, list)) else None
@@ -210,6 +221,7 @@ class Joint(Frozen):
                 f"(supported: {', '.join(JOINT_TYPES)})"
             )
         origin = rigid_transform(self.origin, f"{what}: origin")
+        check_magnitude(origin[:3, 3], "length", f"{what}: origin", "m")
         axis = frozen_array(self.axis, (3,), f"{what}: axis")
         big = float(np.max(np.abs(axis)))
         if big < 1e-12:
@@ -236,8 +248,12 @@ class Joint(Frozen):
             v = real_number(getattr(self, name), f"{what}: {name}")
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
+            check_magnitude(v, name, what, "kg m^2" if name == "rotor_inertia" else
+                            "N s/m" if self.type == "prismatic" else "N m s/rad")
             values[name] = v
         values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
+        check_magnitude(values["coulomb_friction"], "coulomb_friction", what,
+                        "N" if self.type == "prismatic" else "N m")
         values["efficiency"] = _efficiency(self.efficiency, what)
         g = real_number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
@@ -293,11 +309,13 @@ WRITERS: dict[str, Callable[[Robot, str | Path, bool], Path]] = {}
 
 
 class Robot(Frozen):
-    """An immutable serial chain: ``joints[i]`` moves ``links[i]`` relative to ``links[i-1]``.
+    """An immutable serial chain or tree: ``joints[i]`` moves ``links[i]`` relative to the link
+    its ``parent`` names, the base or the link of an earlier joint (:attr:`parents`).
 
     Parameters
     ----------
-    joints : sequence of Joint, root to tip; ``joints[0].parent`` is the base link.
+    joints : sequence of Joint, root to tip, depth first (a chain: each joint's parent the
+        previous joint's child); ``joints[0].parent`` is the base link.
     links : sequence of Link, the moving links, ``links[i]`` is ``joints[i].child``.
     gravity : (3,) gravity acceleration [m/s^2] in base coordinates.
     name : the robot's name.
@@ -326,16 +344,28 @@ class Robot(Frozen):
             if not isinstance(obj, cls):
                 raise ModelError(f"robot '{name}': expected a {cls.__name__}, got {obj!r}")
         base = joints[0].parent if base is None else base
-        parent = base
-        for j, lk in zip(joints, links, strict=True):
-            if j.parent != parent:
-                raise ModelError(
-                    f"joint '{j.name}': parent is '{j.parent}', but the chain continues "
-                    f"from link '{parent}'"
-                )
+        index = {base: -1}  # link name -> the joint moving it (-1: the base)
+        parents: list[int] = []
+        for i, (j, lk) in enumerate(zip(joints, links, strict=True)):
             if j.child != lk.name:
                 raise ModelError(f"joint '{j.name}': child is '{j.child}', expected '{lk.name}'")
-            parent = lk.name
+            if j.parent not in index:
+                raise ModelError(
+                    f"joint '{j.name}': parent is '{j.parent}', which is neither the base "
+                    f"'{base}' nor the link of an earlier joint (joints go root to tip, "
+                    f"depth first)")
+            p = index[j.parent]
+            # depth-first order: the parent is the base or on the path to the previous link
+            k = i - 1
+            while k > p:
+                k = parents[k]
+            if k != p:
+                raise ModelError(
+                    f"joint '{j.name}': parent is '{j.parent}', whose subtree was closed by "
+                    f"joint '{joints[i - 1].name}': the joints must be in depth-first order "
+                    f"(each subtree's joints together, after its root)")
+            parents.append(p)
+            index.setdefault(lk.name, i)
         for kind, names in (("joint", [j.name for j in joints]),
                             ("link", [base] + [lk.name for lk in links])):
             dup = sorted({x for x in names if names.count(x) > 1})
@@ -343,14 +373,19 @@ class Robot(Frozen):
                 raise ModelError(f"robot '{name}': duplicate {kind} names: {', '.join(dup)}")
         for i, lk in enumerate(links):
             if lk.mass == 0.0 and not np.any(lk.inertia):
-                carried = [x.name for x in links[i + 1:] if x.mass > 0 or np.any(x.inertia)]
+                end = i + 1  # the links link i carries: its subtree, i + 1 .. end - 1
+                while end < len(links) and parents[end] >= i:
+                    end += 1
+                carried = [x.name for x in links[i + 1:end] if x.mass > 0 or np.any(x.inertia)]
                 tail = (f"well-posed: it carries {', '.join(carried)}" if carried else
                         "nothing it carries has mass either, so H is singular and forward "
                         "dynamics will fail")
                 warn(f"link '{lk.name}' is massless ({tail})", stacklevel=2)
         self._joints = joints
         self._links = links
+        self._parents = tuple(parents)
         self._gravity = frozen_array(gravity, (3,), f"robot '{name}': gravity")
+        check_magnitude(self._gravity, "gravity", f"robot '{name}'", "m/s^2")
         self._name = str(name)
         self._base = base
         self._base_visuals = visual_tuple(base_visuals, f"robot '{name}': base")
@@ -368,6 +403,17 @@ class Robot(Frozen):
     gravity = property(lambda self: self._gravity, doc="(3,) gravity [m/s^2], base frame.")
     base_visuals = property(lambda self: self._base_visuals,
                             doc="What the fixed base looks like (Visual, base frame).")
+
+    parents = property(
+        lambda self: self._parents,
+        doc="λ: per joint i, the index of the joint whose link carries its link (-1: the base); "
+            "i - 1 for every i on a serial chain. Joints are in depth-first order, so "
+            "parents[i] < i (docs/notation.md, Trees).")
+
+    @property
+    def is_serial(self) -> bool:
+        """True for a serial chain (``parents[i] == i - 1`` for every joint)."""
+        return all(p == i - 1 for i, p in enumerate(self._parents))
 
     @property
     def n(self) -> int:

@@ -63,9 +63,10 @@ def tool_transform(robot: Robot, tool: Tool) -> NDArray[np.float64]:
                 raise StateError(f"tool {quote(tool)} is fixed to link {quote(lk.name)}, not to "
                                  f"the last link {quote(last.name)}: it does not move with the "
                                  f"tool")
-        raise StateError(f"tool {quote(tool)} is no frame of robot {quote(robot.name)}'s last "
-                         f"link; frames there: {', '.join(map(quote, frame_names(robot)))} (or "
-                         f"give xyz [m] and rpy [rad] in the last link's frame)")
+        raise StateError(f"tool {quote(tool)} is no frame of the last link of robot "
+                         f"{quote(robot.name)}; frames there: "
+                         f"{', '.join(map(quote, frame_names(robot)))} (or give xyz [m] and rpy "
+                         f"[rad] in the last link's frame)")
     try:
         if isinstance(tool, Mapping):
             unknown = [k for k in tool if k not in ("xyz", "rpy")]

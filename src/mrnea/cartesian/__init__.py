@@ -16,6 +16,7 @@ from pathlib import Path
 
 from mrnea.cartesian.solve import CartesianPath, solve
 from mrnea.cartesian.verdict import Finding
+from mrnea.errors import ProgramFileError
 from mrnea.io.dispatch import RobotOptions
 from mrnea.io.program import Program
 from mrnea.io.program import load_program as read_program
@@ -52,5 +53,9 @@ def load_program(path: str | Path, robot: Robot | str | None = None,
     prog = read_program(path)
     if prog.moves is None:
         return prog
+    if robot is None and prog.robot is None:
+        raise ProgramFileError(f"{prog.source}: a Cartesian program is solved on its robot, and "
+                               f"this one names none ([program] robot); give one: "
+                               f"mrnea.load_program(path, robot=...)")
     rob = robot if isinstance(robot, Robot) else prog.load_robot(robot, options)
     return solve(prog, rob)

@@ -1,7 +1,9 @@
 """Why a robot cannot follow a Cartesian path: the findings of a solved program.
 
 Usage: ``findings(robot, t, q, pose, move, cartesian, err, tool, moves)`` (what
-:func:`mrnea.cartesian.solve` has made) returns the :class:`Finding` s, first in time first; none:
+:func:`mrnea.cartesian.solve` has made) returns the :class:`Finding` s, the first of each kind
+in each move, by move and within a move in the order below (out of reach is the cause of the
+singular stretch before it); none:
 the robot can follow the path as far as its kinematics go (the dynamics are judged after, on the
 joint motion, as for any program). Each names the move, the instant and a joint:
 
@@ -70,7 +72,7 @@ def _where(moves: tuple[Move, ...], move: int, t: float) -> str:
 def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
              cartesian: NDArray, err: NDArray, tool: NDArray, moves: tuple[Move, ...]
              ) -> list[Finding]:
-    """The findings of a solved Cartesian path (module docstring), sorted by time."""
+    """The findings of a solved Cartesian path (module docstring), in its order."""
     out: list[Finding] = []
     names = robot.joint_names
     dt = float(t[1] - t[0])
@@ -88,13 +90,18 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
         out.append(Finding(kind, m, moves[m - 1].type, float(t[k]), names[joint],
                            f"{_where(moves, m, float(t[k]))}: {what}"))
 
-    # reach
-    for k in np.flatnonzero(cartesian & ((err[:, 0] > REACH_POSITION)
-                                         | (err[:, 1] > REACH_ORIENTATION))):
+    # reach: the first pose not reached in each move, and the farthest the tool stays off
+    unreached = cartesian & ((err[:, 0] > REACH_POSITION) | (err[:, 1] > REACH_ORIENTATION))
+    for m in np.unique(move[unreached]):
+        rows = np.flatnonzero(unreached & (move == m))
+        k = int(rows[0])
         j = int(np.argmax(np.abs(v_min[k])))
-        add("reach", int(k), j, f"pose out of reach: the tool stays {err[k, 0] * 1e3:.4g} mm and "
-                                f"{err[k, 1] * 1e3:.4g} mrad from it (joint {names[j]}; smallest "
-                                f"singular value {sigma[k]:.3g})")
+        far = err[rows, 0].max() * 1e3
+        turn = err[rows, 1].max() * 1e3
+        add("reach", k, j, f"pose out of reach: the tool stays up to {far:.4g} mm and "
+                           f"{turn:.4g} mrad off the path ("
+                           f"{rows.size} cycles from here; joint {names[j]}, smallest singular "
+                           f"value {sigma[k]:.3g})")
     # joint limits
     lo, hi = robot.lower, robot.upper
     over = (q < lo) | (q > hi)
@@ -140,7 +147,7 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
             add("configuration", int(k), j, f"configuration change: det J changes sign (the "
                                             f"arm passes onto another branch), joint {names[j]} "
                                             f"from {q[k - 1, j]:.4g} to {q[k, j]:.4g}")
-    out.sort(key=lambda f: (f.t, _ORDER[f.kind]))
+    out.sort(key=lambda f: (f.move, _ORDER[f.kind], f.t))
     return out
 
 

@@ -49,7 +49,7 @@ from mrnea.cartesian import solve as solve_moves
 from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
 from mrnea.io.gridfile import DEMO_PROGRAM
-from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.pathcsv import CSV_UNITS, INTERPOLATIONS
 from mrnea.io.payload import parse_payload, parse_vector
 from mrnea.io.program import Program
 from mrnea.io.source import parse_number
@@ -195,6 +195,9 @@ def _warnings_as_lines() -> Iterator[None]:
         if text not in seen:
             seen.add(text)
             click.echo(f"mrnea: warning: {text}", err=True)
+            hint = getattr(message, "hint", None)  # what to do, on its own line (MeshWarning)
+            if hint:
+                click.echo(f"mrnea: hint: {one_line(hint)}", err=True)
 
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
@@ -278,7 +281,7 @@ class _Group(click.Group):
             except (MrneaError, OSError) as exc:
                 if debug:
                     raise
-                fail(str(exc))
+                fail(getattr(exc, "cli", None) or str(exc))  # in the command line's words
             except MemoryError:
                 if debug:
                     raise
@@ -382,25 +385,32 @@ class _Gravity(click.ParamType):
 
 
 def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """--actuators, --tip, --payload, --gravity: what changes the robot of a command that takes
-    one. The command receives them as one keyword, ``robot_options`` (a
+    """--actuators, --tip, --payload, --gravity, --package-path: what changes the robot of a
+    command that takes one. The command receives them as one keyword, ``robot_options`` (a
     :class:`~mrnea.io.RobotOptions`); they override a program file's keys of the same names."""
     @functools.wraps(command)
-    def wrapper(*args: Any, actuators: str | None, tip: str | None, payload: Any,
-                gravity: Any, **kw: Any) -> Any:
-        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity), **kw)
+    def wrapper(*args: Any, actuators: str | None, tip: tuple[str, ...], payload: Any,
+                gravity: Any, package_path: tuple[str, ...], **kw: Any) -> Any:
+        tips = None if not tip else tip[0] if len(tip) == 1 else tuple(tip)
+        return command(*args, robot_options=RobotOptions(actuators, tips, payload, gravity,
+                                                         package_path or None), **kw)
 
     for option in reversed([
         click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
                      help="Sidecar actuator file (TOML: rotor inertia, gear, friction, "
                           "torque-speed curves per joint; docs/robot-format.md)."),
-        click.option("--tip", metavar="LINK",
-                     help="The URDF chain's last link (when the moving joints branch)."),
+        click.option("--tip", metavar="LINK", multiple=True,
+                     help="Keep the URDF's joints up to this link (a chain); repeated, the "
+                          "subtree holding all the tips (default: the whole tree)."),
         click.option("--payload", type=_Payload(), metavar="KG[@X,Y,Z]|FILE",
                      help="A payload fixed to the last link: a mass [kg] at a point [m] of the "
                           "last link's frame, or a TOML file with mass, com and inertia."),
         click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
                      help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
+        click.option("--package-path", "package_path", multiple=True, metavar="DIR",
+                     type=click.Path(file_okay=False),
+                     help="Where the URDF's package:// meshes are: a package's folder or one "
+                          "holding it (repeatable; $ROS_PACKAGE_PATH is also searched)."),
     ]):
         wrapper = option(wrapper)
     return wrapper
@@ -420,9 +430,15 @@ def load_program_arg(program: str) -> Program:
     return training_program() if program == DEMO_PROGRAM else load_program(program)
 
 
+units_opt = click.option(
+    "--units", type=click.Choice(list(CSV_UNITS)), default=None,
+    help="The joint columns of a CSV PROGRAM: rad (SI: rad, m) [default] or deg (degrees for "
+         "revolute joints, mm for prismatic ones); a program file sets it in [path].")
+
+
 def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """[ROBOT] PROGRAM [--dt] [--interpolation] [--mode] [--catch-up] and the robot options:
-    what a command simulating a program takes (:func:`load_run` reads them)."""
+    """[ROBOT] PROGRAM [--dt] [--interpolation] [--units] [--mode] [--catch-up] and the robot
+    options: what a command simulating a program takes (:func:`load_run` reads them)."""
     for option in reversed([
         click.argument("robot", required=False, metavar="[ROBOT]"),
         click.argument("program", required=False, metavar="PROGRAM",
@@ -432,6 +448,7 @@ def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
                      help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic]; "
                           "a program file sets it in [path]."),
+        units_opt,
         mode_opt,
         catch_opt,
         robot_options,
@@ -454,7 +471,7 @@ class Run(NamedTuple):
 
 
 def load_run(robot: str | None, program: str | None, dt: float | None,
-             interpolation: str | None, options: RobotOptions) -> Run:
+             interpolation: str | None, options: RobotOptions, units: str | None = None) -> Run:
     """The :class:`Run` the arguments :func:`program_args` declares describe: ``[ROBOT]
     PROGRAM``, a program file (which may name its robot) or a CSV path.
 
@@ -468,6 +485,9 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     suffix = "" if program is None else Path(program).suffix.lower()
     if program is None:
         raise click.UsageError("Missing argument 'PROGRAM'.")
+    if units is not None and suffix != ".csv":
+        raise click.UsageError("--units applies to a CSV PROGRAM; a program file sets 'units' in "
+                               "its [path]")
     if robot is None and program != DEMO_PROGRAM and (suffix not in (".csv", ".toml") or (
             suffix == ".toml" and os.path.isfile(program) and not is_program_file(program))):
         raise click.UsageError(f"Missing argument 'PROGRAM' ({quote(program)} is taken as ROBOT: a "
@@ -480,7 +500,8 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
             raise click.UsageError("a CSV program needs ROBOT (ROBOT PATH.csv --dt SECONDS)")
         rob = load_robot_spec(robot, options=options)
         interpolation = interpolation or "cubic"
-        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob)
+        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob,
+                        units=units or "rad")
         return Run(rob, q, dt, None, None, None, interpolation)
     if suffix != ".toml" and program != DEMO_PROGRAM:
         raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml), a "

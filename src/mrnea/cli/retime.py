@@ -44,6 +44,7 @@ from mrnea.cli.base import (
     no_3d_opt,
     quiet_opt,
     robot_options,
+    units_opt,
 )
 from mrnea.errors import MrneaError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
@@ -77,7 +78,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
     if options.actuators is not None:
         keys["actuators"] = str(Path(options.actuators).resolve())
     if options.tip is not None:
-        keys["tip"] = options.tip
+        keys["tip"] = options.tip if isinstance(options.tip, str) else list(options.tip)
     if options.payload is not None:
         keys["payload"] = _point_mass(options) or PAYLOAD
         if keys["payload"] == PAYLOAD:
@@ -107,6 +108,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
                    "PROGRAM needs it).")
 @click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
               help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic].")
+@units_opt
 @mode_opt
 @robot_options
 @no_3d_opt
@@ -114,7 +116,8 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @quiet_opt
 @json_opt
 def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
-           dt: float | None, interpolation: str | None, mode: str, robot_options: RobotOptions,
+           dt: float | None, interpolation: str | None, units: str | None, mode: str,
+           robot_options: RobotOptions,
            no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
@@ -129,7 +132,8 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
 
     robot_arg, program_arg = (None, robot) if program is None else (robot, program)
     csv = (program_arg or "").lower().endswith(".csv")
-    run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options)
+    run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options,
+                   units)
     if csv:
         spec, options = _robot_spec(robot_arg), robot_options
     else:
@@ -200,7 +204,8 @@ def _option_args(options: RobotOptions) -> list[str]:
     if options.actuators is not None:
         args += ["--actuators", options.actuators]
     if options.tip is not None:
-        args += ["--tip", options.tip]
+        for t in (options.tip,) if isinstance(options.tip, str) else options.tip:
+            args += ["--tip", t]
     if options.payload is not None:
         args += ["--payload", _point_mass(options) or "FILE"]
     if options.gravity is not None:
@@ -208,21 +213,40 @@ def _option_args(options: RobotOptions) -> list[str]:
     return args
 
 
+def outside_limits(robot: Robot, q_cmd: np.ndarray, dt: float) -> str | None:
+    """Why no timing can help a path ``q_cmd`` (K, n) [rad | m] at ``dt`` [s]: the first joint
+    whose path starts outside its position limits, else the first that leaves them (retiming
+    keeps the path); None when it stays within them."""
+    lower, upper = robot.lower, robot.upper
+    outside = (q_cmd < lower) | (q_cmd > upper)
+    if not outside.any():
+        return None
+    k, i = (int(x) for x in np.argwhere(outside)[0])
+    j = robot.joints[i]
+    where = (f"joint '{j.name}' starts at {q_cmd[0, i]:.4g} {j.unit('q')}" if k == 0 else
+             f"joint '{j.name}' reaches {q_cmd[k, i]:.4g} {j.unit('q')} at t = {k * dt:.4g} s")
+    return (f"{where}, outside its position limits [{lower[i]:.4g}, {upper[i]:.4g}] "
+            f"{j.unit('q')}, and retiming keeps the path")
+
+
 def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
                options: RobotOptions, q_cmd: np.ndarray, dt: float, f_ext: np.ndarray | None,
                f_ext_point: np.ndarray | None, interpolation: str | None = None,
-               mode: str | None = None) -> str:
+               mode: str | None = None, units: str | None = None) -> str:
     """What ``check`` and ``simulate`` print under a program that is not achievable: the
     ``retime`` command with the same robot, program, robot options and run (a CSV program's
-    --dt [s] and --interpolation, a --mode the program file does not set), and the duration
-    uniform time scaling would give by Hollerbach's closed-form estimate on the program's own
-    requirement (or why no timing can help)."""
+    --dt [s], --interpolation and --units, a --mode the program file does not set), and the
+    duration uniform time scaling would give by Hollerbach's closed-form estimate on the
+    program's own requirement; or why no timing can help: a path that starts or goes outside a
+    joint's position limits (:func:`outside_limits`), a requirement no speed can meet."""
     from mrnea.retime import scale_estimate
 
+    if (why := outside_limits(robot, q_cmd, dt)) is not None:
+        return f"No timing can make it achievable: {why}"
     program = program_arg or robot_arg or "PROGRAM"
     run = ["--dt", repr(float(dt))] if program.lower().endswith(".csv") else []
     run += [*(["--interpolation", interpolation] if interpolation else []),
-            *(["--mode", mode] if mode else [])]
+            *(["--units", units] if units else []), *(["--mode", mode] if mode else [])]
     args = [*([robot_arg] if robot_arg and program_arg else []), program, "--out",
             f"{Path(program).stem}-retimed", *run, *_option_args(options)]
     T = (q_cmd.shape[0] - 1) * dt

@@ -47,7 +47,7 @@ TABLE, SUMMARY, REPORT = "cycles.csv", "summary.json", "report.html"
 
 def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
          f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool,
-         out: Path | None = None, force: bool = False):
+         out: Path | None = None, force: bool = False, cartesian=None):
     """Simulate with a progress bar; with ``out``, stream the per-cycle table to cycles.csv.
 
     A stop request (Ctrl-C, SIGTERM) ends the simulation after the current chunk of cycles: the
@@ -69,7 +69,8 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
 
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
-                       stream=None if out is None else out / TABLE, overwrite=force)
+                       stream=None if out is None else out / TABLE, overwrite=force,
+                       cartesian=cartesian)
     if not res.completed:
         click.echo(f"mrnea: interrupted after {res.K} cycles; writing the partial result.",
                    err=True)
@@ -116,7 +117,7 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
 
 def _print_cartesian(path, quiet: bool) -> None:
     """A Cartesian program's verdict on its tool path, when the robot cannot follow it (on
-    stderr: the dynamics' verdict follows on stdout)."""
+    stderr: the dynamics' verdict follows on stdout; the command then exits 1)."""
     if path is not None and not path.achievable and not quiet:
         click.echo(f"Tool path: {path.verdict()}", err=True)
 
@@ -170,18 +171,18 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
 
 def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
              run: tuple, interpolation: str | None, mode: str, quiet: bool,
-             as_json: bool) -> None:
+             as_json: bool, units: str | None = None) -> None:
     """Under a completed run that is not achievable: the retime command and the duration
     uniform scaling would give (:func:`mrnea.cli.retime.suggestion`); command line only (stderr
     with --json), never in the summary. ``run``: what :func:`load_run` returned;
-    ``interpolation``, ``mode``: the command's options."""
+    ``interpolation``, ``mode``, ``units``: the command's options."""
     if quiet or not res.completed or res.achievable is not False:
         return
     from mrnea.cli.retime import suggestion
 
     rob, q_cmd, dt, f_ext, f_pt, prog_mode = run[:6]
     click.echo(suggestion(rob, robot, program, options, np.asarray(q_cmd), dt, f_ext, f_pt,
-                          interpolation, None if prog_mode or mode == "hybrid" else mode),
+                          interpolation, None if prog_mode or mode == "hybrid" else mode, units),
                err=as_json)
 
 
@@ -195,7 +196,8 @@ def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
 @quiet_opt
 @json_opt
 def simulate(robot: str | None, program: str | None, dt: float | None,
-             interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+             interpolation: str | None, units: str | None, mode: str, catch_up: float,
+             robot_options: RobotOptions,
              fd: str, out: str | None, no_3d: bool, force: bool, quiet: bool,
              as_json: bool) -> None:
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json.
@@ -204,16 +206,20 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
     training profile). ROBOT may be left out when the program file names its robot; given, it
     must be that robot. The robot options override the program's keys of the same names.
     """
-    run = load_run(robot, program, dt, interpolation, robot_options)
+    run = load_run(robot, program, dt, interpolation, robot_options, units)
     rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run[:7]
     _print_cartesian(run.cartesian, quiet or as_json)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
-                   force)
+                   force, run.cartesian)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
-    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
+             units)
+    if res.completed and run.cartesian is not None and not run.cartesian.achievable:
+        checkpoint()
+        sys.exit(EXIT_NOT_ACHIEVABLE)  # the tool path cannot be followed, whatever the dynamics
     exit_with_verdict(res)
 
 
@@ -222,19 +228,22 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
 @quiet_opt
 @json_opt
 def check(robot: str | None, program: str | None, dt: float | None,
-          interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+          interpolation: str | None, units: str | None, mode: str, catch_up: float,
+          robot_options: RobotOptions,
           quiet: bool, as_json: bool) -> None:
     """Print the verdict alone; write nothing.
 
     PROGRAM is a program file (.toml), a path CSV (with --dt) or 'demo'; ROBOT may be left out
     when the program file names its robot (as for simulate).
     """
-    run = load_run(robot, program, dt, interpolation, robot_options)
+    run = load_run(robot, program, dt, interpolation, robot_options, units)
     rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run[:7]
     if run.cartesian is not None and not run.cartesian.achievable:
         _cartesian_verdict(run.cartesian, as_json, quiet)
         sys.exit(EXIT_NOT_ACHIEVABLE)
-    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
+    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet,
+               cartesian=run.cartesian)
     _print_result(res, None, as_json, quiet)
-    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
+             units)
     exit_with_verdict(res)

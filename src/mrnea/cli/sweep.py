@@ -10,7 +10,9 @@ before any work: the grid's entries against the robot (one error naming the grid
 entry), the output files (never replaced without ``--force``).
 
 Writes into DIR (the run owns it: :func:`mrnea.io.writer.own_folder`) ``sweep.csv``,
-``sweep.parquet`` when pyarrow is installed, and ``sweep.html``, then prints one line. Ctrl-C
+``sweep.parquet`` when pyarrow is installed (else one warning line says it is not written), and
+``sweep.html``, then prints one line. The files name each result column with its unit, as
+cycles.csv does (:func:`with_units`). Ctrl-C
 or SIGTERM stops the sweep at its next check (a quarter of a second at most): the rows done are
 written and the command exits 130.
 """
@@ -19,7 +21,9 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -48,7 +52,26 @@ from mrnea.io.program import Program
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 CSV, PARQUET, HTML = "sweep.csv", "sweep.parquet", "sweep.html"
+
+
+def has_pyarrow() -> bool:
+    """Whether pandas can write sweep.parquet (pyarrow, the ``parquet`` extra, is optional)."""
+    return importlib.util.find_spec("pyarrow") is not None
+
+
+def with_units(df: pd.DataFrame, robot: Robot) -> pd.DataFrame:
+    """The sweep's rows as the files hold them: each result column with a unit named
+    ``<name> [<unit>]``, as cycles.csv's are (``peak_motor_torque.cab_yaw [N m]``,
+    ``duration [s]``); the parameter columns keep the grid's keys, so a row's parameters
+    still rebuild its robot (``mrnea.sweep.variant``)."""
+    from mrnea.sweep.rows import column_units
+
+    units = column_units(robot, [c for c in df.columns if c not in df.attrs.get("units", {})])
+    return df.rename(columns={c: f"{c} [{u}]" for c, u in units.items()})
 
 
 def _is_robot(arg: str) -> bool:
@@ -153,14 +176,17 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     programs = load_programs(programs, robot)  # each against the robot's joint count
     keys = list(spec.grid)
     try:
-        check_grid(robot, spec.grid, spec.zip)
+        check_grid(robot, spec.grid, spec.zip, programs)
     except SweepError as exc:
         raise SweepError(f"{spec.source}: {exc}") from None
     axes = _axes(map_axes, "--map", keys, 2)
     curve = _axes(curves, "--curves", keys, 1)
     if scheduler is not None:  # a scheduler there, before the folder and the first line
         check_scheduler(scheduler)
-    files = [CSV, *([PARQUET] if importlib.util.find_spec("pyarrow") else []), HTML]
+    files = [CSV, *([PARQUET] if has_pyarrow() else []), HTML]
+    if PARQUET not in files:
+        warnings.warn(f"{PARQUET} is not written: pyarrow is not installed (python -m pip "
+                      f"install 'mrnea[parquet]'); {CSV} holds the same rows", stacklevel=1)
     with own_folder(Path(out) if out else fresh_dir("mrnea-sweep")) as folder:
         check_new([folder / f for f in files], force)
         if not quiet:
@@ -185,12 +211,13 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         if not done:
             click.echo(f"mrnea: interrupted after {len(df)} of {df.attrs['cases']} rows; "
                        "writing them.", err=True)
+        table = with_units(df, robot)
         with create(folder / CSV, force) as fh:
-            df.to_csv(fh)
+            table.to_csv(fh)
         if PARQUET in files:
             checkpoint()
             with create(folder / PARQUET, force, binary=True) as fh:
-                df.to_parquet(fh)
+                table.to_parquet(fh)
         checkpoint()
         write_sweep_html(df, folder / HTML, robot.name, keys, axes and tuple(axes),
                          curve and curve[0], overwrite=force)

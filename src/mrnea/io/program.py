@@ -203,8 +203,10 @@ def _options(check: TomlCheck, prog: Mapping[str, Any], base_dir: Path) -> Robot
     if "actuators" in prog:
         p = Path(check.string(prog["actuators"], where, "actuators")).expanduser()
         kw["actuators"] = str(p if p.is_absolute() else base_dir / p)
-    if "tip" in prog:
-        kw["tip"] = check.string(prog["tip"], where, "tip")
+    if "tip" in prog:  # one link, or several (a URDF tree's subtree holding them)
+        tip = prog["tip"]
+        kw["tip"] = (tuple(check.string(t, where, "tip") for t in tip)
+                     if isinstance(tip, list) and tip else check.string(tip, where, "tip"))
     if "payload" in prog:
         try:
             kw["payload"] = parse_payload(check.string(prog["payload"], where, "payload"),

@@ -46,20 +46,22 @@ _FLAGS = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
 _NO_HARD_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK, errno.ENOSYS}
 
 
-def _refusal(path: Path, overwrite: bool) -> str | None:
-    """Why ``path`` may not be written (None if it may)."""
+def _refusal(path: Path, overwrite: bool) -> OutputError | None:
+    """Why ``path`` may not be written (None if it may), in the library's words and the
+    command line's (:class:`~mrnea.errors.MrneaError` ``cli``)."""
     try:
         st = os.lstat(path)
     except FileNotFoundError:
         return None
     except OSError as exc:
-        return f"{path}: cannot write: {exc.strerror}"
+        return OutputError(f"{path}: cannot write: {exc.strerror}")
     if stat.S_ISDIR(st.st_mode):
-        return f"{path} is a directory; name a file to write"
+        return OutputError(f"{path} is a directory; name a file to write")
     if overwrite:
         return None
-    what = " (a symbolic link)" if stat.S_ISLNK(st.st_mode) else ""
-    return f"{path} exists{what}; pass overwrite=True (CLI: --force) to replace it"
+    what = f"{path} exists" + (" (a symbolic link)" if stat.S_ISLNK(st.st_mode) else "")
+    return OutputError(f"{what}; pass overwrite=True to replace it",
+                       cli=f"{what}; add --force to replace it")
 
 
 def check_new(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False) -> None:
@@ -75,9 +77,9 @@ def check_new(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False) 
     if isinstance(paths, (str, bytes, os.PathLike)):
         raise OutputError(f"paths: expected a list of file paths, got one: {quote(paths)}")
     for p in paths:
-        reason = _refusal(as_path(p, "path", OutputError), overwrite)
-        if reason:
-            raise OutputError(reason)
+        refusal = _refusal(as_path(p, "path", OutputError), overwrite)
+        if refusal:
+            raise refusal
 
 
 @contextlib.contextmanager
@@ -151,15 +153,15 @@ def _flag(value: object, name: str = "overwrite") -> bool:
 def _publish(tmp: Path, path: Path, overwrite: bool) -> None:
     """Move the finished temporary file to ``path`` (see the module docstring)."""
     if overwrite:
-        reason = _refusal(path, True)  # a directory may have appeared meanwhile
-        if reason:
-            raise OutputError(reason)
+        refusal = _refusal(path, True)  # a directory may have appeared meanwhile
+        if refusal:
+            raise refusal
         os.replace(tmp, path)
         return
     try:
         os.link(tmp, path, follow_symlinks=False)  # fails if anything is at path
     except FileExistsError:
-        raise OutputError(_refusal(path, False) or f"{path} exists") from None
+        raise (_refusal(path, False) or OutputError(f"{path} exists")) from None
     except OSError as exc:
         if exc.errno not in _NO_HARD_LINKS:
             raise

@@ -61,6 +61,7 @@ class Job:
     runs: list[tuple[str, int, int]]
     timings: dict[str, float] = field(default_factory=lambda: dict.fromkeys(TIMINGS, 0.0))
     checkpoint: Callable[[], None] = _never
+    _paths: dict[int, dict] = field(default_factory=dict, repr=False)  # polyline_error's cache
 
     @classmethod
     def of(cls, robot: Robot, program: Any, dt: float | None, f_ext: Any, f_ext_point: Any,
@@ -190,7 +191,8 @@ class Job:
             Naming dt, the joint, the program instant, the deviation and a cycle that keeps it.
         """
         k0, k1 = self.runs[j][1:]
-        own, err, where = polyline_error(spline, self.q[k0:k1 + 1], self.program_dt, rows, s)
+        own, err, where = polyline_error(spline, self.q[k0:k1 + 1], self.program_dt, rows, s,
+                                         self._paths.setdefault(j, {}))
         tol = np.maximum(PATH_TOL, own)
         bad = err > tol
         if not bad.any():

@@ -28,12 +28,17 @@ from typing import Any
 
 from mrnea.errors import SweepError, quote
 
-__all__ = ["CONNECT_TIMEOUT", "HTTP_TIMEOUT", "WORKER_MALLOC", "check_scheduler", "client",
+__all__ = ["CONNECT_TIMEOUT", "HTTP_TIMEOUT", "WORKER_ENVIRON", "WORKER_MALLOC",
+           "check_scheduler", "client",
            "quiet", "spawning"]
 
 #: glibc settings of the LocalCluster's workers (:func:`spawning`): trim at 128 MB, arrays of
 #: up to 32 MB from the heap.
 WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 134217728, "MALLOC_MMAP_THRESHOLD_": 33554432}
+#: The LocalCluster's workers' environment (:func:`spawning`): the glibc settings, and Numba's
+#: thread pool of one thread (a worker runs one task at a time, each on one thread; a pool of
+#: the machine's size, started by a retime's parallel kernels, only competes for the cores).
+WORKER_ENVIRON = {**WORKER_MALLOC, "NUMBA_NUM_THREADS": 1}
 #: Seconds a scheduler address has to accept the connection and answer as a Dask scheduler,
 #: all told (a scheduler answers in milliseconds).
 CONNECT_TIMEOUT = 10
@@ -60,7 +65,8 @@ def spawning() -> Iterator[None]:
     * glibc's heap kept for the runs' arrays: distributed's ``MALLOC_TRIM_THRESHOLD_=65536``
       also fixes glibc's mmap threshold at 128 kB, so each run's MB-sized arrays are mapped and
       faulted in afresh (5x the page faults, +35 % CPU per run, measured); trim at 128 MB with
-      a 32 MB mmap threshold instead (:data:`WORKER_MALLOC`).
+      a 32 MB mmap threshold instead (:data:`WORKER_MALLOC`); Numba's thread pool of one
+      thread (:data:`WORKER_ENVIRON`).
     * ``os.environ`` restored afterwards: distributed's Nanny writes its worker variables
       (``OMP_NUM_THREADS=1``...) into this process's environment.
     """
@@ -71,7 +77,7 @@ def spawning() -> Iterator[None]:
     old = {s: signal.signal(s, signal.SIG_IGN) for s in WORKER_IGNORES} if main else {}
     try:
         key = "distributed.nanny.pre-spawn-environ"
-        with dask.config.set({key: {**dask.config.get(key), **WORKER_MALLOC}}):
+        with dask.config.set({key: {**dask.config.get(key), **WORKER_ENVIRON}}):
             yield
     finally:
         os.environ.clear()

@@ -14,11 +14,13 @@
   returns summary rows, never per-cycle arrays.
 * Before the runs, each worker loads the compiled kernels (:func:`~mrnea.sweep.rows.warm`)
   and reports the code it runs: a worker with other code is an error (its rows would differ).
-* Ctrl-C (or a ``progress`` callback raising KeyboardInterrupt) cancels what is left and
-  returns the rows done; ``df.attrs["completed"]`` is then False.
+* Ctrl-C (or a ``progress`` callback raising KeyboardInterrupt; the command line turns
+  SIGTERM into the same) cancels what is left and returns the rows done, never a row for a
+  run not done; ``df.attrs["completed"]`` is then False.
 * Nothing but the progress bar reaches the terminal: distributed's logs and warnings are
-  silenced during the sweep, the dashboard is off, workers ignore SIGINT (the terminal sends
-  it to the whole process group; this process alone acts on it).
+  silenced during the sweep, the dashboard is off, the local cluster's workers ignore SIGINT
+  and SIGTERM (a terminal, a container stop or a batch scheduler sends them to the whole
+  process group; this process alone acts on them: :func:`~mrnea.sweep.cluster.spawning`).
 
 The LocalCluster starts its workers with ``spawn``: a script that calls :func:`sweep` without a
 client needs the ``if __name__ == "__main__":`` guard (a notebook does not).
@@ -242,7 +244,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
                          f"(str), got {type(client).__name__}")
     progs = load_programs(programs, robot)
     labels = _labels(progs)
-    keys, cases = check_grid(robot, grid, zip)
+    keys, cases = check_grid(robot, grid, zip, progs)
     scaled = _scaled(progs, cases)
     jobs = [(v * len(progs) + p, (p, float(case.get("time_scale", 1.0))), case)
             for v, case in enumerate(cases) for p in range(len(progs))]
@@ -261,6 +263,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
     finally:
         if bar is not None:
             bar.close()
+    completed = completed and len(rows) == len(jobs)  # a task cancelled by someone else
     df = _frame(keys, labels, jobs, rows, retime)
     clock["total"] = time.perf_counter() - t0
     df.attrs.update(completed=completed, cases=len(jobs), seconds=clock,
@@ -300,7 +303,8 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
     batches = [jobs[k:k + size] for k in range(0, len(jobs), size)]
     info["tasks"] = len(batches)
     r_fut, p_fut = c.scatter([robot, dict(scaled)], broadcast=True, hash=False)
-    futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime, pure=False)
+    futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime,
+                    client_pid=os.getpid(), pure=False)
     which = {f.key: b for f, b in builtins.zip(futures, batches, strict=True)}
     try:
         _collect(futures, which, rows, report, len(jobs))
@@ -324,9 +328,13 @@ def _check_workers(answers: Mapping[str, Mapping[str, Any]]) -> None:
 
 def _batch_rows(batch: Sequence[tuple[int, Any, Any]], result: Any, future: Any
                 ) -> list[tuple[int, dict[str, Any]]]:
-    """A finished task's rows, or for each of its runs a row with the task's error."""
+    """A finished task's rows; for each run of a task that failed, a row with the task's error;
+    none for a task cancelled (the sweep stopping: its runs are not done, not failed) or whose
+    result could not be fetched."""
     if future.status == "finished":
-        return result
+        return [] if result is None else result
+    if future.status != "error":
+        return []
     try:
         exc = future.exception(timeout=10)
     except Exception as err:  # cancelled, or the scheduler lost it
@@ -369,8 +377,20 @@ def _collect(futures: list, which: dict, rows: dict[int, dict[str, Any]],
 
 
 def _gather(futures: list) -> list:
-    """The results of finished futures, in one round trip."""
-    return futures[0].client.gather(futures) if futures else []
+    """The results of finished futures, in one round trip; None for one whose result is gone
+    (cancelled meanwhile: the sweep is stopping)."""
+    if not futures:
+        return []
+    try:
+        return futures[0].client.gather(futures)
+    except Exception:  # one of them cancelled or lost since it finished: each alone
+        out = []
+        for fut in futures:
+            try:
+                out.append(fut.result(timeout=5))
+            except Exception:
+                out.append(None)
+        return out
 
 
 def _done_rows(futures: list) -> dict[int, dict[str, Any]]:
@@ -403,6 +423,7 @@ def _frame(keys: Sequence[str], labels: Sequence[str],
             order.append(k)
     df = pd.DataFrame.from_records(records, columns=list(columns),
                                    index=pd.Index(order, name="case", dtype="int64"))
+    df.index.name = "case"  # from_records drops it when there is no record
     df["achievable"] = df["achievable"].astype("boolean")
     return df
 
