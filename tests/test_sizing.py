@@ -312,3 +312,42 @@ def test_dwell_holds_the_load_in_the_rms():
     assert js.judged.rms[js.chosen] == pytest.approx(want, rel=1e-12)
     assert js.judged.ratios[js.chosen, 1] == pytest.approx(want / t.motor.rated_torque,
                                                            rel=1e-12)
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"joints": "j1"}, ["joints", "sequence"]), ({"joints": ["elbow"]}, ["elbow", "j1, j2"]),
+    ({"objective": "speed"}, ["objective", "mass"]), ({"dwell": -1.0}, ["dwell"]),
+    ({"programs": [object()]}, ["programs[0]"]), ({"programs": []}, ["programs"]),
+])
+def test_bad_arguments_name_the_argument(cat, kw, words):
+    args = {"robot": arm(), "programs": [(arm_program(), DT)], "catalogue": cat, **kw}
+    with pytest.raises(SizingError) as exc:
+        size_drives(**args)
+    for w in words:
+        assert w in str(exc.value)
+
+
+@pytest.mark.slow
+def test_on_a_dask_cluster_by_its_address(cat):
+    """The combinations judged on a LocalCluster, reached by its scheduler address: the same
+    ratios, choices and rounds as here."""
+    from distributed import LocalCluster
+
+    import mrnea.sizing.core as core
+
+    robot, q = arm(), arm_program()
+    here = size_drives(robot, [(q, DT)], cat)
+    chunk = core.CHUNK
+    core.CHUNK = 4  # several tasks per joint
+    try:
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                          dashboard_address=None,
+                          scheduler_kwargs={"dashboard_address": ":0"}) as lc:
+            there = size_drives(robot, [(q, DT)], cat, scheduler=lc.scheduler_address)
+    finally:
+        core.CHUNK = chunk
+    assert {k: t.name for k, t in there.chosen.items()} == \
+        {k: t.name for k, t in here.chosen.items()}
+    assert there.rounds == here.rounds and there.verified
+    for a, b in zip(here.joints, there.joints, strict=True):
+        np.testing.assert_array_equal(a.judged.ratios, b.judged.ratios)

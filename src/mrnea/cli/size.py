@@ -12,6 +12,7 @@ sidecar actuator file), ``sized_robot.toml`` (the robot with the drives and thei
 native robot file), ``summary.json`` and ``sizing.html``, and prints one line per joint and the
 verification. Exit 0 when every joint has a drive and every program is ACHIEVABLE on the sized
 robot, 1 when not (a verdict: nothing in the catalogue fits a joint), 2 on bad input.
+``--scheduler tcp://HOST:PORT`` judges the combinations on a Dask cluster (as for ``sweep``).
 """
 
 from __future__ import annotations
@@ -56,13 +57,17 @@ FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json",
               metavar="SECONDS", help="Seconds at rest after the programs, in the duty cycle.")
 @click.option("--no-drive-mass", is_flag=True,
               help="Leave the drives' masses off the parent links.")
+@click.option("--scheduler", default=None, metavar="ADDR",
+              help="A Dask scheduler, tcp://HOST:PORT, to judge the combinations on "
+                   "[default: here].")
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-size].")
 @robot_options
 @force_opt
 @quiet_opt
 def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: str,
-         dwell: float, no_drive_mass: bool, out: str | None, robot_options: RobotOptions,
+         dwell: float, no_drive_mass: bool, scheduler: str | None, out: str | None,
+         robot_options: RobotOptions,
          force: bool, quiet: bool) -> None:
     """Choose each joint's motor and gearbox from a catalogue for the PROGRAMs.
 
@@ -94,7 +99,7 @@ def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: s
         check_new([folder / f for f in FILES], force)
         with compile_notice(quiet):
             res = size_drives(robot, programs, cat, joints=wanted, objective=objective,
-                              dwell=dwell, drive_mass=not no_drive_mass)
+                              dwell=dwell, drive_mass=not no_drive_mass, scheduler=scheduler)
         with create(folder / "sizing.csv", force) as fh:
             sizing_table(res).to_csv(fh, index=False)
         if res.sized is not None:

@@ -29,10 +29,12 @@ tests/test_sizing.py compares it with brute force.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,6 +50,7 @@ from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import SimulationResult, simulate
 from mrnea.sizing.catalogue import Catalogue, Train, load_catalogue
 from mrnea.sizing.checks import CHECKS, Duty, Judged, judge
+from mrnea.sweep.cluster import client as cluster_client
 
 OBJECTIVES = ("mass", "price", "margin")
 
@@ -140,8 +143,14 @@ class SizingResult:
         return out
 
 
+def _is_pair(p: object) -> bool:
+    """A ``(q_cmd, dt)`` or ``(q_cmd, dt, f_ext, f_ext_point)`` tuple."""
+    return (isinstance(p, tuple) and len(p) in (2, 4) and isinstance(p[1], (int, float))
+            and not isinstance(p[1], bool))
+
+
 def _cases(programs: object) -> list[Case]:
-    if isinstance(programs, (str, Path, Program, Case, tuple)):
+    if isinstance(programs, (str, Path, Program, Case)) or _is_pair(programs):
         programs = [programs]
     if not isinstance(programs, Sequence) or not programs:
         raise SizingError(f"programs: expected one or more programs (Program, path, or "
@@ -154,7 +163,7 @@ def _cases(programs: object) -> list[Case]:
             out.append(Case(p.name, np.asarray(p.q_cmd), p.dt, p.f_ext, p.f_ext_point))
         elif isinstance(p, Case):
             out.append(p)
-        elif isinstance(p, tuple) and len(p) in (2, 4):
+        elif _is_pair(p):
             out.append(Case(f"program {k + 1}", np.asarray(p[0], dtype=float), float(p[1]),
                             *(p[2:] if len(p) == 4 else ())))
         else:
@@ -226,6 +235,48 @@ def _order(trains: list[Train], jd: Judged, objective: str) -> list[int]:
     return sorted((c for c in range(len(trains)) if jd.worst[c] <= 1.0), key=keys)
 
 
+CHUNK = 64
+"""Combinations judged per task on a Dask cluster (``scheduler``)."""
+
+
+def _concat(parts: list[Judged]) -> Judged:
+    return Judged(*(np.concatenate([getattr(p, f.name) for p in parts])
+                    for f in dataclasses.fields(Judged)))
+
+
+def _judge_all(trains: list[Train], duties: list[Duty], dask: Any) -> list[Judged]:
+    """Every joint's combinations judged: here, or in chunks of :data:`CHUNK` on ``dask`` (a
+    ``distributed.Client``)."""
+    if dask is None:
+        return [judge(trains, d) for d in duties]
+    chunks = [trains[k:k + CHUNK] for k in range(0, len(trains), CHUNK)]
+    futures = [[dask.submit(judge, ch, d, pure=False) for ch in chunks] for d in duties]
+    return [_concat(dask.gather(f)) for f in futures]
+
+
+def _iterate(robot: Robot, cases: list[Case], trains: list[Train], names: list[str],
+             sized: list[int], objective: str, dwell: float, drive_mass: bool, dask: Any
+             ) -> tuple[list[JointSizing], dict[str, Train], int]:
+    """Steps 1-3 of the module docstring until no choice changes: (the joints' answers, the
+    choices, the rounds)."""
+    chosen: dict[str, Train] = {}
+    seen: list[dict[str, str]] = []
+    rounds = 0
+    while True:
+        rounds += 1
+        duties = _duties(apply_trains(robot, chosen, drive_mass), cases, sized, dwell)
+        result = []
+        for nm, duty, jd in zip(names, duties, _judge_all(trains, duties, dask), strict=True):
+            order = _order(trains, jd, objective)
+            result.append(JointSizing(nm, trains, jd, order[0] if order else None, duty, order))
+        new = {r.joint: trains[r.chosen] for r in result if r.chosen is not None}
+        key = {k: t.name for k, t in new.items()}
+        if key == {k: t.name for k, t in chosen.items()} or key in seen or rounds > len(names) + 2:
+            return result, new, rounds
+        seen.append(key)
+        chosen = new
+
+
 def size_drives(
     robot: Robot,
     programs: object,
@@ -234,6 +285,7 @@ def size_drives(
     objective: str = "mass",
     dwell: float = 0.0,
     drive_mass: bool = True,
+    scheduler: Any = None,
 ) -> SizingResult:
     """Choose each joint's drive train from a catalogue (module docstring).
 
@@ -249,6 +301,10 @@ def size_drives(
     objective : ``"mass"``, ``"price"`` or ``"margin"``.
     dwell : seconds at rest after the programs, holding the final pose (RMS and cubic mean).
     drive_mass : add each drive's mass to its parent link (at the joint's origin).
+    scheduler : None (judge here), a Dask scheduler address ``tcp://HOST:PORT`` or a
+        ``distributed.Client``: the combinations are judged there in chunks of :data:`CHUNK`,
+        through the sweep's cluster connection (:func:`mrnea.sweep.cluster.client`: the
+        address checked first); the choice, the iteration and the verification stay here.
     """
     if not isinstance(robot, Robot):
         raise SizingError(f"robot: expected a mrnea.Robot, got {type(robot).__name__}")
@@ -259,6 +315,8 @@ def size_drives(
             or not np.isfinite(dwell):
         raise SizingError(f"dwell: expected seconds >= 0, got {quote(dwell)}")
     cat = catalogue if isinstance(catalogue, Catalogue) else load_catalogue(catalogue)
+    if isinstance(joints, str) or not (joints is None or isinstance(joints, Sequence)):
+        raise SizingError(f"joints: expected a sequence of joint names, got {quote(joints)}")
     names = list(robot.joint_names) if joints is None else list(joints)
     for nm in names:
         if nm not in robot.joint_names:
@@ -277,23 +335,11 @@ def size_drives(
     # judge() holds about 10 (combinations, cycles) float arrays per joint at once
     require_memory(10 * 8.0 * len(trains) * K, f"sizing {len(trains)} combinations over {K} "
                    f"cycles", "use a smaller catalogue or fewer, shorter programs", SizingError)
-    chosen: dict[str, Train] = {}
-    seen: list[dict[str, str]] = []
-    rounds = 0
-    while True:
-        rounds += 1
-        current = apply_trains(robot, chosen, drive_mass)
-        result = []
-        for nm, duty in zip(names, _duties(current, cases, sized, float(dwell)), strict=True):
-            jd = judge(trains, duty)
-            order = _order(trains, jd, objective)
-            result.append(JointSizing(nm, trains, jd, order[0] if order else None, duty, order))
-        new = {r.joint: trains[r.chosen] for r in result if r.chosen is not None}
-        key = {k: t.name for k, t in new.items()}
-        if key == {k: t.name for k, t in chosen.items()} or key in seen or rounds > len(names) + 2:
-            break
-        seen.append(key)
-        chosen = new
+    with contextlib.ExitStack() as stack:
+        dask = None if scheduler is None else stack.enter_context(cluster_client(scheduler,
+                                                                                 None))
+        result, new, rounds = _iterate(robot, cases, trains, names, sized, objective,
+                                       float(dwell), drive_mass, dask)
     fits = all(r.chosen is not None for r in result)
     sized_robot = apply_trains(robot, new, drive_mass) if fits else None
     runs = [simulate(sized_robot, c.q_cmd, c.dt, f_ext=c.f_ext, f_ext_point=c.f_ext_point,
