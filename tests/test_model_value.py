@@ -1,7 +1,7 @@
 """A Robot (and its Joints and Links) is plain immutable data: equal by value, hashable, safe to
 pickle, copy, deep-copy and send to another process, every copy validated by the constructor
-again and its arrays read-only; and its actuator fields are one list (model.ACTUATOR_FIELDS)
-that describe() and docs/robot-format.md follow.
+again and its arrays read-only; and its actuator fields are one list
+(actuator_fields.ACTUATOR_FIELDS) that describe() and docs/robot-format.md follow.
 """
 
 from __future__ import annotations
@@ -19,9 +19,10 @@ import pytest
 from conftest import random_chain
 
 import mrnea
+from mrnea.actuator_fields import ACTUATOR_FIELDS
 from mrnea.describe import describe
 from mrnea.errors import ModelError, ModelWarning
-from mrnea.model import ACTUATOR_FIELDS, Joint, Link, Robot
+from mrnea.model import Joint, Link, Robot
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 

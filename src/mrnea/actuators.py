@@ -1,11 +1,11 @@
 """The actuator model: gear, rotor inertia, friction and effort limits (paper Eqs. 42-43).
 
-Per joint, joint side unless said otherwise (the fields: :data:`mrnea.model.ACTUATOR_FIELDS`):
-gear ratio G (motor turns per joint turn), rotor inertia J_m [kg m^2, motor side], viscous
-friction F_v, Coulomb friction F+ and F- (the magnitudes opposing positive and negative
-motion; one value for both, or two), effort limit (constant, or a torque-speed curve: see
-:class:`mrnea.model.Joint`), velocity and position limits. The convention for a joint that moves
-on with its velocity qd, exactly::
+Per joint, joint side unless said otherwise (the fields:
+:data:`mrnea.actuator_fields.ACTUATOR_FIELDS`): gear ratio G (motor turns per joint turn), rotor
+inertia J_m [kg m^2, motor side], viscous friction F_v, Coulomb friction F+ and F- (the magnitudes
+opposing positive and negative motion; one value for both, or two), effort limit (constant, or a
+torque-speed curve: see :class:`mrnea.model.Joint`), velocity and position limits. The convention
+for a joint that moves on with its velocity qd, exactly::
 
     tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + phi(qd) = H_a qdd + u'_a
     phi(qd) = F+ (qd > 0), -F- (qd < 0), 0 (qd = 0)

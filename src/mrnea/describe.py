@@ -1,11 +1,11 @@
 """A robot described for a reader: text tables (``mrnea info``, the report) and JSON data.
 
 :func:`describe` prints the joints, links, limits and every actuator field of
-:data:`mrnea.model.ACTUATOR_FIELDS` (the torque-speed curve included) with their units in the
-headers, fitted to a width: one table if it fits, else a geometry table and an actuator table,
+:data:`mrnea.actuator_fields.ACTUATOR_FIELDS` (the torque-speed curve included) with their units in
+the headers, fitted to a width: one table if it fits, else a geometry table and an actuator table,
 else one block per joint. Units follow the joints: ``rad``, ``N m`` for revolute joints, ``m``,
-``N`` for prismatic ones, ``rad or m`` in a column that has both. :func:`robot_data` is the same
-as strict JSON data (RFC 8259: no Infinity or NaN; an unlimited value is ``None``, JSON null).
+``N`` for prismatic ones, ``rad or m`` in a column that has both. :func:`robot_data` is the same as
+strict JSON data (RFC 8259: no Infinity or NaN; an unlimited value is ``None``, JSON null).
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ import math
 import textwrap
 from typing import Any
 
-from mrnea.model import ACTUATOR_FIELDS, JOINT_UNITS, Joint, Robot
+from mrnea.actuator_fields import ACTUATOR_FIELDS
+from mrnea.model import JOINT_UNITS, Joint, Robot
 
 __all__ = ["describe", "robot_data"]
 

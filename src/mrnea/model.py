@@ -14,8 +14,8 @@ Conventions (the same as URDF's, so URDF files map one to one):
   the centre of mass, in axes parallel to the link frame.
 * Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
 * Actuator fields per joint (joint side unless said otherwise; the list, with units and
-  meanings: :data:`ACTUATOR_FIELDS`): ``gear_ratio`` G (motor turns per joint turn, in
-  [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
+  meanings, and their checks: :mod:`mrnea.actuator_fields`): ``gear_ratio`` G (motor turns per
+  joint turn, in [1e-6, 1e6]), ``rotor_inertia`` J_m [kg m^2, motor side], ``viscous_friction`` F_v
   [N m s/rad or N s/m], ``coulomb_friction`` F_s [N m or N] (one magnitude, or two,
   ``(positive direction, negative direction)``: the friction opposing motion with q̇ > 0 and with
   q̇ < 0), ``effort_limit`` [N m or N]
@@ -38,15 +38,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mrnea.actuator_fields import actuator_values, check_actuator_fields
 from mrnea.errors import ModelError, quote
 from mrnea.frozen import (
     Frozen,
@@ -61,37 +61,6 @@ from mrnea.rigid import check_inertia, combine_inertials
 from mrnea.visual import Visual, visual_tuple
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic")
-
-
-class ActuatorField(NamedTuple):
-    """One actuator field of a :class:`Joint`: its name, the symbol tables use, unit, meaning."""
-
-    name: str
-    symbol: str
-    unit: str
-    meaning: str
-
-
-# The actuator fields, in one list: the keywords of Robot.with_actuators, the columns of
-# mrnea.describe's tables, the actuator array of the kernels (kernels/layout.py
-# compile_actuators) and the table of docs/robot-format.md (a test checks that the two agree).
-# Adding a field starts here.
-ACTUATOR_FIELDS = (
-    ActuatorField("effort_limit", "effort", "N m or N",
-                  "joint-side effort limit (inf: unlimited); with a torque-speed curve, its peak"),
-    ActuatorField("gear_ratio", "G", "-", "motor turns per joint turn, in [1e-6, 1e6]"),
-    ActuatorField("rotor_inertia", "J_m", "kg m^2", "rotor inertia, motor side"),
-    ActuatorField("viscous_friction", "F_v", "N m s/rad or N s/m", "viscous friction, joint side"),
-    ActuatorField("coulomb_friction", "F_s", "N m or N",
-                  "Coulomb friction, joint side: one magnitude, or two (positive direction, "
-                  "negative direction)"),
-    ActuatorField("torque_speed", "curve", "N m or N, rad/s or m/s",
-                  "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
-                  "the effort limit falls (None, '-' in tables: a constant limit)"),
-    ActuatorField("efficiency", "eta", "-",
-                  "gear efficiency in (0, 1]: one value, or two (driving, back-driven); the "
-                  "limit is eta times the effort limit driving, 1 / eta times it back-driven"),
-)
 #: SI unit of each joint quantity, (revolute, prismatic): position, velocity, acceleration, effort.
 JOINT_UNITS = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "qdd": ("rad/s^2", "m/s^2"),
                "tau": ("N m", "N")}
@@ -99,42 +68,6 @@ DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 # a joint axis whose 2-norm is within this of 1 is kept as given (a normalised vector's computed
 # norm is within 1.5 eps of 1, measured over 2e5 random axes)
 UNIT_TOL = 4 * np.finfo(float).eps
-GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
-def _coulomb(value: object, what: str) -> float | tuple[float, float]:
-    """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
-    an equal pair is stored as one number."""
-    pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
-    if len(pair) != 2:
-        raise ModelError(f"{what}: coulomb_friction must be a number or two, [positive "
-                         f"direction, negative direction], got {value!r}")
-    p, m = (real_number(v, f"{what}: coulomb_friction") for v in pair)
-    if p < 0 or m < 0:
-        raise ModelError(f"{what}: coulomb_friction must be >= 0, got {value!r}")
-    return p if p == m else (p, m)
-
-
-def _efficiency(value: object, what: str) -> float | tuple[float, float]:
-    """Gear efficiency: a value in (0, 1], or two ``(driving, back-driven)``; an equal pair is
-    stored as one number."""
-    pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
-    if len(pair) != 2:
-        raise ModelError(f"{what}: efficiency must be a number or two, [driving, back-driven], "
-                         f"got {value!r}")
-    d, b = (real_number(v, f"{what}: efficiency") for v in pair)
-    if not (0.0 < d <= 1.0 and 0.0 < b <= 1.0):
-        raise ModelError(f"{what}: efficiency must be in (0, 1], got {value!r}")
-    return d if d == b else (d, b)
-
-
-def _pairs_per_joint(key: str, value: object, n: int, pair: str) -> list[object]:
-    """with_actuators' coulomb_friction or efficiency: one number, or n entries (a number or a
-    pair each)."""
-    if not isinstance(value, (list, tuple)) and np.ndim(value) == 0:  # type: ignore[arg-type]
-        return [value] * n
-    if len(value) != n:
-        raise ModelError(f"with_actuators: {key} must be a number or {n} entries (a "
-                         f"number or a [{pair}] pair each), got {value!r}")
-    return [tuple(e) if isinstance(e, (list, tuple, np.ndarray)) else e for e in value]
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,43 +171,8 @@ class Joint(Frozen):
             lower, upper = -math.inf, math.inf
         if lower > upper:
             raise ModelError(f"{what}: lower limit {lower} is above upper limit {upper}")
-        values = {"lower": lower, "upper": upper}
-        for name in ("velocity_limit", "effort_limit"):
-            v = real_number(getattr(self, name), f"{what}: {name}", allow_inf=True)
-            if v < 0:
-                raise ModelError(f"{what}: {name} must be >= 0, got {v}")
-            values[name] = v
-        for name in ("rotor_inertia", "viscous_friction"):
-            v = real_number(getattr(self, name), f"{what}: {name}")
-            if v < 0:
-                raise ModelError(f"{what}: {name} must be >= 0, got {v}")
-            check_magnitude(v, name, what, "kg m^2" if name == "rotor_inertia" else
-                            "N s/m" if self.type == "prismatic" else "N m s/rad")
-            values[name] = v
-        values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
-        check_magnitude(values["coulomb_friction"], "coulomb_friction", what,
-                        "N" if self.type == "prismatic" else "N m")
-        values["efficiency"] = _efficiency(self.efficiency, what)
-        g = real_number(self.gear_ratio, f"{what}: gear_ratio")
-        if g <= 0:
-            raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
-        if not GEAR_RANGE[0] <= g <= GEAR_RANGE[1]:
-            raise ModelError(f"{what}: gear_ratio {g} is outside {list(GEAR_RANGE)}, the range "
-                             f"of real drive trains mrnea accepts")
-        values["gear_ratio"] = g
-        if self.torque_speed is not None:
-            try:
-                peak, corner, no_load = (float(x) for x in self.torque_speed)
-            except (TypeError, ValueError):
-                raise ModelError(
-                    f"{what}: torque_speed must be (peak, corner_speed, no_load_speed), "
-                    f"got {self.torque_speed!r}") from None
-            if not (0 <= peak < math.inf and 0 < corner <= no_load and math.isfinite(corner)):
-                raise ModelError(
-                    f"{what}: torque_speed needs 0 <= peak < inf and "
-                    f"0 < corner_speed <= no_load_speed, got {self.torque_speed!r}")
-            values["torque_speed"] = (peak, corner, no_load)
-            values["effort_limit"] = peak
+        values = {"lower": lower, "upper": upper,
+                  **check_actuator_fields(self, what)}
         object.__setattr__(self, "origin", origin)
         object.__setattr__(self, "axis", axis)
         for k, v in values.items():
@@ -473,7 +371,8 @@ class Robot(Frozen):
     def with_actuators(self, **fields: ArrayLike) -> Robot:
         """A copy with actuator fields replaced.
 
-        Keywords are any of :data:`ACTUATOR_FIELDS`. ``effort_limit``, ``gear_ratio``,
+        Keywords are any of :data:`mrnea.actuator_fields.ACTUATOR_FIELDS` (read by
+        :func:`mrnea.actuator_fields.actuator_values`). ``effort_limit``, ``gear_ratio``,
         ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
         or an ``(n,)`` sequence (per joint, root to tip); ``coulomb_friction`` also an ``(n, 2)``
         array, or a sequence of n entries each a number or a pair ``[positive direction,
@@ -484,60 +383,7 @@ class Robot(Frozen):
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
         """
-        names = [f.name for f in ACTUATOR_FIELDS]
-        unknown = set(fields) - set(names)
-        if unknown:
-            raise ModelError(
-                f"with_actuators: unknown field(s) {sorted(unknown)}; "
-                f"expected some of {names}"
-            )
-        n = self.n
-
-        def values(key: str, v: object) -> list[float]:
-            """A real number for every joint, or one for each (n,)."""
-            try:
-                arr = np.asarray(v)
-            except (TypeError, ValueError):  # ragged
-                arr = np.asarray(None)
-            if arr.dtype.kind not in "iuf" or arr.ndim > 1 or arr.size not in (1, n):
-                raise ModelError(f"with_actuators: {key} must be a real number or {n} of them "
-                                 f"(one per joint), got {type(v).__name__} {quote(v)}")
-            return [float(x) for x in np.broadcast_to(arr.astype(float), (n,))]
-
-        def triple(c: object, key: str) -> tuple[float, float, float]:
-            arr = np.asarray(c) if isinstance(c, (list, tuple, np.ndarray)) else np.asarray(None)
-            if arr.dtype.kind not in "iuf" or arr.shape != (3,):
-                raise ModelError(f"with_actuators: {key} must be (peak, corner_speed, "
-                                 f"no_load_speed), got {type(c).__name__} {quote(c)}")
-            return tuple(float(x) for x in arr)  # type: ignore[return-value]
-
-        per_joint: dict[str, list] = {}
-        if "torque_speed" in fields:
-            curves = fields.pop("torque_speed")
-            if curves is None:
-                per_joint["torque_speed"] = [None] * n
-            elif isinstance(curves, (list, tuple, np.ndarray)) and all(
-                    isinstance(c, numbers.Real) for c in curves):  # one triple for every joint
-                per_joint["torque_speed"] = [triple(curves, "torque_speed")] * n
-            elif isinstance(curves, (list, tuple, np.ndarray)) and len(curves) == n:
-                per_joint["torque_speed"] = [None if c is None else
-                                             triple(c, f"torque_speed[{i}]")
-                                             for i, c in enumerate(curves)]
-            else:
-                raise ModelError(f"with_actuators: torque_speed must be None, one (peak, "
-                                 f"corner_speed, no_load_speed) triple or {n} entries (a triple "
-                                 f"or None each), got {type(curves).__name__} {quote(curves)}")
-        if "effort_limit" in fields:
-            per_joint["torque_speed"] = [None] * n
-        if "coulomb_friction" in fields:
-            per_joint["coulomb_friction"] = _pairs_per_joint(
-                "coulomb_friction", fields.pop("coulomb_friction"), n,
-                "positive, negative")
-        if "efficiency" in fields:
-            per_joint["efficiency"] = _pairs_per_joint("efficiency", fields.pop("efficiency"), n,
-                                                       "driving, back-driven")
-        for k, v in fields.items():
-            per_joint[k] = values(k, v)
+        per_joint = actuator_values(fields, self.n)
         joints = [
             dataclasses.replace(j, **{k: v[i] for k, v in per_joint.items()})
             for i, j in enumerate(self._joints)

@@ -16,21 +16,19 @@ to end at rest: the last cycle commands zero velocity.
 from __future__ import annotations
 
 import contextlib
-import csv
 import dataclasses
-import io
 import json
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from mrnea import compiled, validate
+from mrnea import compiled, cycles, validate
 from mrnea.achievable import MODES
 from mrnea.cartesian import CartesianPath
 from mrnea.dynamics import forward_kinematics
@@ -50,50 +48,12 @@ from mrnea.summary import start_violations, summarize, verdict
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-# The per-joint columns of the per-cycle table, in order: the result's array (program_qdd: the
-# method), the column's name, and the quantity of model.JOINT_UNITS giving its unit (None: a
-# boolean). First the program and its own requirement, then the simulated response, last what
-# each cycle asked for from the robot's own state (the catch-up once the robot lags).
-# tau_motor = tau / G with G dimensionless: the effort's unit.
-_PER_JOINT = (
-    ("q_cmd", "q_cmd", "q"), ("qd_cmd", "qd_cmd", "qd"), ("program_qdd", "program_qdd", "qdd"),
-    ("program_effort", "program_effort", "tau"), ("program_limit", "program_limit", "tau"),
-    ("q", "q", "q"), ("qd", "qd", "qd"), ("qdd", "qdd", "qdd"), ("tau", "tau", "tau"),
-    ("tau_motor", "tau_motor", "tau"), ("limit", "limit", "tau"), ("margin", "margin", "tau"),
-    ("saturated", "saturated", None), ("position_clamped", "position_clamped", None),
-    ("velocity_clamped", "velocity_clamped", None), ("tracking_error", "tracking_error", "q"),
-    ("coulomb", "coulomb", "tau"), ("stuck", "stuck", None),
-    ("qdd_des", "catch_up_qdd", "qdd"), ("tau_required", "catch_up_effort", "tau"))
 #: A tracking error at most this many times max(1, max |q_cmd|) of its joint [rad | m] is 0:
 #: rounding, not lag (q's float resolution is 2.2e-16 |q|; this leaves room for the rounding of
 #: many cycles and is far below any drive's resolution).
 TRACKING_RESOLUTION = 1e-12
 FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
 CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
-
-
-class BearingLoads(NamedTuple):
-    """Each joint's reaction loads split for bearing design, per cycle: (K, n) arrays.
-
-    ``force`` and ``moment`` are the magnitudes of the reaction force [N] and moment [N m];
-    ``axial_*`` the magnitude of their component along the joint axis, ``radial_force`` and
-    ``bending_moment`` the magnitude of their component across it (joint frames, as
-    :attr:`SimulationResult.reaction`).
-    """
-
-    force: NDArray
-    axial_force: NDArray
-    radial_force: NDArray
-    moment: NDArray
-    axial_moment: NDArray
-    bending_moment: NDArray
-
-
-def _along_across(vec: NDArray, axes: NDArray) -> tuple[NDArray, NDArray]:
-    """|Component| of (K, n, 3) ``vec`` along each joint's unit axis (n, 3), |component| across."""
-    along = np.einsum("kij,ij->ki", vec, axes)
-    across = np.linalg.norm(vec - along[:, :, None] * axes[None], axis=2)
-    return np.abs(along), across
 
 
 @dataclass(frozen=True)
@@ -187,7 +147,7 @@ class SimulationResult:
             return False
         return True if self.completed else None
 
-    def bearing_loads(self) -> BearingLoads:
+    def bearing_loads(self) -> cycles.BearingLoads:
         """The reaction loads of every cycle split along and across each joint's axis.
 
         Raises
@@ -195,15 +155,7 @@ class SimulationResult:
         StateError
             The run did not compute reactions (``simulate(..., reactions=False)``).
         """
-        if self.reaction is None:
-            raise StateError("bearing_loads: this run did not compute the joint reactions "
-                             "(simulate(..., reactions=False)); simulate again with reactions")
-        axes = np.array([j.axis for j in self.robot.joints])  # unit axes, joint frames
-        f, m = self.reaction[:, :, :3], self.reaction[:, :, 3:]
-        f_axial, f_radial = _along_across(f, axes)
-        m_axial, m_bending = _along_across(m, axes)
-        return BearingLoads(np.linalg.norm(f, axis=2), f_axial, f_radial,
-                            np.linalg.norm(m, axis=2), m_axial, m_bending)
+        return cycles.bearing_loads(self)
 
     def summary(self) -> dict[str, Any]:
         """The answers a designer wants, as strict JSON data (RFC 8259: an unlimited value is
@@ -257,12 +209,7 @@ class SimulationResult:
         :attr:`program_effort` is computed for, ``(qd_cmd[k + 1] - qd_cmd[k]) / dt`` (the next
         velocity 0 after the last row; unclamped). What the drive asked for once the robot lags
         is ``qdd_des`` (the catch-up)."""
-        start, stop, _ = rows.indices(self.K)
-        v = self.qd_cmd[start:stop]
-        following = np.zeros_like(v)
-        nxt = self.qd_cmd[start + 1:stop + 1]
-        following[:nxt.shape[0]] = nxt
-        return (following - v) / self.dt
+        return cycles.program_qdd(self, rows)
 
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns: ``t [s]``, then ``<quantity>_<joint>
@@ -278,22 +225,7 @@ class SimulationResult:
         ``catch_up_effort`` (:attr:`tau_required`), the program's own while the robot keeps
         up, the catch-up of the whole lag in one cycle once it lags. For a Cartesian program,
         ``tool_position_error [m]`` and ``tool_orientation_error [rad]`` come last."""
-        if not isinstance(rows, slice):
-            raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
-        cols: dict[str, NDArray] = {"t [s]": self.t[rows]}
-        for attr, name, quantity in _PER_JOINT:
-            a = self.program_qdd(rows) if attr == "program_qdd" else getattr(self, attr)[rows]
-            for i, j in enumerate(self.robot.joints):
-                unit = "" if quantity is None else f" [{j.unit(quantity)}]"
-                cols[f"{name}_{j.name}{unit}"] = a[:, i]
-        for i, j in enumerate(self.robot.joint_names if self.reaction is not None else ()):
-            for c, label in enumerate(("fx", "fy", "fz", "nx", "ny", "nz")):
-                unit = "N" if c < 3 else "N m"
-                cols[f"reaction_{label}_{j} [{unit}]"] = self.reaction[rows, i, c]
-        if self.tool_position_error is not None:
-            cols["tool_position_error [m]"] = self.tool_position_error[rows]
-            cols["tool_orientation_error [rad]"] = self.tool_orientation_error[rows]
-        return cols
+        return cycles.columns(self, rows)
 
     def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
         """Write the per-cycle table (:meth:`columns`: one header row of names with units, one
@@ -306,18 +238,8 @@ class SimulationResult:
         """
         with create(path, overwrite, binary=True) as fh:
             for k in range(0, max(self.K, 1), CHUNK):
-                fh.write(self._csv(slice(k, k + CHUNK), header=k == 0))
+                fh.write(cycles.csv_rows(self, slice(k, k + CHUNK), header=k == 0))
         return Path(path)
-
-    def _csv(self, rows: slice, header: bool = False) -> bytes:
-        """The table's ``rows`` as UTF-8 CSV, after the header row if ``header``."""
-        buf = io.StringIO()
-        writer = csv.writer(buf)
-        cols = self.columns(rows)
-        if header:
-            writer.writerow(cols)
-        writer.writerows(zip(*(c.tolist() for c in cols.values()), strict=True))
-        return buf.getvalue().encode()
 
     def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed
@@ -486,7 +408,7 @@ def simulate(
                 if cartesian is not None:
                     _tool_errors(res, rows, cartesian)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
-                    fh.write(res._csv(rows, header=done == 0))  # keeps the cycles done
+                    fh.write(cycles.csv_rows(res, rows, header=done == 0))  # keeps the cycles done
                     fh.flush()
                 done, kept = k1, (0 if fh is None else fh.tell())  # one step: no interrupt between
                 if progress is not None:

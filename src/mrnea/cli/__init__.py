@@ -16,9 +16,11 @@ clear line on stderr and exit code 2 (``--debug`` shows the traceback). Output f
 overwritten unless ``--force`` is given; without ``--out`` a fresh folder is chosen.
 
 Layout: :mod:`mrnea.cli.base` holds the group (:data:`main`), error and interrupt handling,
-exit codes and the shared options; each other module adds the commands of one theme
-(:mod:`~mrnea.cli.run`: demo, simulate, check; :mod:`~mrnea.cli.info`; :mod:`~mrnea.cli.paper`:
-fig3; :mod:`~mrnea.cli.retime`: retime; :mod:`~mrnea.cli.sweep`). A new command goes in a module
+exit codes; :mod:`mrnea.cli.options` the options and arguments several commands share (and
+:func:`~mrnea.cli.options.load_run`, what they name); each other module adds the commands of one
+theme (:mod:`~mrnea.cli.run`: demo, simulate, check; :mod:`~mrnea.cli.info`;
+:mod:`~mrnea.cli.paper`: fig3; :mod:`~mrnea.cli.retime`: retime; :mod:`~mrnea.cli.sweep`). A new
+command goes in a module
 of its own, imported below.
 """
 

@@ -7,7 +7,8 @@ import shutil
 
 import click
 
-from mrnea.cli.base import json_opt, load_robot_arg, main, robot_options
+from mrnea.cli.base import main
+from mrnea.cli.options import json_opt, load_robot_arg, robot_options
 from mrnea.describe import describe, robot_data
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_builtin
 

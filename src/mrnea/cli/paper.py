@@ -6,7 +6,8 @@ import click
 import numpy as np
 
 from mrnea import robots
-from mrnea.cli.base import checkpoint, compile_notice, force_opt, main
+from mrnea.cli.base import checkpoint, compile_notice, main
+from mrnea.cli.options import force_opt
 from mrnea.io.writer import check_new
 
 

@@ -28,18 +28,14 @@ from typing import Any
 import click
 import numpy as np
 
-from mrnea.cli.base import (
-    EXIT_ACHIEVABLE,
-    EXIT_NOT_ACHIEVABLE,
+from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, checkpoint, compile_notice, main
+from mrnea.cli.options import (
     FRACTION,
     POSITIVE,
-    checkpoint,
-    compile_notice,
     force_opt,
     json_opt,
     load_program_arg,
     load_run,
-    main,
     mode_opt,
     no_3d_opt,
     quiet_opt,

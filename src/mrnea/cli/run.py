@@ -23,16 +23,18 @@ import numpy as np
 from mrnea import robots
 from mrnea.cli.base import (
     EXIT_NOT_ACHIEVABLE,
-    POSITIVE,
     checkpoint,
     compile_notice,
     exit_with_verdict,
+    fresh_dir,
+    main,
+)
+from mrnea.cli.options import (
+    POSITIVE,
     fd_opt,
     force_opt,
-    fresh_dir,
     json_opt,
     load_run,
-    main,
     mode_opt,
     no_3d_opt,
     program_args,

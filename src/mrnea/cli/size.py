@@ -23,17 +23,8 @@ from pathlib import Path
 
 import click
 
-from mrnea.cli.base import (
-    EXIT_ACHIEVABLE,
-    EXIT_NOT_ACHIEVABLE,
-    compile_notice,
-    force_opt,
-    fresh_dir,
-    load_robot_arg,
-    main,
-    quiet_opt,
-    robot_options,
-)
+from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, compile_notice, fresh_dir, main
+from mrnea.cli.options import force_opt, load_robot_arg, quiet_opt, robot_options
 from mrnea.cli.sweep import _is_robot
 from mrnea.errors import SizingError
 from mrnea.io import RobotOptions, load_program

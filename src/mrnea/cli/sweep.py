@@ -28,16 +28,8 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
-from mrnea.cli.base import (
-    checkpoint,
-    exit_interrupted,
-    force_opt,
-    fresh_dir,
-    load_program_arg,
-    main,
-    quiet_opt,
-    robot_options,
-)
+from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, main
+from mrnea.cli.options import force_opt, load_program_arg, quiet_opt, robot_options
 from mrnea.errors import SweepError, quote
 from mrnea.io import (
     BUILTIN_ROBOTS,

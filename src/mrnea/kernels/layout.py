@@ -36,7 +36,7 @@ a zero offset vanish, and the kernels skip them (``compile_model(robot, speciali
 leaves both flags at 0 and so runs every term: the general path the tests compare with).
 
 Actuator array (:func:`compile_actuators`): read-only float64, ``(n, NACT)``, joint side, row i
-for joint i (fields: :data:`mrnea.model.ACTUATOR_FIELDS`)::
+for joint i (fields: :data:`mrnea.actuator_fields.ACTUATOR_FIELDS`)::
 
     GEAR  G     JM  J_m [kg m^2, motor side]     FV  F_v
     FPOS, FNEG  Coulomb friction F+, F- (magnitudes opposing positive, negative motion)

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mrnea.actuator_fields import GEAR_RANGE
 from mrnea.errors import SizingError, quote
 from mrnea.io.tomlcheck import TomlCheck, read_text
-from mrnea.model import GEAR_RANGE
 
 __all__ = ["Catalogue", "Gearbox", "Motor", "Train", "load_catalogue", "loads_catalogue"]
 
