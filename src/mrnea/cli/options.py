@@ -36,6 +36,8 @@ mode_opt = click.option("--mode", type=click.Choice(["hybrid", "paper"]), defaul
 fd_opt = click.option("--fd", type=click.Choice(["mrnea", "walker_orin", "crba"]),
                       default="mrnea", show_default=True,
                       help="How each cycle forms H and u' (results agree; cost differs).")
+
+
 class Number(click.ParamType):
     """A number option in the strict grammar of :func:`mrnea.io.source.parse_number` (ASCII
     decimal or scientific notation; never ``1_0``, ``nan`` or ``inf``), finite, and either
