@@ -119,6 +119,12 @@ class SweepError(MrneaError):
     the grid entry, file or program at fault; it is raised before any simulation runs."""
 
 
+class LogFileError(MrneaError):
+    """A measurement log cannot be used for identification (:mod:`mrnea.identify`): a missing
+    column, a bad number, NaN, time that does not increase. The message names the file and the
+    row."""
+
+
 class ModelWarning(UserWarning):
     """A robot description is valid but physically doubtful (an inertia that violates the
     triangle inequality, a massless moving link); mrnea goes on and says so."""
