@@ -1,6 +1,10 @@
 """Benchmark (not a test): the throughput of a design sweep, and what Dask costs per task.
 
-Usage: ``python benchmarks/sweep.py [--n 1000] [--rounds 3] [--out benchmarks/results/sweep.md]``
+Usage: ``python benchmarks/sweep.py [--n 1000] [--rounds 3] [--out benchmarks/results/sweep.md]``;
+``python benchmarks/sweep.py --n 384 --rounds 2 --scaling 1 2 4 8 16`` for the scaling table
+only (issue 29): at each worker count W, the machine's own limit (W independent processes each
+running the serial loop on 1/W of the grid at the same time), mrnea's own cluster and a plain
+``Client(LocalCluster(n_workers=W, threads_per_worker=1))`` passed as ``client=``.
 
 About n SDT variants (cabin-yaw gear ratio x yaw motor torque limit x payload, n^(1/3) values
 each) of the demo's training profile (8401 cycles at 5 ms), run
@@ -30,6 +34,7 @@ import argparse
 import contextlib
 import importlib
 import logging
+import multiprocessing
 import os
 import platform
 import statistics
@@ -43,7 +48,8 @@ from distributed import Client, LocalCluster
 from mrnea.robots import sdt
 from mrnea.robots.sdt_profile import training_program
 from mrnea.sweep import check_grid, sweep
-from mrnea.sweep.engine import _frame, _spawning
+from mrnea.sweep.cluster import WORKER_ENVIRON, spawning
+from mrnea.sweep.engine import _frame
 from mrnea.sweep.rows import run_case
 
 
@@ -81,7 +87,7 @@ def cluster(**kw):
     """A LocalCluster started as mrnea.sweep starts its own, a client of it, and the seconds
     the start took."""
     t = time.perf_counter()
-    with _spawning():
+    with spawning():
         lc = LocalCluster(dashboard_address=None, silence_logs=logging.CRITICAL,
                           scheduler_kwargs={"dashboard_address": ":0"}, **kw)
     with lc, Client(lc) as c:
@@ -141,11 +147,105 @@ def gil_share(robot, program, grid, runs: int = 100) -> tuple[float, float]:
     return total / len(cases), 1 - spent[0] / total
 
 
+# --- scaling: against the machine's own limit ----------------------------------------------
+
+
+def _reference_process(k: int, w: int, n: int, barrier, results) -> None:
+    """One of W independent processes: the serial loop over its share of the grid (every W-th
+    variant), started with the others at a barrier once its kernels are loaded."""
+    robot, program = sdt(), training_program()
+    _, cases = check_grid(robot, grid_of(n))
+    mine = list(range(k, len(cases), w))
+    run_case(robot, program, cases[0])  # the kernels loaded
+    barrier.wait()
+    t0 = time.time()
+    rows = {i: run_case(robot, program, cases[i]) for i in mine}
+    results.put((t0, time.time(), rows))
+
+
+def reference(w: int, n: int) -> tuple[float, dict]:
+    """The machine's limit at W workers: W independent processes each running the serial loop
+    (on 1/W of the variants) at the same time, in the environment mrnea's cluster gives its
+    workers. Returns (variants per second from the first start to the last end, the rows)."""
+    ctx = multiprocessing.get_context("spawn")
+    barrier, results = ctx.Barrier(w), ctx.Queue()
+    environ = dict(os.environ)
+    os.environ.update({k: str(v) for k, v in WORKER_ENVIRON.items()})
+    try:
+        procs = [ctx.Process(target=_reference_process, args=(k, w, n, barrier, results))
+                 for k in range(w)]
+        for p in procs:
+            p.start()
+    finally:
+        os.environ.clear()
+        os.environ.update(environ)
+    got = [results.get(timeout=3600) for _ in procs]
+    for p in procs:
+        p.join()
+    rows = {k: r for *_, part in got for k, r in part.items()}
+    return len(rows) / (max(e for _, e, _ in got) - min(s for s, _, _ in got)), rows
+
+
+def scaling(workers: list[int], n: int, rounds: int, say) -> None:
+    """At each worker count W (1, 2, 4... as the machine has the cores): the reference (W
+    independent serial loops), mrnea's own cluster (``workers=W``) and a plain
+    ``Client(LocalCluster(n_workers=W, threads_per_worker=1))`` passed as ``client=``, kept
+    over the rounds, and another started afresh each round (as mrnea's own is), alternated in
+    rounds; run-phase throughput, rows checked equal to the reference's; each round printed
+    (not in ``--out``)."""
+    robot, program = sdt(), training_program()
+    grid = grid_of(n)
+    keys, cases = check_grid(robot, grid)
+    jobs = [(k, (0, 1.0), case) for k, case in enumerate(cases)]
+    say(f"Scaling: {len(cases)} SDT variants x {program.name} ({program.K} cycles), "
+        f"{rounds} round(s) per worker count, alternated: reference, own cluster, plain "
+        f"LocalCluster. Run-phase variants/s (start and warm-up apart).")
+    say()
+    say("| W | reference (W serial loops) | mrnea's cluster | plain LocalCluster as client= "
+        "| plain, started afresh | own / ref | plain / ref | fresh / ref | own / serial "
+        "| rows = serial | load |")
+    say("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    serial_rate = None
+    for w in workers:
+        best: dict[str, float] = {"ref": 0.0, "own": 0.0, "plain": 0.0, "fresh": 0.0}
+        same = True
+        with Client(LocalCluster(n_workers=w, threads_per_worker=1)) as plain:
+            for _ in range(rounds):
+                rate, rows = reference(w, n)
+                best["ref"] = max(best["ref"], rate)
+                ref_df = _frame(keys, [program.name], jobs, rows, False)
+                own = sweep(robot, program, grid, workers=w, progress=False)
+                best["own"] = max(best["own"], len(own) / own.attrs["seconds"]["run"])
+                user = sweep(robot, program, grid, client=plain, progress=False)
+                best["plain"] = max(best["plain"], len(user) / user.attrs["seconds"]["run"])
+                with Client(LocalCluster(n_workers=w, threads_per_worker=1)) as afresh:
+                    new = sweep(robot, program, grid, client=afresh, progress=False)
+                best["fresh"] = max(best["fresh"], len(new) / new.attrs["seconds"]["run"])
+                same = same and all(df.equals(ref_df) for df in (own, user, new))
+                rates = [len(df) / df.attrs["seconds"]["run"] for df in (own, user, new)]
+                print(f"  W={w}: reference {rate:.1f}, own, plain, fresh "
+                      f"{', '.join(f'{r:.1f}' for r in rates)} variants/s ({load()})",
+                      flush=True)
+        if serial_rate is None and w == 1:
+            serial_rate = best["ref"]
+        per_serial = f"{best['own'] / serial_rate:.2f}" if serial_rate else "-"
+        say(f"| {w} | {best['ref']:.1f} | {best['own']:.1f} | {best['plain']:.1f} | "
+            f"{best['fresh']:.1f} | {best['own'] / best['ref']:.2f} | "
+            f"{best['plain'] / best['ref']:.2f} | {best['fresh'] / best['ref']:.2f} | "
+            f"{per_serial} | {same} | {load()} |")
+    per_run, g = gil_share(robot, program, grid)
+    say()
+    say(f"Python per run: {1e3 * per_run:.1f} ms of CPU per run, {100 * g:.0f} % of it outside "
+        "the compiled simulation kernel.")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--scaling", type=int, nargs="+", default=None, metavar="W",
+                    help="only the scaling table, at these worker counts (e.g. 1 2 4 8 16)")
     args = ap.parse_args()
     robot, program = sdt(), training_program()
     grid = grid_of(args.n)
@@ -156,6 +256,18 @@ def main() -> None:
         print(text, flush=True)
         lines.append(text)
 
+    if args.scaling:
+        say(f"Command: `python benchmarks/sweep.py --n {args.n} --rounds {args.rounds} "
+            f"--scaling {' '.join(map(str, args.scaling))}`. Machine: "
+            f"{platform.processor() or platform.machine()}, {len(os.sched_getaffinity(0))} "
+            f"usable cores ({os.cpu_count()} logical CPUs); Numba {numba.__version__}, "
+            f"distributed {__import__('distributed').__version__}.")
+        say()
+        scaling(args.scaling, args.n, args.rounds, say)
+        if args.out:
+            with open(args.out, "w") as fh:
+                fh.write("\n".join(lines) + "\n")
+        return
     t_start = time.perf_counter()
     say(f"# Sweep benchmark: {n} SDT variants x {program.name} ({program.K} cycles)")
     say()

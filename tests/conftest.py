@@ -141,23 +141,24 @@ def erd_path(rel: str) -> Path:
 
 # --- Pinocchio ------------------------------------------------------------------------------------
 def to_pinocchio(robot: Robot):
-    """The Pinocchio model of ``robot``: joint i+1 is our joint i (RevoluteUnaligned or
-    PrismaticUnaligned about our axis), placed at our joint origin; the body of joint i+1 is our
+    """The Pinocchio model of ``robot`` (a chain or a tree): joint i+1 is our joint i
+    (RevoluteUnaligned or PrismaticUnaligned about our axis), child of joint parents[i] + 1,
+    placed at our joint origin; the body of joint i+1 is our
     link i (its frame is the joint frame moved by the joint); same gravity."""
     import pinocchio as pin
 
     model = pin.Model()
     model.name = robot.name
-    parent = 0
-    for j, lk in zip(robot.joints, robot.links, strict=True):
+    for j, lk, p in zip(robot.joints, robot.links, robot.parents, strict=True):
         axis = np.array(j.axis, dtype=float)
         jm = (pin.JointModelPrismaticUnaligned(axis) if j.is_prismatic
               else pin.JointModelRevoluteUnaligned(axis))
         origin = np.asarray(j.origin)
-        parent = model.addJoint(parent, jm, pin.SE3(origin[:3, :3].copy(), origin[:3, 3].copy()),
-                                j.name)
+        # Pinocchio's joint id k + 1 is our joint k; its parent, our parents[k] + 1 (0: universe)
+        jid = model.addJoint(p + 1, jm, pin.SE3(origin[:3, :3].copy(), origin[:3, 3].copy()),
+                             j.name)
         model.appendBodyToJoint(
-            parent,
+            jid,
             pin.Inertia(float(lk.mass), np.array(lk.com, dtype=float),
                         np.array(lk.inertia, dtype=float)),
             pin.SE3.Identity(),
@@ -168,10 +169,18 @@ def to_pinocchio(robot: Robot):
 
 
 def _link_rotation(robot: Robot, q) -> np.ndarray:
-    """Orientation of the last link in the base frame (plain 4x4 composition, tests/naive.py)."""
-    from naive import forward_kinematics
+    """Orientation of the last link in the base frame (plain 4x4 composition along its path
+    from the base, ``robot.parents``; tests/naive.py's joint motion)."""
+    from naive import motion
 
-    return forward_kinematics(robot, q)[0][-1][:3, :3]
+    path, k = [], robot.n - 1
+    while k >= 0:
+        path.append(k)
+        k = robot.parents[k]
+    T = np.eye(4)
+    for k in reversed(path):
+        T = T @ np.asarray(robot.joints[k].origin) @ motion(robot.joints[k], float(q[k]))
+    return T[:3, :3]
 
 
 def pin_fext(robot: Robot, model, q, f_ext, f_ext_point=None) -> list:

@@ -46,12 +46,13 @@ def cycle_terms(robot: Robot, q, qd, f_ext=None, f_ext_point=None):
             u + robot.viscous_friction * np.asarray(qd, float))
 
 
-def solve(Ha, ua, qd, v_des, dt, L, Fp, Fn, mode: str):
-    """The compiled cycle solve with its own outputs and scratch.
+def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str):
+    """The compiled cycle solve with its own outputs and scratch; the effort box
+    -Llo <= tau <= Lhi.
 
     Returns (status, v, qdd, tau, phi, tau_req, sat, stuck)."""
     args = [np.ascontiguousarray(a, dtype=float) for a in (Ha, ua, qd, v_des)]
-    lim = [np.ascontiguousarray(a, dtype=float) for a in (L, Fp, Fn)]
+    lim = [np.ascontiguousarray(a, dtype=float) for a in (Llo, Lhi, Fp, Fn)]
     n = args[2].shape[0]
     out = [np.empty(n) for _ in range(5)]
     flags = [np.empty(n, dtype=np.bool_) for _ in range(2)]
@@ -68,20 +69,20 @@ def required_efforts(Ha, ua, qd, v_des, dt, Fp, Fn):
     return h + phi
 
 
-def _cells(mode, v_des_i, L_i, Fp_i, Fn_i, tauc_i):
+def _cells(mode, v_des_i, Llo_i, Lhi_i, Fp_i, Fn_i, tauc_i):
     """The cells of one joint's law: each state of the drive combined with each state of the
     friction whose sets of v intersect. A state: (lo, hi, lo_closed, hi_closed, known value of
     its effort or None). Returns a list of dicts."""
     inf = np.inf
     if mode == "paper":
         drive = [(-inf, inf, False, False, tauc_i)]
-    elif L_i == inf:
+    elif Lhi_i == inf:
         drive = [(v_des_i, v_des_i, True, True, None)]
-    elif L_i == 0.0:
+    elif Llo_i == 0.0 and Lhi_i == 0.0:
         drive = [(-inf, inf, False, False, 0.0)]
-    else:  # tau = +L below the program, -L above, anything in [-L, L] on it
-        drive = [(-inf, v_des_i, False, False, L_i), (v_des_i, v_des_i, True, True, None),
-                 (v_des_i, inf, False, False, -L_i)]
+    else:  # tau = +Lhi below the program, -Llo above, anything in [-Llo, Lhi] on it
+        drive = [(-inf, v_des_i, False, False, Lhi_i), (v_des_i, v_des_i, True, True, None),
+                 (v_des_i, inf, False, False, -Llo_i)]
     if Fp_i + Fn_i == 0.0:
         fric = [(-inf, inf, False, False, 0.0)]
     else:  # phi = -F- moving down, F+ moving up, anything in [-F-, F+] stuck
@@ -99,8 +100,9 @@ def _cells(mode, v_des_i, L_i, Fp_i, Fn_i, tauc_i):
     return cells
 
 
-def enumerate_solutions(Ha, ua, qd, v_des, dt, L, Fp, Fn, mode, tol=1e-9):
-    """Every consistent combination of cells (one per joint) and its solution.
+def enumerate_solutions(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode, tol=1e-9):
+    """Every consistent combination of cells (one per joint) and its solution; the drives'
+    effort box -Llo <= tau <= Lhi.
 
     For each combination: joints on a point cell have v fixed; the others satisfy their row of
     Eq. 42, ``H_a (v - qd) / dt + u'_a + phi - tau = 0`` with the cell's known tau and phi; the
@@ -110,8 +112,9 @@ def enumerate_solutions(Ha, ua, qd, v_des, dt, L, Fp, Fn, mode, tol=1e-9):
     """
     n = len(qd)
     tau_req = required_efforts(Ha, ua, qd, v_des, dt, Fp, Fn)
-    tauc = np.clip(tau_req, -L, L)
-    per_joint = [_cells(mode, v_des[i], L[i], Fp[i], Fn[i], tauc[i]) for i in range(n)]
+    tauc = np.clip(tau_req, -Llo, Lhi)
+    per_joint = [_cells(mode, v_des[i], Llo[i], Lhi[i], Fp[i], Fn[i], tauc[i])
+                 for i in range(n)]
     combos = np.array(list(itertools.product(*[range(len(c)) for c in per_joint])))
     width = max(len(c) for c in per_joint)
 
@@ -136,7 +139,8 @@ def enumerate_solutions(Ha, ua, qd, v_des, dt, L, Fp, Fn, mode, tol=1e-9):
     # the tolerance of the others)
     escale = (1.0 + np.max(np.abs(ua)) + np.max(np.abs(Ha))
               * np.max(np.abs(v - qd), axis=1, keepdims=True) / dt
-              + np.max(np.where(np.isfinite(L), L, 0.0)) + np.max(Fp) + np.max(Fn))
+              + np.max(np.where(np.isfinite(Llo), Llo, 0.0))
+              + np.max(np.where(np.isfinite(Lhi), Lhi, 0.0)) + np.max(Fp) + np.max(Fn))
     vscale = np.max(np.abs(qd)) + np.max(np.abs(v_des)) + dt
     te, tv = tol * escale, tol * vscale
     ok = np.all((v >= lo - tv) & (v <= hi + tv), axis=1)
@@ -148,8 +152,8 @@ def enumerate_solutions(Ha, ua, qd, v_des, dt, L, Fp, Fn, mode, tol=1e-9):
     split = np.clip(-h, -Fn, Fp)  # friction first, the drive the rest
     phi = np.where(both, split, phi)
     tau = np.where(both, h + split, tau)
-    Lb = np.broadcast_to(L, v.shape)
-    ok &= np.all(~tau_unknown | phi_unknown | (np.abs(tau) <= Lb + te), axis=1)
+    lo_b, hi_b = np.broadcast_to(Llo, v.shape), np.broadcast_to(Lhi, v.shape)
+    ok &= np.all(~tau_unknown | phi_unknown | ((tau >= -lo_b - te) & (tau <= hi_b + te)), axis=1)
     ok &= np.all(~phi_unknown | tau_unknown | ((phi >= -Fn - te) & (phi <= Fp + te)), axis=1)
-    ok &= np.all(~both | ((h >= -Lb - Fp - te) & (h <= Lb + Fn + te)), axis=1)  # h = tau - phi
+    ok &= np.all(~both | ((h >= -lo_b - Fp - te) & (h <= hi_b + Fn + te)), axis=1)  # tau - phi
     return [(v[p], tau[p], phi[p], combos[p]) for p in np.flatnonzero(ok)], tau_req

@@ -461,7 +461,7 @@ def test_actuator_convention(name):
     np.testing.assert_array_equal(Ha, H + np.diag(armature(robot)))
     np.testing.assert_allclose(ua, u + robot.viscous_friction * QD
                                + coulomb(robot, QD), rtol=1e-14, atol=1e-12)
-    np.testing.assert_allclose(motor_torque(robot, tau), tau / robot.gear_ratio, rtol=0, atol=0)
+    np.testing.assert_allclose(motor_torque(robot, tau, QD), tau / robot.gear_ratio, rtol=0, atol=0)
     res = achievable_accelerations(robot, Q, QD, QDD, FE)
     np.testing.assert_array_equal(res.tau_motor, res.tau / robot.gear_ratio)
 

@@ -67,7 +67,8 @@ def test_usage_errors_from_a_real_process_are_one_line() -> None:
     assert res.returncode == 2
     assert res.stderr.splitlines() == [
         "mrnea: error: simulate: Missing argument 'PROGRAM' ('sdt' is taken as ROBOT: a program "
-        "is a .toml file with a [program] table or a path .csv) (see 'mrnea simulate --help')"]
+        "is a .toml file with a [program] table, a path .csv or 'demo') (see 'mrnea simulate "
+        "--help')"]
 
 
 def test_help_and_version_exit_0() -> None:

@@ -155,12 +155,13 @@ def test_program_naming_no_robot(ur5_site: Path) -> None:
 
 
 def test_panda_tip(tmp_path: Path) -> None:
-    """Without --tip the Panda's branching fingers are an error listing the candidate tips and
-    the option; with it, the arm ends at the chosen link, the rest lumped into link 7."""
+    """Without --tip the Panda loads whole and its second finger, a <mimic> joint, is an error
+    naming it, the option and the candidate tips that avoid it; with --tip, the arm ends at the
+    chosen link, the rest lumped into link 7."""
     urdf = erd_path(PANDA)
     line = one_error_line(mrnea_cli("info", str(urdf), cwd=tmp_path))
-    assert "--tip LINK" in line
-    assert line.endswith("panda_leftfinger, panda_rightfinger, panda_hand_tcp")
+    assert "'panda_finger_joint2': <mimic>" in line and "--tip LINK" in line
+    assert line.endswith("panda_leftfinger, panda_hand_tcp")
     res = mrnea_cli("info", str(urdf), "--tip", "panda_hand_tcp", "--json", cwd=tmp_path)
     data = json.loads(res.stdout)
     assert data["n"] == 7 and [j["name"] for j in data["joints"]] == [
@@ -246,3 +247,15 @@ def test_readme_library_example_prints_what_it_says(tmp_path: Path) -> None:
                          text=True, timeout=600, env=dict(os.environ))
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == " ".join(said.split())
+
+
+def test_several_tips_keep_the_subtree_holding_them(tmp_path: Path) -> None:
+    """Baxter (a head and two arms on a fixed torso; mimic fingers): --tip repeated keeps the
+    subtree holding the tips, depth first in file order, each joint's parent given."""
+    urdf = erd_path("baxter_description/urdf/baxter.urdf")
+    res = mrnea_cli("info", str(urdf), "--tip", "head", "--tip", "right_wrist", "--tip",
+                    "left_wrist", "--json", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    names = [j["name"] for j in json.loads(res.stdout)["joints"]]
+    arm = ["s0", "s1", "e0", "e1", "w0", "w1", "w2"]
+    assert names == ["head_pan"] + [f"right_{j}" for j in arm] + [f"left_{j}" for j in arm]

@@ -7,7 +7,10 @@ numpy.linalg.solve and kept if consistent. Exactly one v must be consistent (tie
 give the same v), and the solver must return it to 1e-9. 3050 random states, n = 2..6: H_a and
 u'_a from random chains (gravity, Coriolis, a wrench, rotors) or random SPD matrices with
 condition numbers up to 1e6; speed-dependent limits, unpowered and unlimited joints, joints at
-rest, v_des = 0, no / symmetric / asymmetric friction, both modes.
+rest, v_des = 0, no / symmetric / asymmetric friction, both modes; symmetric effort boxes and
+asymmetric ones (issue 27): the gear's driving and back-driven limits at the state's speed
+(kernels/drive.py effort_box, computed here from its definition) or arbitrary lower and upper
+limits.
 """
 
 from __future__ import annotations
@@ -59,16 +62,28 @@ def random_problem(rng: np.random.Generator, n: int) -> dict:
     r = rng.random(n)
     L[r < 0.1] = 0.0  # no drive
     L[(r >= 0.1) & (r < 0.18)] = np.inf  # fixed to the program
+    box = rng.integers(3)  # symmetric; a gear's efficiency; arbitrary lower and upper limits
+    if box == 1:  # eta_d L delivering power (and at rest), L / eta_b back-driven
+        eta_d, eta_b = rng.uniform(0.3, 1.0, n), rng.uniform(0.3, 1.0, n)
+        drive, back = eta_d * L, L / eta_b
+        Llo = np.where(qd > 0, back, drive)
+        Lhi = np.where(qd < 0, back, drive)
+    elif box == 2:
+        Llo, Lhi = L * rng.uniform(0.0, 2.0, n), L * rng.uniform(0.0, 2.0, n)
+        Llo[L == np.inf] = Lhi[L == np.inf] = np.inf
+        Llo[L == 0] = Lhi[L == 0] = 0.0
+    else:
+        Llo, Lhi = L, L
     kind = rng.integers(3)  # no, symmetric, asymmetric friction
     Fp = (E + np.abs(ua)) * rng.uniform(0.0, 0.8, n) * (kind > 0)
     Fn = Fp if kind == 1 else (E + np.abs(ua)) * rng.uniform(0.0, 0.8, n) * (kind > 0)
     mode = "paper" if rng.random() < 0.3 else "hybrid"
-    return {"Ha": Ha, "ua": ua, "qd": qd, "v_des": v_des, "dt": dt, "L": L, "Fp": Fp,
-            "Fn": Fn, "mode": mode}
+    return {"Ha": Ha, "ua": ua, "qd": qd, "v_des": v_des, "dt": dt, "Llo": Llo, "Lhi": Lhi,
+            "Fp": Fp, "Fn": Fn, "mode": mode}
 
 
 def run_solver(p: dict, perm=None):
-    keys = ("Ha", "ua", "qd", "v_des", "dt", "L", "Fp", "Fn")
+    keys = ("Ha", "ua", "qd", "v_des", "dt", "Llo", "Lhi", "Fp", "Fn")
     a = [p[k] for k in keys]
     if perm is not None:
         a = [a[0][np.ix_(perm, perm)], *(x[perm] for x in a[1:4]), a[4], *(x[perm] for x in a[5:])]
@@ -78,11 +93,12 @@ def run_solver(p: dict, perm=None):
 @pytest.mark.parametrize("n", sorted(STATES))
 def test_unique_consistent_pattern_equals_solver(n):
     rng = np.random.default_rng(1100 + n)
-    seen = {"saturated": 0, "stuck": 0, "stuck_on_program": 0, "crossed_zero": 0, "paper": 0}
+    seen = {"saturated": 0, "stuck": 0, "stuck_on_program": 0, "crossed_zero": 0, "paper": 0,
+            "asymmetric_binding": 0}
     for s in range(STATES[n]):
         p = random_problem(rng, n)
         sols, tau_req = enumerate_solutions(p["Ha"], p["ua"], p["qd"], p["v_des"], p["dt"],
-                                            p["L"], p["Fp"], p["Fn"], p["mode"])
+                                            p["Llo"], p["Lhi"], p["Fp"], p["Fn"], p["mode"])
         where = f"n={n} state {s} ({p['mode']})"
         assert sols, f"{where}: no consistent pattern"
         v0, tau0, phi0, _ = sols[0]
@@ -97,25 +113,28 @@ def test_unique_consistent_pattern_equals_solver(n):
         assert rel(tau, tau0) < 1e-9, f"{where}: tau {tau} vs {tau0}"
         assert rel(phi, phi0) < 1e-9, f"{where}: phi {phi} vs {phi0}"
         assert rel(tau - phi, p["Ha"] @ qdd + p["ua"]) < 1e-9, f"{where}: Eq. 42"
-        assert np.all(np.abs(tau) <= p["L"]), f"{where}: |tau| > L"
+        assert np.all((tau >= -p["Llo"]) & (tau <= p["Lhi"])), f"{where}: tau outside its box"
         if len(sols) == 1:  # no tie: the flags are exact where the law has a point
             fr = p["Fp"] + p["Fn"] > 0  # held by friction: v = 0 exactly
             assert np.array_equal(stuck[fr], v0[fr] == 0.0), f"{where}: stuck {stuck}"
             assert np.array_equal(v[fr] == 0.0, v0[fr] == 0.0), f"{where}: v == 0 exactly"
             if p["mode"] == "hybrid":  # on program: v = v_des exactly
-                pw = p["L"] > 0
+                pw = p["Llo"] + p["Lhi"] > 0
                 assert np.array_equal(sat[pw], v0[pw] != p["v_des"][pw]), f"{where}: sat {sat}"
         if p["mode"] == "paper":
-            assert np.array_equal(sat, np.abs(tau_req) > p["L"]), f"{where}: sat (paper)"
+            assert np.array_equal(sat, (tau_req > p["Lhi"]) | (tau_req < -p["Llo"])), \
+                f"{where}: sat (paper)"
             seen["paper"] += 1
         seen["saturated"] += bool(np.any(sat))
         seen["stuck"] += bool(np.any(stuck & (p["Fp"] + p["Fn"] > 0)))
         seen["stuck_on_program"] += bool(np.any(stuck & (p["v_des"] == 0) & (p["qd"] != 0)))
         seen["crossed_zero"] += bool(np.any(p["qd"] * v < 0))
+        seen["asymmetric_binding"] += bool(np.any(sat & (p["Llo"] != p["Lhi"])))
     # the random states really exercise each part of the law
     frac = {k: c / STATES[n] for k, c in seen.items()}
     assert frac["saturated"] > 0.3 and frac["stuck"] > 0.1 and frac["paper"] > 0.15, frac
     assert frac["stuck_on_program"] > 0.02 and frac["crossed_zero"] > 0.02, frac
+    assert frac["asymmetric_binding"] > 0.1, frac
 
 
 @pytest.mark.parametrize("n", [3, 6])
@@ -132,7 +151,7 @@ def test_permutation_invariance(n):
             floor = p["dt"] if name == "v" else 1.0
             assert rel(y, x[perm], floor) < 1e-10, f"n={n} state {s}: {name}"
         fr = (p["Fp"] + p["Fn"] > 0)[perm]  # v = 0 exactly only where friction holds a joint
-        pw = (p["L"] > 0)[perm]  # v = v_des exactly only where a drive holds it
+        pw = (p["Llo"] + p["Lhi"] > 0)[perm]  # v = v_des exactly only where a drive holds it
         assert np.array_equal(a[7][perm][fr], b[7][fr]), f"n={n} state {s}: stuck"
         assert np.array_equal(a[6][perm][pw], b[6][pw]), f"n={n} state {s}: saturated"
 

@@ -31,6 +31,8 @@ from mrnea.kernels.layout import (
     SOLVE,
     achievable_buffers,
     batch_scratch,
+    branch_buffers,
+    column_stash,
     drive_solve_buffers,
     effort_buffer,
     entry_scratch,
@@ -41,6 +43,7 @@ from mrnea.kernels.layout import (
     scratch_of,
     scratch_rows,
     solve_buffers,
+    stash_buffers,
 )
 
 SRC = Path(mrnea.__file__).parent
@@ -54,9 +57,12 @@ def _py(fn):
 def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndarray]]:
     ws = entry_scratch(n, kind) if ws is None else ws
     out = {"pose": list(_py(pose_buffers)(ws, n)), "mrnea": list(_py(mrnea_buffers)(ws, n)),
-           "force": list(_py(force_buffers)(ws, n)), "effort": [_py(effort_buffer)(ws)]}
+           "force": list(_py(force_buffers)(ws, n)), "effort": [_py(effort_buffer)(ws)],
+           "branch": list(_py(branch_buffers)(ws, n)), "stash": list(_py(stash_buffers)(ws, n))}
     if kind in (SOLVE, ACHIEVABLE):
+        out["column"] = [_py(column_stash)(ws, n)]
         out["solve"] = list(_py(solve_buffers)(ws, n))
+        out["solve_hu"] = [out["solve"][0], out["solve"][2]]
     if kind == ACHIEVABLE:
         out["achievable"] = list(_py(achievable_buffers)(ws, n))
         out["drive_solve"] = list(_py(drive_solve_buffers)(ws, n))
@@ -65,8 +71,9 @@ def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndar
 
 SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's docstring
     "pose": ["n33", "n3", "n3", "n3", "n33"], "mrnea": ["n3"] * 4, "force": ["n3"] * 2,
-    "effort": ["n"], "solve": ["nn", "nn", "n", "n"],
-    "achievable": ["nn", *["n"] * 6],
+    "effort": ["n"], "solve": ["nn", "nn", "n", "n"], "branch": ["n3"] * 3, "stash": ["n3"] * 2,
+    "column": ["nn"], "solve_hu": ["nn", "n"],
+    "achievable": ["nn", *["n"] * 7],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
 }
 
@@ -78,11 +85,17 @@ def _shapes(name: str, n: int) -> list[tuple[int, ...]]:
 
 
 # the slots used at the same time: a kernel's own, and those of every kernel it calls
+# (a tree's forward passes use "branch", its backward passes "stash" and, mRNEA's, "column", the
+# L slot: mRNEA writes only H and u' of "solve" meanwhile, "solve_hu")
 TOGETHER = {
-    POSE: [("pose", "mrnea"), ("pose", "force"), ("pose", "force", "effort")],
-    SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve")],
+    POSE: [("pose", "mrnea"), ("pose", "force"), ("pose", "force", "effort"),
+           ("pose", "force", "branch"), ("pose", "force", "effort", "stash")],
+    SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve"), ("pose", "mrnea", "branch"),
+            ("pose", "mrnea", "stash", "column", "solve_hu"), ("pose", "force", "stash", "solve")],
     ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve"),
-                 ("pose", "force", "achievable", "drive_solve"), ("pose", "force", "effort")],
+                 ("pose", "force", "achievable", "drive_solve"), ("pose", "force", "effort"),
+                 ("pose", "mrnea", "stash", "column", "achievable"),
+                 ("pose", "mrnea", "branch", "achievable")],
 }
 
 

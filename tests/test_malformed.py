@@ -100,7 +100,7 @@ def test_corpus_is_complete_and_consistent() -> None:
                    "unknown_joint_type", "child_link_missing", "cycle", "two_parents",
                    "two_roots", "duplicate_link", "duplicate_joint", "lower_above_upper",
                    "negative_velocity", "negative_effort", "mimic_on_chain",
-                   "branching_without_tip", "invalid_utf8", "a_directory", "does_not_exist"):
+                   "invalid_utf8", "a_directory", "does_not_exist"):
         assert needle in text, needle
 
 

@@ -111,12 +111,12 @@ def test_actuator_fields_are_one_list() -> None:
     header = re.split(" {2,}", lines[1])
     revolute = {"effort_limit": "N m", "gear_ratio": "-", "rotor_inertia": "kg m^2",
                 "viscous_friction": "N m s/rad", "coulomb_friction": "N m",
-                "torque_speed": "N m, rad/s"}
+                "torque_speed": "N m, rad/s", "efficiency": "-"}
     assert header[-len(names):] == [f"{f.symbol} [{revolute[f.name]}]" for f in ACTUATOR_FIELDS]
     j = robot.joints[1]
     assert j.coulomb_pair == (13.58469, 7.654865)  # asymmetric: both magnitudes
     assert re.split(" {2,}", lines[3])[-len(names):] == [
-        f"{getattr(j, f.name):.5g}" for f in ACTUATOR_FIELDS[:-2]] + ["13.585/7.6549", "-"]
+        f"{getattr(j, f.name):.5g}" for f in ACTUATOR_FIELDS[:-3]] + ["13.585/7.6549", "-", "1"]
     doc = (DOCS / "robot-format.md").read_text()
     section = doc.split("### Actuator fields", 1)[1].split("\n\n")[2]
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in section.splitlines()[2:]]

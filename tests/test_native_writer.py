@@ -60,7 +60,7 @@ def with_every_field(robot: Robot, rng: np.random.Generator) -> Robot:
         "velocity_limit": rng.uniform(0.5, 5.0, n), "effort_limit": rng.uniform(1.0, 300.0, n),
         "gear_ratio": rng.uniform(1.0, 200.0, n), "rotor_inertia": rng.uniform(1e-6, 1e-3, n),
         "viscous_friction": rng.uniform(0.0, 2.0, n),
-        "coulomb_friction": rng.uniform(0.0, 5.0, n),
+        "coulomb_friction": rng.uniform(0.0, 5.0, n), "efficiency": rng.uniform(0.3, 1.0, n),
     }
     curves = [(float(rng.uniform(10, 100)), float(rng.uniform(0.5, 2)), float(rng.uniform(2, 9)))
               if i % 2 else None for i in range(n)]
@@ -104,7 +104,7 @@ def test_what_toml_must_escape_and_what_a_float_can_be(tmp_path: Path) -> None:
     joints = [Joint('a "quoted" \\ joint', "continuous", "bäse\twith tab", "l1", origin=origin,
                     axis=(0.6, 0.0, 0.8), viscous_friction=-0.0),
               Joint("j2", "prismatic", "l1", "Glied 2 ✓", lower=-1e300, upper=5e-324,
-                    velocity_limit=math.inf, rotor_inertia=1.7976931348623157e308)]
+                    velocity_limit=math.inf, rotor_inertia=np.nextafter(1e3, 0.0))]  # 17 digits
     links = [Link("l1", 2.0, (-0.0, 1e-310, 3.0), asym),
              Link("Glied 2 ✓", 0.1, (0.0, 0.0, 0.1), np.diag([1e-3, 1e-3, 1e-3]))]
     robot = Robot(joints, links, gravity=(0.0, 9.81, -0.0), name="it's a \"robot\"",

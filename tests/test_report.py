@@ -235,13 +235,13 @@ def test_report_not_achievable(saturating: SimulationResult, sdt: Robot, tmp_pat
     assert [p.name for p in path.parent.iterdir()] == ["report.html"]  # no temporary left
     doc, p = parse(path)
     assert_self_contained(doc, p)
-    text = " ".join(p.text)
+    text = " ".join(p.text).replace("\u00a0", " ")  # numbers bound to their units
     assert saturating.verdict() in text
     assert "NOT ACHIEVABLE" in text
     # verdict first, in the red box
     verdict_div = re.search(r'<div class="verdict (\w+)" id="verdict">([^<]*)</div>', doc)
     assert verdict_div and verdict_div.group(1) == "bad"
-    assert html.unescape(verdict_div.group(2)) == saturating.verdict()
+    assert html.unescape(verdict_div.group(2)).replace("\u00a0", " ") == saturating.verdict()
     assert doc.index('id="verdict"') < doc.index("<table")
     fi = saturating.summary()["first_infeasible"]
     assert fi["joint"] in text and fi["reason"] in text
@@ -261,7 +261,7 @@ def test_report_achievable_overwrites_when_asked(achievable: SimulationResult,
     write_report(achievable, path, overwrite=True, view3d=False)
     doc, p = parse(path)
     assert_self_contained(doc, p, view3d=False)
-    text = " ".join(p.text)
+    text = " ".join(p.text).replace("\u00a0", " ")  # numbers bound to their units
     assert achievable.verdict() in text
     assert "ACHIEVABLE" in text and "NOT ACHIEVABLE" not in text
     assert 'class="verdict ok"' in doc
@@ -328,7 +328,7 @@ def test_report_interrupted_and_clamped(sdt: Robot, achievable: SimulationResult
     res = simulate(sdt.with_actuators(effort_limit=1e9), q, DT)
     assert res.position_clamped[:, 3].any()
     doc, p = parse(write_report(res, tmp_path / "clamped.html"))
-    text = " ".join(p.text)
+    text = " ".join(p.text).replace("\u00a0", " ")  # numbers bound to their units
     assert "NOT ACHIEVABLE" in text and "position limit" in text and "joint range" in text
 
 
@@ -344,3 +344,24 @@ def test_result_report_and_plot_methods(achievable: SimulationResult, tmp_path: 
     with pytest.raises(OutputError, match="exists"):
         achievable.report(tmp_path / "a.html")
     assert set(achievable.plot()) == FIGURES
+
+
+def test_a_joint_without_tracking_error_says_so(saturating: SimulationResult) -> None:
+    """Joints whose error stays 0 (the saturating run lags on cab_pitch alone, and its other
+    joints follow exactly: the drives are within their limits) get "no tracking error", without
+    a largest-error dot or an axis of rounding noise; the lagging joint keeps its dot."""
+    fig = plot_result(saturating)["tracking"]
+    axes = {ax.get_title(loc="left").split(":")[0]: ax for ax in fig.axes
+            if ax.get_title(loc="left")}
+    errors = np.abs(saturating.tracking_error).max(axis=0)
+    assert errors[3] > 0 and (errors == 0).any()
+    for name, err in zip(saturating.robot.joint_names, errors, strict=True):
+        ax = axes[name]
+        said = [t.get_text() for t in ax.texts]
+        dots = [ln for ln in ax.get_lines() if ln.get_marker() == "o"]
+        if err == 0:
+            assert said == ["no tracking error"] and not dots
+            assert ax.get_title(loc="left").endswith(": none")
+            assert ax.get_ylim() == (-1.0, 1.0)
+        else:
+            assert "no tracking error" not in said and len(dots) == 1

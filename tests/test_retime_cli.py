@@ -139,7 +139,7 @@ def test_check_and_simulate_suggest_retime(tmp_path):
     assert res.exit_code == 1 and "Retime it" in res.stderr
     assert "etime" not in json.dumps(json.loads(res.stdout))
     res = CliRunner().invoke(main, ["simulate", "sdt", str(prog), "--out", str(tmp_path / "s")])
-    assert res.exit_code == 0 and "Retime it: mrnea retime sdt" in res.stdout
+    assert res.exit_code == 1 and "Retime it: mrnea retime sdt" in res.stdout
     assert "etime" not in (tmp_path / "s" / "summary.json").read_text()
     res = CliRunner().invoke(main, ["check", "sdt", str(prog), "--quiet"])
     assert res.exit_code == 1 and res.output == ""

@@ -288,11 +288,13 @@ def test_program_option_errors(text: str, match: str) -> None:
 # --- top-level exports ----------------------------------------------------------------------------
 def test_top_level_exports_and_the_simulate_module() -> None:
     from mrnea.achievable import achievable_accelerations
+    from mrnea.cartesian import load_program as cartesian_load_program
     from mrnea.simulate import SimulationResult, simulate
 
     assert mrnea.simulate is simulate and callable(mrnea.simulate)
     assert mrnea.achievable_accelerations is achievable_accelerations
-    assert mrnea.load_program is load_program
+    # the public loader is the one that also solves a Cartesian program's moves
+    assert mrnea.load_program is cartesian_load_program
     module = importlib.import_module("mrnea.simulate")
     assert module.simulate is simulate and module.SimulationResult is SimulationResult
     assert {"simulate", "achievable_accelerations", "load_program"} <= set(mrnea.__all__)

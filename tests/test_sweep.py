@@ -30,7 +30,7 @@ from mrnea.retime import retime
 from mrnea.robots import puma560, sdt
 from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import simulate
-from mrnea.sweep import check_grid, engine, time_scaled, variant
+from mrnea.sweep import check_grid, cluster, time_scaled, variant
 
 SDT_GRID = {"gear_ratio.cab_yaw": [60, 120], "motor_torque_limit.cab_yaw": [40, 60],
             "payload": [0.0, 150.0], "time_scale": [1.0, 1.4]}
@@ -224,7 +224,7 @@ def test_bad_arguments(kw, words):
 
 
 def test_an_unreachable_scheduler_is_one_error(monkeypatch):
-    monkeypatch.setattr(engine, "CONNECT_TIMEOUT", 1)  # the client tries until then
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1)  # the client tries until then
     with pytest.raises(SweepError, match=r"scheduler 'tcp://127\.0\.0\.1:9': cannot connect"):
         mrnea.sweep(sdt(), "demo", {"payload": [1.0]}, client="tcp://127.0.0.1:9",
                     progress=False)

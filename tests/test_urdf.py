@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import site
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -130,11 +131,13 @@ def test_ur5_known_values() -> None:
 
 def test_panda_needs_a_tip_and_matches_reduced_pinocchio() -> None:
     path = erd("panda_description/urdf/panda.urdf")
-    with pytest.raises(RobotFileError, match="tip") as info:
+    # whole, the tree keeps panda_finger_joint2, a <mimic> of finger 1: refused, naming it
+    with pytest.raises(RobotFileError, match=r"panda_finger_joint2.*<mimic>.*tip") as info:
         load_urdf(path)
     msg = str(info.value)
-    # the fingers' chains move the hand and a finger, the tool point's the hand alone
-    assert "panda_leftfinger, panda_rightfinger, panda_hand_tcp" in msg
+    # the candidates avoid the mimic joint: the left finger's chain moves the hand and a
+    # finger, the tool point's the hand alone
+    assert msg.endswith("panda_leftfinger, panda_hand_tcp")
     assert str(path) in msg and "--tip LINK" in msg
 
     full = pin.buildModelFromUrdf(str(path))
@@ -305,9 +308,10 @@ def test_tip_lumps_moving_side_branch_at_zero(tmp_path: Path) -> None:
         joint("tool", "l2", "tool_link", "fixed", xyz="0 0 0.5"),
         link("tool_link", 2.0),
     ]))
-    # tool_link's chain moves l1 + l2 + tool_link = 5 kg, l3's l1 + l3 = 2 kg
-    with pytest.raises(RobotFileError, match=r"heaviest chain first: tool_link, l3$"):
-        load_urdf(p)
+    # whole: a tree, j2 and j3 both hang from l1 (file order)
+    whole = load_urdf(p)
+    assert whole.joint_names == ("j1", "j2", "j3") and whole.parents == (-1, 0, 0)
+    assert load_urdf(p, tip=["tool_link", "l3"]) == whole  # both tips: the same subtree
     r = load_urdf(p, tip="tool_link")
     assert r.joint_names == ("j1", "j2")
     # l1 + l3 at q3 = 0: 2 kg, com (0, 0.2, 0); Ixx = Izz = 2 * 1 kg * 0.2^2 = 0.08
@@ -511,18 +515,30 @@ def test_round_trip_real_arm(tmp_path: Path, rel: str) -> None:
 
 
 def test_round_trip_extreme_values(tmp_path: Path) -> None:
-    """Finite values near float64's limit survive the round trip: the loader neither overflows
-    symmetrising an inertia ((I + I^T) / 2) nor multiplies a massless link's far-away centre of
-    mass (0 * inf) (found by the fuzz test)."""
-    big = 8.98846567431158e307  # 2 * big overflows
-    joints = [Joint("j1", "revolute", "base", "l1", transform((1e200, 0.0, 0.0))),
+    """Values at the largest magnitudes mrnea accepts (mrnea.frozen.MAGNITUDES) survive the round
+    trip bit for bit; a file beyond them (an inertia near float64's limit, whose symmetrising
+    (I + I^T) / 2 would overflow, found by the fuzz test; a joint 1e200 m from its parent) is
+    one ModelError naming the link or joint and the field, with no overflow on the way."""
+    big = np.nextafter(1e10, 0.0)  # kg m^2, 17 digits
+    joints = [Joint("j1", "revolute", "base", "l1", transform((1e4, 0.0, 0.0))),
               Joint("j2", "revolute", "l1", "l2", transform((0.0, 0.0, 0.5)))]
-    links = [Link("l1", 0.0, (1e200, 0.0, 0.0), np.diag([1.0, 1.0, 1.0])),
+    links = [Link("l1", 0.0, (-1e4, 0.0, 0.0), np.diag([1.0, 1.0, 1.0])),
              Link("l2", 1.0, (0.0, 0.0, 0.1), np.diag([big, big, big]))]
     robot = Robot(joints, links)
-    back = load_urdf(write_urdf(robot, tmp_path / "x.urdf"))
+    path = write_urdf(robot, tmp_path / "x.urdf")
+    back = load_urdf(path)
     assert np.array_equal(back.links[1].inertia, robot.links[1].inertia)
-    assert np.array_equal(back.links[0].inertia, robot.links[0].inertia)
+    assert np.array_equal(back.joints[0].origin, robot.joints[0].origin)
+    text = path.read_text()
+    huge = text.replace('ixx="9999999999.999998"', 'ixx="8.98846567431158e307"')
+    far = text.replace('xyz="10000.0 0.0 0.0"', 'xyz="1e200 0.0 0.0"')
+    assert huge != text and far != text
+    for variant, field in ((huge, "link 'l2'.*inertia"), (far, "joint 'j1'.*origin")):
+        (tmp_path / "y.urdf").write_text(variant)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # no overflow on the way
+            with pytest.raises(ModelError, match=f"{field}.*largest mrnea"):
+                load_urdf(tmp_path / "y.urdf")
 
 
 def test_write_into_missing_directory(tmp_path: Path) -> None:
@@ -539,3 +555,13 @@ def test_rotation_helper_is_urdf_convention() -> None:
 
 def test_model_error_is_the_base_class() -> None:
     assert issubclass(RobotFileError, ModelError)
+
+
+def test_a_branching_file_loads_whole_as_a_tree() -> None:
+    """A file whose moving joints branch (two arms on the base; once refused without a tip):
+    every moving joint, depth first, children in file order."""
+    path = Path(__file__).parent / "malformed" / "urdf" / "branching_without_tip.urdf"
+    robot = load_urdf(path)
+    assert robot.joint_names == ("shoulder", "elbow", "second_shoulder")
+    assert robot.parents == (-1, 0, -1) and not robot.is_serial
+    assert load_urdf(path, tip="tool").joint_names == ("shoulder", "elbow")

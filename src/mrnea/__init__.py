@@ -12,6 +12,7 @@ which Python resolves to the attribute, the function.
 
 from mrnea import robots
 from mrnea.achievable import achievable_accelerations
+from mrnea.cartesian import load_program
 from mrnea.dynamics import (
     forward_dynamics,
     forward_kinematics,
@@ -30,15 +31,18 @@ from mrnea.errors import (
     RetimeError,
     RobotFileError,
     SingularMassMatrixError,
+    SizingError,
     StateError,
     SweepError,
 )
 from mrnea.identify import regressor
-from mrnea.io import load_program, load_robot, load_urdf
+from mrnea.ik import inverse_kinematics
+from mrnea.io import load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
 from mrnea.retime import RetimeResult, retime
 from mrnea.rigid import transform
 from mrnea.simulate import simulate  # the function: it shadows the module's attribute (above)
+from mrnea.sizing import size_drives
 from mrnea.sweep import sweep  # the function, as simulate (above)
 
 __version__ = "0.1.0"
@@ -57,6 +61,7 @@ __all__ = [
     "Robot",
     "RobotFileError",
     "SingularMassMatrixError",
+    "SizingError",
     "StateError",
     "SweepError",
     "__version__",
@@ -64,6 +69,7 @@ __all__ = [
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",
+    "inverse_kinematics",
     "jacobian",
     "joint_reactions",
     "load_program",
@@ -74,6 +80,7 @@ __all__ = [
     "retime",
     "robots",
     "simulate",
+    "size_drives",
     "sweep",
     "transform",
 ]

@@ -141,7 +141,7 @@ def achievable_accelerations(
         status = achievable((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out)
     validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     qdd, tau, phi, tau_req, limit, sat, stuck = out
-    return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau),
+    return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, qd),
                             tau_required=tau_req, saturated=sat,
                             margin=limit - np.abs(tau), limit=limit, coulomb=phi, stuck=stuck)
 
@@ -180,7 +180,7 @@ def achievable_step(
                   stuck, q_next, qd_next, clamp, entry_scratch(n, ACHIEVABLE))
     validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return StepResult(
-        qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau), tau_required=tau_req,
+        qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, arrays["qd"]), tau_required=tau_req,
         saturated=sat, margin=limit - np.abs(tau), limit=limit, coulomb=phi, stuck=stuck,
         q_next=q_next, qd_next=qd_next,
         qdd_des=qdd_des, q_cmd=np.clip(arrays["q_next_cmd"], robot.lower, robot.upper),

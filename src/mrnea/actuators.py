@@ -10,7 +10,10 @@ on with its velocity qd, exactly::
     tau = ID_rigid(q, qd, qdd, f_ext) + G^2 J_m qdd + F_v qd + phi(qd) = H_a qdd + u'_a
     phi(qd) = F+ (qd > 0), -F- (qd < 0), 0 (qd = 0)
 
-``tau`` is the joint-side effort; the motor torque is ``tau / G`` (:func:`motor_torque`). At rest
+``tau`` is the joint-side effort; the motor torque is ``tau / G`` with an ideal gear, and with
+the gear's efficiency eta (``efficiency``: driving, back-driven) ``tau / (G eta_d)`` while the
+drive delivers power, ``tau eta_b / G`` while it is driven back (:func:`motor_torque`); the
+effort limits become eta_d times the limit driving, 1 / eta_b times it back-driven. At rest
 Coulomb friction is set-valued (anything in [-F-, F+] while the joint is stuck): a cycle
 resolves it with the drives' limits (:mod:`mrnea.kernels.drive_solve`, docs/achievable.md). The
 law itself, in compiled code: :mod:`mrnea.kernels.drive`; the functions here are its Python side.
@@ -24,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.errors import StateError
-from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents
+from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents, motor_torques
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import batch_scratch
 from mrnea.kernels.simulate import program_requirement as requirement_kernel
@@ -142,6 +145,14 @@ def program_requirement(
     return req, limit
 
 
-def motor_torque(robot: Robot, tau: ArrayLike) -> NDArray[np.float64]:
-    """Motor-side torque ``tau / G`` of joint-side efforts tau, (n,) or (B, n) [N m]."""
-    return np.asarray(tau, dtype=float) / robot.gear_ratio
+def motor_torque(robot: Robot, tau: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
+    """Motor-side torque [N m] of joint-side efforts tau [N m | N] at joint speeds qd
+    [rad/s | m/s], (n,) or (B, n) each: ``tau / (G eta_d)`` where the drive delivers power or
+    the joint is at rest (tau qd >= 0), ``tau eta_b / G`` where it is driven back (the gear's
+    efficiency, kernels/drive.py ``motor_side``; ``tau / G`` for an ideal gear)."""
+    _, (tau, qd), _, _ = validate.inputs(robot, {"tau": tau, "qd": qd}, None, None)
+    TAU = np.ascontiguousarray(np.atleast_2d(tau))
+    QD = np.ascontiguousarray(np.broadcast_to(np.atleast_2d(qd), TAU.shape))
+    out = np.empty_like(TAU)
+    motor_torques(compiled.of(robot)[3], QD, TAU, out)
+    return out.reshape(np.shape(tau))

@@ -71,7 +71,16 @@ def shorten(text: str, limit: int = QUOTE_LIMIT) -> str:
 
 
 class MrneaError(ValueError):
-    """Base class of every mrnea input error."""
+    """Base class of every mrnea input error.
+
+    ``cli``: the message as the command line says it, where the library's names an API
+    argument the command line spells another way (``overwrite=True`` is ``--force`` there); the
+    ``mrnea`` command prints it instead of the message. None: the same message for both.
+    """
+
+    def __init__(self, *args: object, cli: str | None = None) -> None:
+        super().__init__(*args)
+        self.cli = cli
 
 
 class ModelError(MrneaError):
@@ -125,6 +134,11 @@ class LogFileError(MrneaError):
     row."""
 
 
+class SizingError(MrneaError):
+    """Drive sizing cannot start: its catalogue file (the message names the entry and field at
+    fault), a joint it was asked to size, an objective or an option."""
+
+
 class ModelWarning(UserWarning):
     """A robot description is valid but physically doubtful (an inertia that violates the
     triangle inequality, a massless moving link); mrnea goes on and says so."""
@@ -133,3 +147,14 @@ class ModelWarning(UserWarning):
 class PathWarning(UserWarning):
     """A commanded path is valid but doubtful: its interpolation between a CSV's rows leaves a
     position limit the rows respect (the simulator would clamp it); mrnea goes on and says so."""
+
+
+class MeshWarning(UserWarning):
+    """Mesh files of a robot's visuals could not be drawn (not found, unreadable); the view
+    draws those links as capsules. ``hint``: how to point mrnea at them (None: no hint), which
+    the command line prints on a line of its own."""
+
+    def __init__(self, message: str, hint: str | None = None) -> None:
+        super().__init__(message)
+        self.hint = hint
+

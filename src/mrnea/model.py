@@ -1,13 +1,15 @@
-"""The robot description: an immutable, validated serial chain of links and joints.
+"""The robot description: an immutable, validated serial chain or tree of links and joints.
 
 Conventions (the same as URDF's, so URDF files map one to one):
 
-* Frames. Each moving link ``i`` has a frame. Joint ``i`` connects the parent link ``i-1``
-  (``i = 0``: the fixed base) to link ``i``. Its ``origin`` is the fixed homogeneous transform from
-  the parent link's frame to the joint frame; link ``i``'s frame is the joint frame moved by the
-  joint: ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``, where ``motion`` is a rotation of ``q_i``
-  [rad] about ``axis_i`` (revolute, continuous) or a translation of ``q_i`` [m] along it
-  (prismatic). ``axis_i`` is a unit vector in the joint frame.
+* Frames. Each moving link ``i`` has a frame. Joint ``i`` connects its parent link (the link
+  of joint ``λ(i) = parents[i]``, or the fixed base: ``λ(i) = -1``) to link ``i``; on a serial
+  chain ``λ(i) = i - 1``. A tree's joints are in depth-first order from the base (each subtree's
+  joints together, right after its root), so ``λ(i) < i``. Its ``origin`` is the fixed
+  homogeneous transform from the parent link's frame to the joint frame; link ``i``'s frame
+  is the joint frame moved by the joint: ``T_i = T_{λ(i)} @ origin_i @ motion_i(q_i)``, where
+  ``motion`` is a rotation of ``q_i`` [rad] about ``axis_i`` (revolute, continuous) or a
+  translation of ``q_i`` [m] along it (prismatic). ``axis_i`` is a unit vector in the joint frame.
 * Inertials. Link mass [kg]; centre of mass ``com`` [m] in the link frame; inertia [kg m^2] about
   the centre of mass, in axes parallel to the link frame.
 * Gravity [m/s^2] in base coordinates, default ``(0, 0, -9.81)``.
@@ -24,6 +26,10 @@ Conventions (the same as URDF's, so URDF files map one to one):
   limit is ``peak`` up to the corner speed, then the smaller of constant power
   ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
   no-load speed; zero beyond it. With a curve, ``effort_limit`` equals ``peak``.
+* ``efficiency`` η of the gear (one value in (0, 1], or two, ``(driving, back-driven)``).
+  ``effort_limit`` and the curve are the ideal gear's, G times the motor's; the drive gives
+  η times them while it delivers power (effort and speed of the same sign, or at rest) and
+  1/η times them while the load drives it back (docs/achievable.md, kernels/drive.py).
 
 A :class:`Robot` is validated once, at construction; every error names the link or joint at fault.
 """
@@ -42,7 +48,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, quote
-from mrnea.frozen import Frozen, check_name, frozen_array, real_number, rigid_transform, warn
+from mrnea.frozen import (
+    Frozen,
+    check_magnitude,
+    check_name,
+    frozen_array,
+    real_number,
+    rigid_transform,
+    warn,
+)
 from mrnea.rigid import check_inertia, combine_inertials
 from mrnea.visual import Visual, visual_tuple
 
@@ -74,6 +88,9 @@ ACTUATOR_FIELDS = (
     ActuatorField("torque_speed", "curve", "N m or N, rad/s or m/s",
                   "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
+    ActuatorField("efficiency", "eta", "-",
+                  "gear efficiency in (0, 1]: one value, or two (driving, back-driven); the "
+                  "limit is eta times the effort limit driving, 1 / eta times it back-driven"),
 )
 #: SI unit of each joint quantity, (revolute, prismatic): position, velocity, acceleration, effort.
 JOINT_UNITS = {"q": ("rad", "m"), "qd": ("rad/s", "m/s"), "qdd": ("rad/s^2", "m/s^2"),
@@ -83,8 +100,6 @@ DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
 # norm is within 1.5 eps of 1, measured over 2e5 random axes)
 UNIT_TOL = 4 * np.finfo(float).eps
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
-
-
 def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     """Coulomb friction: a magnitude >= 0, or two ``(positive direction, negative direction)``;
     an equal pair is stored as one number."""
@@ -98,26 +113,60 @@ def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     return p if p == m else (p, m)
 
 
-def _coulomb_per_joint(value: object, n: int) -> list[object]:
-    """with_actuators' coulomb_friction: one number, or n entries (a number or a pair each)."""
+def _efficiency(value: object, what: str) -> float | tuple[float, float]:
+    """Gear efficiency: a value in (0, 1], or two ``(driving, back-driven)``; an equal pair is
+    stored as one number."""
+    pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
+    if len(pair) != 2:
+        raise ModelError(f"{what}: efficiency must be a number or two, [driving, back-driven], "
+                         f"got {value!r}")
+    d, b = (real_number(v, f"{what}: efficiency") for v in pair)
+    if not (0.0 < d <= 1.0 and 0.0 < b <= 1.0):
+        raise ModelError(f"{what}: efficiency must be in (0, 1], got {value!r}")
+    return d if d == b else (d, b)
+
+
+def _pairs_per_joint(key: str, value: object, n: int, pair: str) -> list[object]:
+    """with_actuators' coulomb_friction or efficiency: one number, or n entries (a number or a
+    pair each)."""
     if not isinstance(value, (list, tuple)) and np.ndim(value) == 0:  # type: ignore[arg-type]
         return [value] * n
     if len(value) != n:
-        raise ModelError(f"with_actuators: coulomb_friction must be a number or {n} entries (a "
-                         f"number or a [positive, negative] pair each), got {value!r}")
+        raise ModelError(f"with_actuators: {key} must be a number or {n} entries (a "
+                         f"number or a [{pair}] pair each), got {value!r}")
     return [tuple(e) if isinstance(e, (list, tuple, np.ndarray)) else e for e in value]
+
+
+@dataclass(frozen=True, eq=False)
+class Frame(Frozen):
+    """A named frame fixed to a link: ``origin`` (4, 4), its pose in the link's frame.
+
+    What a URDF's fixed joints merge into a chain link keeps its frame here (a flange, a tool
+    centre point such as the Panda's ``panda_hand_tcp``), so that a tool can be named
+    (:mod:`mrnea.tool`). Kinematics only: the dynamics never read frames.
+    """
+
+    name: str
+    origin: ArrayLike = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        check_name(self.name, "frame")
+        object.__setattr__(self, "origin", rigid_transform(self.origin,
+                                                           f"frame '{self.name}': origin"))
 
 
 @dataclass(frozen=True, eq=False)
 class Link(Frozen):
     """A rigid link: ``mass`` [kg], ``com`` [m, link frame], ``inertia`` [kg m^2, about the com];
-    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics)."""
+    ``visuals``, what it looks like (:class:`mrnea.visual.Visual`, link frame; not dynamics);
+    ``frames``, named frames fixed to it (:class:`Frame`, e.g. the URDF links merged into it)."""
 
     name: str
     mass: float = 0.0
     com: ArrayLike = (0.0, 0.0, 0.0)
     inertia: ArrayLike = field(default_factory=lambda: np.zeros((3, 3)))
     visuals: tuple[Visual, ...] = ()
+    frames: tuple[Frame, ...] = ()
 
     def __post_init__(self) -> None:
         check_name(self.name, "link")
@@ -127,8 +176,16 @@ class Link(Frozen):
             raise ModelError(f"{what}: mass must be >= 0, got {mass}")
         com = frozen_array(self.com, (3,), f"{what}: centre of mass")
         inertia = frozen_array(self.inertia, (3, 3), f"{what}: inertia")
+        check_magnitude(mass, "mass", what, "kg")
+        check_magnitude(com, "length", f"{what}: centre of mass", "m")
+        check_magnitude(inertia, "inertia", what, "kg m^2")
         check_inertia(inertia, what)
         object.__setattr__(self, "visuals", visual_tuple(self.visuals, what))
+        frames = tuple(self.frames) if isinstance(self.frames, (tuple, list)) else None
+        if frames is None or not all(isinstance(f, Frame) for f in frames):
+            raise ModelError(f"{what}: frames must be a sequence of mrnea.model.Frame, got "
+                             f"{quote(self.frames)}")
+        object.__setattr__(self, "frames", frames)
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
@@ -153,6 +210,7 @@ class Joint(Frozen):
     viscous_friction: float = 0.0
     coulomb_friction: float | tuple[float, float] = 0.0
     torque_speed: tuple[float, float, float] | None = None
+    efficiency: float | tuple[float, float] = 1.0
 
     def __post_init__(self) -> None:
         check_name(self.name, "joint")
@@ -163,6 +221,7 @@ class Joint(Frozen):
                 f"(supported: {', '.join(JOINT_TYPES)})"
             )
         origin = rigid_transform(self.origin, f"{what}: origin")
+        check_magnitude(origin[:3, 3], "length", f"{what}: origin", "m")
         axis = frozen_array(self.axis, (3,), f"{what}: axis")
         big = float(np.max(np.abs(axis)))
         if big < 1e-12:
@@ -189,8 +248,13 @@ class Joint(Frozen):
             v = real_number(getattr(self, name), f"{what}: {name}")
             if v < 0:
                 raise ModelError(f"{what}: {name} must be >= 0, got {v}")
+            check_magnitude(v, name, what, "kg m^2" if name == "rotor_inertia" else
+                            "N s/m" if self.type == "prismatic" else "N m s/rad")
             values[name] = v
         values["coulomb_friction"] = _coulomb(self.coulomb_friction, what)
+        check_magnitude(values["coulomb_friction"], "coulomb_friction", what,
+                        "N" if self.type == "prismatic" else "N m")
+        values["efficiency"] = _efficiency(self.efficiency, what)
         g = real_number(self.gear_ratio, f"{what}: gear_ratio")
         if g <= 0:
             raise ModelError(f"{what}: gear_ratio must be > 0, got {g}")
@@ -226,6 +290,13 @@ class Joint(Frozen):
         c = self.coulomb_friction
         return c if isinstance(c, tuple) else (c, c)
 
+    @property
+    def efficiency_pair(self) -> tuple[float, float]:
+        """``(driving, back-driven)``: the gear efficiencies while the drive delivers power and
+        while the load drives it back."""
+        e = self.efficiency
+        return e if isinstance(e, tuple) else (e, e)
+
     def unit(self, quantity: str) -> str:
         """SI unit of its ``"q"``, ``"qd"``, ``"qdd"`` or ``"tau"`` (:data:`JOINT_UNITS`)."""
         return JOINT_UNITS[quantity][self.is_prismatic]
@@ -238,11 +309,13 @@ WRITERS: dict[str, Callable[[Robot, str | Path, bool], Path]] = {}
 
 
 class Robot(Frozen):
-    """An immutable serial chain: ``joints[i]`` moves ``links[i]`` relative to ``links[i-1]``.
+    """An immutable serial chain or tree: ``joints[i]`` moves ``links[i]`` relative to the link
+    its ``parent`` names, the base or the link of an earlier joint (:attr:`parents`).
 
     Parameters
     ----------
-    joints : sequence of Joint, root to tip; ``joints[0].parent`` is the base link.
+    joints : sequence of Joint, root to tip, depth first (a chain: each joint's parent the
+        previous joint's child); ``joints[0].parent`` is the base link.
     links : sequence of Link, the moving links, ``links[i]`` is ``joints[i].child``.
     gravity : (3,) gravity acceleration [m/s^2] in base coordinates.
     name : the robot's name.
@@ -271,16 +344,28 @@ class Robot(Frozen):
             if not isinstance(obj, cls):
                 raise ModelError(f"robot '{name}': expected a {cls.__name__}, got {obj!r}")
         base = joints[0].parent if base is None else base
-        parent = base
-        for j, lk in zip(joints, links, strict=True):
-            if j.parent != parent:
-                raise ModelError(
-                    f"joint '{j.name}': parent is '{j.parent}', but the chain continues "
-                    f"from link '{parent}'"
-                )
+        index = {base: -1}  # link name -> the joint moving it (-1: the base)
+        parents: list[int] = []
+        for i, (j, lk) in enumerate(zip(joints, links, strict=True)):
             if j.child != lk.name:
                 raise ModelError(f"joint '{j.name}': child is '{j.child}', expected '{lk.name}'")
-            parent = lk.name
+            if j.parent not in index:
+                raise ModelError(
+                    f"joint '{j.name}': parent is '{j.parent}', which is neither the base "
+                    f"'{base}' nor the link of an earlier joint (joints go root to tip, "
+                    f"depth first)")
+            p = index[j.parent]
+            # depth-first order: the parent is the base or on the path to the previous link
+            k = i - 1
+            while k > p:
+                k = parents[k]
+            if k != p:
+                raise ModelError(
+                    f"joint '{j.name}': parent is '{j.parent}', whose subtree was closed by "
+                    f"joint '{joints[i - 1].name}': the joints must be in depth-first order "
+                    f"(each subtree's joints together, after its root)")
+            parents.append(p)
+            index.setdefault(lk.name, i)
         for kind, names in (("joint", [j.name for j in joints]),
                             ("link", [base] + [lk.name for lk in links])):
             dup = sorted({x for x in names if names.count(x) > 1})
@@ -288,14 +373,19 @@ class Robot(Frozen):
                 raise ModelError(f"robot '{name}': duplicate {kind} names: {', '.join(dup)}")
         for i, lk in enumerate(links):
             if lk.mass == 0.0 and not np.any(lk.inertia):
-                carried = [x.name for x in links[i + 1:] if x.mass > 0 or np.any(x.inertia)]
+                end = i + 1  # the links link i carries: its subtree, i + 1 .. end - 1
+                while end < len(links) and parents[end] >= i:
+                    end += 1
+                carried = [x.name for x in links[i + 1:end] if x.mass > 0 or np.any(x.inertia)]
                 tail = (f"well-posed: it carries {', '.join(carried)}" if carried else
                         "nothing it carries has mass either, so H is singular and forward "
                         "dynamics will fail")
                 warn(f"link '{lk.name}' is massless ({tail})", stacklevel=2)
         self._joints = joints
         self._links = links
+        self._parents = tuple(parents)
         self._gravity = frozen_array(gravity, (3,), f"robot '{name}': gravity")
+        check_magnitude(self._gravity, "gravity", f"robot '{name}'", "m/s^2")
         self._name = str(name)
         self._base = base
         self._base_visuals = visual_tuple(base_visuals, f"robot '{name}': base")
@@ -313,6 +403,17 @@ class Robot(Frozen):
     gravity = property(lambda self: self._gravity, doc="(3,) gravity [m/s^2], base frame.")
     base_visuals = property(lambda self: self._base_visuals,
                             doc="What the fixed base looks like (Visual, base frame).")
+
+    parents = property(
+        lambda self: self._parents,
+        doc="λ: per joint i, the index of the joint whose link carries its link (-1: the base); "
+            "i - 1 for every i on a serial chain. Joints are in depth-first order, so "
+            "parents[i] < i (docs/notation.md, Trees).")
+
+    @property
+    def is_serial(self) -> bool:
+        """True for a serial chain (``parents[i] == i - 1`` for every joint)."""
+        return all(p == i - 1 for i, p in enumerate(self._parents))
 
     @property
     def n(self) -> int:
@@ -347,6 +448,9 @@ class Robot(Frozen):
         lambda self: np.array([j.coulomb_pair for j in self._joints], dtype=np.float64),
         doc="(n, 2) Coulomb friction magnitudes [F+, F-] per joint (opposing positive, "
             "negative motion) [N m or N], joint side.")
+    efficiency = property(
+        lambda self: np.array([j.efficiency_pair for j in self._joints], dtype=np.float64),
+        doc="(n, 2) gear efficiencies [driving, back-driven] per joint.")
 
     @property
     def torque_speed(self) -> tuple[tuple[float, float, float] | None, ...]:
@@ -373,7 +477,9 @@ class Robot(Frozen):
         ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
         or an ``(n,)`` sequence (per joint, root to tip); ``coulomb_friction`` also an ``(n, 2)``
         array, or a sequence of n entries each a number or a pair ``[positive direction,
-        negative direction]`` (asymmetric friction). ``effort_limit`` sets a constant limit
+        negative direction]`` (asymmetric friction); ``efficiency`` likewise (one value in (0, 1]
+        for all joints, n of them, or n entries each a number or a pair ``[driving,
+        back-driven]``). ``effort_limit`` sets a constant limit
         at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one
         ``(peak, corner_speed, no_load_speed)`` triple for all joints, or a sequence of n
         triples or ``None`` (no curve for that joint).
@@ -424,7 +530,12 @@ class Robot(Frozen):
         if "effort_limit" in fields:
             per_joint["torque_speed"] = [None] * n
         if "coulomb_friction" in fields:
-            per_joint["coulomb_friction"] = _coulomb_per_joint(fields.pop("coulomb_friction"), n)
+            per_joint["coulomb_friction"] = _pairs_per_joint(
+                "coulomb_friction", fields.pop("coulomb_friction"), n,
+                "positive, negative")
+        if "efficiency" in fields:
+            per_joint["efficiency"] = _pairs_per_joint("efficiency", fields.pop("efficiency"), n,
+                                                       "driving, back-driven")
         for k, v in fields.items():
             per_joint[k] = values(k, v)
         joints = [
@@ -457,7 +568,7 @@ class Robot(Frozen):
         last = self._links[-1]
         m, c, inertia_sum = combine_inertials([(last.mass, last.com, last.inertia),
                                                (p.mass, p.com, p.inertia)])
-        merged = Link(last.name, m, c, inertia_sum, last.visuals)
+        merged = Link(last.name, m, c, inertia_sum, last.visuals, last.frames)
         return self._replace(links=(*self._links[:-1], merged))
 
     def _replace(self, **kw: object) -> Robot:
@@ -466,7 +577,8 @@ class Robot(Frozen):
     # --- export ---------------------------------------------------------------------------------
     def to_urdf(self, path: str | Path, overwrite: bool = False) -> Path:
         """Write this robot as a URDF file: :func:`mrnea.io.write_urdf` (what URDF cannot hold,
-        the rotor inertia and a torque-speed curve, is dropped). Returns ``path``."""
+        the rotor inertia, a torque-speed curve and the gear efficiency, is dropped). Returns
+        ``path``."""
         return WRITERS["urdf"](self, path, overwrite)
 
     def to_toml(self, path: str | Path, overwrite: bool = False) -> Path:

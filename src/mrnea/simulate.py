@@ -28,14 +28,16 @@ from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from mrnea import compiled, validate
 from mrnea.achievable import MODES
-from mrnea.actuators import motor_torque
+from mrnea.cartesian import CartesianPath
+from mrnea.dynamics import forward_kinematics
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
-from mrnea.kernels.drive import actuator_terms
+from mrnea.kernels.drive import actuator_terms, motor_torques
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import POSE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
@@ -48,13 +50,20 @@ from mrnea.summary import start_violations, summarize, verdict
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-# The per-joint columns of the per-cycle table and the quantity of model.JOINT_UNITS giving each
-# one's unit (None: a boolean). tau_motor = tau / G with G dimensionless: the effort's unit.
-_PER_JOINT = {"q_cmd": "q", "qd_cmd": "qd", "qdd_des": "qdd", "q": "q", "qd": "qd", "qdd": "qdd",
-              "tau": "tau", "tau_motor": "tau", "tau_required": "tau", "limit": "tau",
-              "margin": "tau", "saturated": None, "position_clamped": None,
-              "velocity_clamped": None, "tracking_error": "q", "coulomb": "tau", "stuck": None,
-              "program_effort": "tau", "program_limit": "tau"}
+# The per-joint columns of the per-cycle table, in order: the result's array (program_qdd: the
+# method), the column's name, and the quantity of model.JOINT_UNITS giving its unit (None: a
+# boolean). First the program and its own requirement, then the simulated response, last what
+# each cycle asked for from the robot's own state (the catch-up once the robot lags).
+# tau_motor = tau / G with G dimensionless: the effort's unit.
+_PER_JOINT = (
+    ("q_cmd", "q_cmd", "q"), ("qd_cmd", "qd_cmd", "qd"), ("program_qdd", "program_qdd", "qdd"),
+    ("program_effort", "program_effort", "tau"), ("program_limit", "program_limit", "tau"),
+    ("q", "q", "q"), ("qd", "qd", "qd"), ("qdd", "qdd", "qdd"), ("tau", "tau", "tau"),
+    ("tau_motor", "tau_motor", "tau"), ("limit", "limit", "tau"), ("margin", "margin", "tau"),
+    ("saturated", "saturated", None), ("position_clamped", "position_clamped", None),
+    ("velocity_clamped", "velocity_clamped", None), ("tracking_error", "tracking_error", "q"),
+    ("coulomb", "coulomb", "tau"), ("stuck", "stuck", None),
+    ("qdd_des", "catch_up_qdd", "qdd"), ("tau_required", "catch_up_effort", "tau"))
 #: A tracking error at most this many times max(1, max |q_cmd|) of its joint [rad | m] is 0:
 #: rounding, not lag (q's float resolution is 2.2e-16 |q|; this leaves room for the rounding of
 #: many cycles and is far below any drive's resolution).
@@ -122,6 +131,13 @@ class SimulationResult:
         times ``max(1, max |q_cmd|)`` of its joint.
     completed : False if the run was interrupted; the arrays then hold the cycles done (K of
         them) and the run is never reported achievable (see :attr:`achievable`).
+    tool_position_error, tool_orientation_error : (K,) for a Cartesian program
+        (``simulate(..., cartesian=prog.cartesian)``): how far the real motion's tool frame is
+        from the programmed pose, ``|p(q) - p*|`` [m] and the angle of ``R*^T R(q)`` [rad];
+        None otherwise.
+    tool_point : for a Cartesian program, the tool frame's origin [m] in the last link's frame
+        (the 3D view draws its path, the programmed Cartesian path, and the real one); None
+        otherwise.
     """
 
     robot: Robot
@@ -150,6 +166,9 @@ class SimulationResult:
     program_limit: NDArray
     completed: bool = True
     fd: str = "mrnea"
+    tool_position_error: NDArray | None = None
+    tool_orientation_error: NDArray | None = None
+    tool_point: tuple[float, float, float] | None = None
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -233,16 +252,37 @@ class SimulationResult:
                                            strict=True))
         return f"The robot did not reach the program's end: final position error {errors}."
 
+    def program_qdd(self, rows: slice = slice(None)) -> NDArray:
+        """The program's own acceleration [rad/s^2 | m/s^2] at the cycles ``rows``: the one
+        :attr:`program_effort` is computed for, ``(qd_cmd[k + 1] - qd_cmd[k]) / dt`` (the next
+        velocity 0 after the last row; unclamped). What the drive asked for once the robot lags
+        is ``qdd_des`` (the catch-up)."""
+        start, stop, _ = rows.indices(self.K)
+        v = self.qd_cmd[start:stop]
+        following = np.zeros_like(v)
+        nxt = self.qd_cmd[start + 1:stop + 1]
+        following[:nxt.shape[0]] = nxt
+        return (following - v) / self.dt
+
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
         """The per-cycle table as named 1-D columns: ``t [s]``, then ``<quantity>_<joint>
         [<unit>]`` (SI units of that joint, :data:`mrnea.model.JOINT_UNITS`; the flags
-        ``saturated``, ``position_clamped``, ``velocity_clamped`` are booleans, without a unit),
-        then ``reaction_<fx..nz>_<joint> [N | N m]``."""
+        ``saturated``, ``position_clamped``, ``velocity_clamped``, ``stuck`` are booleans,
+        without a unit), then ``reaction_<fx..nz>_<joint> [N | N m]``.
+
+        The quantities, in order: the program (``q_cmd``, ``qd_cmd``) and its own requirement
+        (``program_qdd``, ``program_effort``, ``program_limit``: the limit at the program's
+        speed), the simulated response (``q``, ``qd``, ``qdd``, ``tau``, ``tau_motor``,
+        ``limit``, ``margin``, the flags, ``tracking_error``, ``coulomb``), and last what each
+        cycle asked for from the robot's own state: ``catch_up_qdd`` (:attr:`qdd_des`) and
+        ``catch_up_effort`` (:attr:`tau_required`), the program's own while the robot keeps
+        up, the catch-up of the whole lag in one cycle once it lags. For a Cartesian program,
+        ``tool_position_error [m]`` and ``tool_orientation_error [rad]`` come last."""
         if not isinstance(rows, slice):
             raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
         cols: dict[str, NDArray] = {"t [s]": self.t[rows]}
-        for name, quantity in _PER_JOINT.items():
-            a = getattr(self, name)[rows]
+        for attr, name, quantity in _PER_JOINT:
+            a = self.program_qdd(rows) if attr == "program_qdd" else getattr(self, attr)[rows]
             for i, j in enumerate(self.robot.joints):
                 unit = "" if quantity is None else f" [{j.unit(quantity)}]"
                 cols[f"{name}_{j.name}{unit}"] = a[:, i]
@@ -250,6 +290,9 @@ class SimulationResult:
             for c, label in enumerate(("fx", "fy", "fz", "nx", "ny", "nz")):
                 unit = "N" if c < 3 else "N m"
                 cols[f"reaction_{label}_{j} [{unit}]"] = self.reaction[rows, i, c]
+        if self.tool_position_error is not None:
+            cols["tool_position_error [m]"] = self.tool_position_error[rows]
+            cols["tool_orientation_error [rad]"] = self.tool_orientation_error[rows]
         return cols
 
     def to_csv(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
@@ -279,7 +322,10 @@ class SimulationResult:
     def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed
         (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
-        self.tau_motor[rows] = motor_torque(self.robot, self.tau[rows])
+        # the motor side of each cycle's effort at its starting speed (kernels/drive.py
+        # motor_side, as mrnea.actuators.motor_torque without its argument checks)
+        motor_torques(compiled.of(self.robot)[3], self.qd[rows], self.tau[rows],
+                      self.tau_motor[rows])
         self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
         err = self.q_cmd[rows] - self.q[rows]
         self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)
@@ -331,6 +377,7 @@ def simulate(
     stream: str | os.PathLike | None = None,
     overwrite: bool = False,
     reactions: bool = True,
+    cartesian: CartesianPath | None = None,
 ) -> SimulationResult:
     """Simulate the programmed motion q_cmd (K, n), one row per interpolation cycle dt [s].
 
@@ -360,6 +407,10 @@ def simulate(
         which is about a quarter of a run's time (measured: a run without them takes 0.74-0.75 of
         the time on the Puma 560 and the SDT); the result's ``reaction`` is then None and the
         summary's reaction peaks null.
+    cartesian : a Cartesian program's tool path (``prog.cartesian``, :mod:`mrnea.cartesian`;
+        q_cmd must be its ``prog.q_cmd``): the result then has the real motion's tool errors
+        against the programmed pose every cycle (``tool_position_error``,
+        ``tool_orientation_error``), in the table and the summary.
 
     On KeyboardInterrupt the cycles done so far are returned with ``completed=False``, and a
     streamed table holds exactly those cycles.
@@ -391,6 +442,11 @@ def simulate(
     def zeros(dtype: type = float) -> NDArray:
         return np.zeros((K, n), dtype=dtype)
 
+    if cartesian is not None and (not isinstance(cartesian, CartesianPath)
+                                  or cartesian.pose.shape[0] != K):
+        raise StateError(f"cartesian: expected the CartesianPath of this program ({K} cycles), "
+                         f"got {type(cartesian).__name__}")
+
     m, _, _, act = compiled.of(robot)
     _check_moves(robot, x0)
     res = SimulationResult(
@@ -399,7 +455,10 @@ def simulate(
         tau_required=zeros(), limit=zeros(), margin=zeros(), saturated=zeros(np.bool_),
         position_clamped=zeros(np.bool_), velocity_clamped=zeros(np.bool_),
         reaction=np.zeros((K, n, 6)) if reactions else None, tracking_error=zeros(),
-        coulomb=zeros(), stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros())
+        coulomb=zeros(), stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros(),
+        tool_position_error=None if cartesian is None else np.zeros(K),
+        tool_orientation_error=None if cartesian is None else np.zeros(K),
+        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])))
     clamp = zeros(np.int64)
     status_k = np.empty(K, dtype=np.int64)  # the program requirement's, per cycle
     res.q[0], res.qd[0] = x0, v0
@@ -424,6 +483,8 @@ def simulate(
                     validate.check_cycle(robot, int(k), int(status_k[k]), Qc[k], Vc[k], dt)
                 rows = slice(done, k1)
                 res._derive(rows, clamp, resolution)
+                if cartesian is not None:
+                    _tool_errors(res, rows, cartesian)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
                     fh.write(res._csv(rows, header=done == 0))  # keeps the cycles done
                     fh.flush()
@@ -434,6 +495,15 @@ def simulate(
             if fh is not None:  # it may have landed inside a chunk's write: keep whole cycles
                 fh.truncate(kept)
     return res if done == K else res._first(done)
+
+
+def _tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> None:
+    """The real motion's tool errors against the programmed pose, for ``rows``."""
+    T = forward_kinematics(res.robot, res.q[rows], tool=path.tool)[:, -1]
+    P = path.pose[rows]
+    res.tool_position_error[rows] = np.linalg.norm(T[:, :3, 3] - P[:, :3, 3], axis=1)
+    res.tool_orientation_error[rows] = Rotation.from_matrix(
+        np.transpose(P[:, :3, :3], (0, 2, 1)) @ T[:, :3, :3]).magnitude()
 
 
 def _require_memory(K: int, n: int) -> None:
@@ -461,6 +531,21 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     joint = robot.joints[j]
     moved = robot.links[j:]
     bare = [lk.name for lk in moved if lk.mass == 0.0 and not np.any(lk.inertia)]
+    d = np.diag(Ha)
+    k = int(np.argmax(d))
+    if d[j] > 0.0 and d[k] > 1e12 * d[j]:  # the pivot failed against another joint's inertia
+        big = robot.joints[k]
+        rotor = big.gear_ratio ** 2 * big.rotor_inertia
+        unit = "kg" if big.is_prismatic else "kg m^2"  # H_a's diagonal entry's unit
+        cause = (f"its rotor inertia through its gear, G^2 J_m = {big.gear_ratio:.3g}^2 x "
+                 f"{big.rotor_inertia:.3g} kg m^2; check its rotor_inertia and gear_ratio"
+                 if rotor > 0.5 * d[k] else "the links it moves; check their masses, inertias "
+                 "and lengths")
+        raise SingularMassMatrixError(
+            f"robot '{robot.name}': the actuated mass matrix H_a is too ill-conditioned to "
+            f"solve: joint '{big.name}' has {d[k]:.3g} {unit} about its axis against {d[j]:.3g} at "
+            f"joint '{joint.name}' ({d[k] / d[j]:.2g} times, beyond double precision), from "
+            f"{cause}")
     if len(bare) == len(moved) and joint.rotor_inertia == 0.0:
         why = (f"joint '{joint.name}' moves no mass and no rotor inertia (link"
                f"{'s' if len(bare) > 1 else ''} {', '.join(repr(b) for b in bare)} without "

@@ -8,16 +8,24 @@ achievable or not) and the **program's requirement** (what the commanded motion 
 cycle by cycle, before any lag: it says by how much a drive falls short).
 
 Units: efforts in N m (revolute joints) or N (prismatic), motor torques in N m, positions in
-rad or m, velocities in rad/s or m/s, times in s.
+rad or m, velocities in rad/s or m/s, times in s; each joint names its own (``effort_unit``,
+``position_unit``, ``velocity_unit``). Every field, its unit and its meaning are in the JSON
+Schema shipped with the package, ``summary.schema.json`` (:func:`schema_path`; the tests
+validate every summary they write against it; docs/simulation.md lists the fields).
 """
 
 from __future__ import annotations
 
 import math
+from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from mrnea.kernels.drive import LIMIT_RTOL, beyond
+
+_beyond = beyond.py_func  # the kernels' limit comparison, run as Python (nothing to compile)
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -32,6 +40,13 @@ PEAK_LOADS = (("peak_reaction_force", "force"), ("peak_axial_force", "axial_forc
               ("peak_bending_moment", "bending_moment"))
 
 
+def schema_path() -> Any:
+    """The JSON Schema (draft 2020-12) of a summary, shipped in the package: every field with
+    its ``description`` and, for a number, its ``unit``. A :class:`importlib.resources`
+    traversable (``.read_text()``; a path for an installed package)."""
+    return resources.files("mrnea").joinpath("summary.schema.json")
+
+
 def finite_or_none(x: float) -> float | None:
     """``x`` as a float, or None (JSON ``null``) when it is infinite or NaN (an unlimited
     value)."""
@@ -40,18 +55,20 @@ def finite_or_none(x: float) -> float | None:
 
 
 def start_violations(r: SimulationResult) -> list[dict[str, Any]]:
-    """The joints whose start state is outside their limits: a position outside [lower, upper]
-    or a speed above the velocity limit (each a dict: joint, reason, value, limits)."""
+    """The joints whose start state is outside their limits by more than rounding
+    (kernels/drive.py ``beyond``): a position outside [lower, upper] or a speed above the
+    velocity limit (each a dict: joint, reason, value, limits)."""
     if r.K == 0:
         return []
     out = []
     rob = r.robot
     for i, j in enumerate(rob.joints):
         q, qd = float(r.q[0, i]), float(r.qd[0, i])
-        if not j.lower <= q <= j.upper:
+        if (_beyond(q, j.upper, abs(q) + abs(j.upper))  # outside by more than rounding
+                or _beyond(-q, -j.lower, abs(q) + abs(j.lower))):
             out.append({"joint": j.name, "reason": "start outside the position limits",
                         "value": q, "limits": [finite_or_none(j.lower), finite_or_none(j.upper)]})
-        if abs(qd) > j.velocity_limit:
+        if _beyond(abs(qd), j.velocity_limit, abs(qd) + j.velocity_limit):
             out.append({"joint": j.name, "reason": "start faster than the velocity limit",
                         "value": qd, "limits": [finite_or_none(-j.velocity_limit),
                                                 finite_or_none(j.velocity_limit)]})
@@ -65,11 +82,16 @@ def _program(r: SimulationResult, i: int) -> dict[str, Any]:
     req, lim, t = np.abs(r.program_effort[:, i]), r.program_limit[:, i], r.t
     k = int(np.argmax(req))
     rms = float(np.sqrt(np.mean(r.program_effort[:, i] ** 2)))
+    # the motor side, with the gear's efficiency (kernels/drive.py motor_side): x 1 / eta_d
+    # driving, x eta_b back-driven, then / G (an ideal gear: exactly today's tau / G)
+    eta_d, eta_b = j.efficiency_pair
+    back = r.program_effort[:, i] * r.qd_cmd[:, i] < 0.0
+    motor = np.abs(r.program_effort[:, i]) * np.where(back, eta_b, 1.0 / eta_d)
     out: dict[str, Any] = {
         "program_peak_effort": float(req[k]), "program_peak_time": float(t[k]),
         "program_rms_effort": rms,
-        "program_peak_motor_torque": float(req[k]) / j.gear_ratio,
-        "program_rms_motor_torque": rms / j.gear_ratio,
+        "program_peak_motor_torque": float(motor.max()) / j.gear_ratio,
+        "program_rms_motor_torque": float(np.sqrt(np.mean(motor ** 2))) / j.gear_ratio,
     }
     drive = ("unpowered" if j.effort_limit == 0 else
              "unlimited" if math.isinf(j.effort_limit) else "limited")
@@ -78,7 +100,10 @@ def _program(r: SimulationResult, i: int) -> dict[str, Any]:
         with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf (or 0 / 0)
             ratio = np.where(req > 0.0, req / lim, 0.0)
     kr = int(np.argmax(ratio))
-    over = np.flatnonzero(req > lim)
+    over = np.flatnonzero(req > lim + LIMIT_RTOL * (lim + req))  # as the kernels compare
+    # where the limit at the ratio's instant comes from: the constant effort limit, or the
+    # torque-speed curve at the program's speed there (below the peak effort limit)
+    curve = drive == "limited" and bool(lim[kr] < j.effort_limit)
     out.update({
         "drive": drive,
         # peak of |required| / limit at the program's speed; null: no limit to compare with
@@ -87,6 +112,10 @@ def _program(r: SimulationResult, i: int) -> dict[str, Any]:
         "program_ratio_time": float(t[kr]) if drive == "limited" else None,
         "program_effort_at_ratio": float(req[kr]) if drive == "limited" else None,
         "program_limit_at_ratio": float(lim[kr]) if drive == "limited" else None,
+        "program_speed_at_ratio": (float(abs(r.qd_cmd[kr, i])) if drive == "limited"
+                                   else None),
+        "program_limit_source": (None if drive != "limited" else
+                                 "torque-speed curve" if curve else "effort limit"),
         "program_beyond_no_load_speed": bool(drive == "limited" and math.isinf(ratio[kr])),
         "program_first_over_time": float(t[over[0]]) if over.size else None,
     })
@@ -135,6 +164,8 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
         joints.append({
             "joint": j.name,
             "effort_unit": EFFORT_UNIT[j.is_prismatic],
+            "position_unit": POSITION_UNIT[j.is_prismatic],
+            "velocity_unit": f"{POSITION_UNIT[j.is_prismatic]}/s",
             "effort_limit": finite_or_none(j.effort_limit),
             **_program(r, i),
             # the simulated response
@@ -151,12 +182,18 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             "final_position_error": float(r.tracking_error[-1, i]),
         })
     worst = _worst(joints)
+    tool = {}
+    if r.tool_position_error is not None:  # a Cartesian program: the tool's error, its peak
+        for key, e in (("max_tool_position_error", r.tool_position_error),
+                       ("max_tool_orientation_error", r.tool_orientation_error)):
+            k = int(np.argmax(e))
+            tool |= {key: float(e[k]), f"{key}_time": float(r.t[k])}
     return {**head, "first_infeasible": _first_infeasible(r),
             "start_infeasible": start_violations(r),
             "max_tracking_error": float(err.max()) if err.size else 0.0,
             "worst_joint": None if worst is None else worst["joint"],
             "worst_effort_ratio": None if worst is None else worst["program_effort_ratio"],
-            "joints": joints}
+            **tool, "joints": joints}
 
 
 def _worst(joints: list[dict[str, Any]]) -> dict[str, Any] | None:
@@ -167,6 +204,19 @@ def _worst(joints: list[dict[str, Any]]) -> dict[str, Any] | None:
         return None
     return max(limited, key=lambda jd: (jd["program_beyond_no_load_speed"],
                                         jd["program_effort_ratio"] or 0.0))
+
+
+def limit_origin(jd: dict[str, Any]) -> str:
+    """The limit a limited joint's program effort ratio is taken against, and where it comes
+    from (``jd``: a joint of the summary): ``4000 N m limit``, or ``7.842 N m limit at
+    3.14 rad/s on its torque-speed curve (peak 150 N m)`` where the curve lowers the limit at
+    the program's speed."""
+    u = jd["effort_unit"]
+    text = f"{_g(jd['program_limit_at_ratio'])} {u} limit"
+    if jd["program_limit_source"] == "torque-speed curve":
+        text += (f" at {_g(jd['program_speed_at_ratio'])} {jd['velocity_unit']} on its "
+                 f"torque\u2013speed curve (peak {_g(jd['effort_limit'])} {u})")
+    return text
 
 
 def _g(x: float) -> str:
@@ -213,11 +263,11 @@ def _shortfall(r: SimulationResult, s: dict[str, Any], worst: dict[str, Any] | N
         return (f"{worst['joint']} needs {_g(worst['program_effort_at_ratio'])} {u} at t = "
                 f"{worst['program_ratio_time']:.3f} s, where the program drives it beyond its "
                 "no-load speed (no effort left)")
-    if worst is not None and worst["program_effort_ratio"] > 1.0:
+    if (worst is not None and worst["program_effort_ratio"] > 1.0
+            and worst["program_first_over_time"] is not None):  # over by more than rounding
         u = EFFORT_UNIT[units[worst["joint"]]]
         return (f"{worst['joint']} needs {_g(worst['program_effort_at_ratio'])} {u}, "
-                f"{worst['program_effort_ratio']:.2f} {TIMES} its "
-                f"{_g(worst['program_limit_at_ratio'])} {u} limit, at t = "
+                f"{worst['program_effort_ratio']:.2f} {TIMES} its {limit_origin(worst)}, at t = "
                 f"{worst['program_ratio_time']:.3f} s (first over the limit at t = "
                 f"{worst['program_first_over_time']:.3f} s)")
     for jd in s["joints"]:

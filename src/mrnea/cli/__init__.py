@@ -7,6 +7,8 @@ lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper'
 ``mrnea retime [ROBOT] PROGRAM --out DIR`` gives a program the fastest timing the robot can make.
 ``mrnea sweep [ROBOT] PROGRAM... --grid GRID.toml`` runs every program on every robot variant of
 a grid, on Dask (docs/sweeps.md).
+``mrnea size [ROBOT] PROGRAM... --catalogue FILE`` chooses each joint's motor and gearbox from a
+catalogue (docs/sizing.md).
 
 ROBOT is a built-in name (sdt, puma560), a URDF or a native ``.toml`` robot file. PROGRAM is a
 program ``.toml`` file or a CSV of (time, q1..qn) (docs/programs.md). Bad input ends with one
@@ -20,7 +22,7 @@ fig3; :mod:`~mrnea.cli.retime`: retime; :mod:`~mrnea.cli.sweep`). A new command 
 of its own, imported below.
 """
 
-from mrnea.cli import info, paper, retime, run, sweep
+from mrnea.cli import info, paper, retime, run, size, sweep
 from mrnea.cli.base import main
 
-__all__ = ["info", "main", "paper", "retime", "run", "sweep"]
+__all__ = ["info", "main", "paper", "retime", "run", "size", "sweep"]

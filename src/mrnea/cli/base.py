@@ -3,6 +3,10 @@
 Every command module (``run``, ``info``, ``paper``...) adds its commands to :data:`main` with
 ``@main.command()`` and takes the shared options from here.
 
+Exit codes, one rule for every command: 0 achievable (a command without a verdict -- info,
+fig3, sweep -- done), 1 NOT ACHIEVABLE (the verdict of demo, simulate, check and retime, after
+their files are written: :func:`exit_with_verdict`), 2 bad input, 130 interrupted.
+
 Errors: every bad input ends the command with exactly one ``mrnea: error:`` line on stderr and
 exit code 2: an :class:`~mrnea.errors.MrneaError` or an OSError, click's usage errors (a missing
 argument, an unknown option or command, a bad value), and, as a last resort, any other exception
@@ -40,12 +44,17 @@ import click
 import numpy as np
 from numba.core import event as numba_event
 
+from mrnea.cartesian import CartesianPath
+from mrnea.cartesian import solve as solve_moves
 from mrnea.errors import MrneaError, clip, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
-from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.gridfile import DEMO_PROGRAM
+from mrnea.io.pathcsv import CSV_UNITS, INTERPOLATIONS
 from mrnea.io.payload import parse_payload, parse_vector
+from mrnea.io.program import Program
 from mrnea.io.source import parse_number
 from mrnea.model import Robot
+from mrnea.robots.sdt_profile import training_program
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report an interrupted command
@@ -107,10 +116,16 @@ def fail(message: str) -> NoReturn:
 
 
 def fresh_dir(base: str) -> Path:
-    """``base``, or ``base-2``, ``base-3``... : the first that does not exist or is empty."""
+    """A command's default output folder: ``base``, or ``base-2``, ``base-3``... , the first that
+    does not exist or is an empty folder. A symbolic link at a name (to a folder, empty or not,
+    or dangling) is never taken: it counts as used, as a file does, so that a link planted at
+    ``./mrnea-out`` is not written through (:func:`mrnea.io.writer.own_folder` refuses one that
+    appears between this choice and the run)."""
     for k in range(1, 10_000):
         p = Path(base if k == 1 else f"{base}-{k}")
-        if not os.path.lexists(p) or (p.is_dir() and not any(p.iterdir())):
+        if not os.path.lexists(p):
+            return p
+        if not p.is_symlink() and p.is_dir() and not any(p.iterdir()):
             return p
     raise click.ClickException(f"no free output folder next to {base}")
 
@@ -118,6 +133,17 @@ def fresh_dir(base: str) -> Path:
 def exit_interrupted() -> NoReturn:
     """End a command whose run was interrupted (its partial result already written)."""
     sys.exit(EXIT_INTERRUPTED)
+
+
+def exit_with_verdict(res: Any) -> NoReturn:
+    """End a command that simulated a run (:class:`mrnea.simulate.SimulationResult`), its
+    output written, by the one rule of every command: 0 achievable, 1 NOT ACHIEVABLE (a verdict,
+    not an error), 130 interrupted (the partial result written); bad input never gets here
+    (exit 2, :func:`fail`)."""
+    if not res.completed:
+        exit_interrupted()
+    checkpoint()  # a request after the run's last checkpoint
+    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
 class _Stop:
@@ -169,6 +195,9 @@ def _warnings_as_lines() -> Iterator[None]:
         if text not in seen:
             seen.add(text)
             click.echo(f"mrnea: warning: {text}", err=True)
+            hint = getattr(message, "hint", None)  # what to do, on its own line (MeshWarning)
+            if hint:
+                click.echo(f"mrnea: hint: {one_line(hint)}", err=True)
 
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
@@ -190,8 +219,34 @@ def _usage_line(exc: click.UsageError) -> str:
     return f"{where}{message} (see '{command} --help')"
 
 
+#: Every command's ``--help`` epilog stating its exit codes (:meth:`_Group.add_command` sets
+#: it): the commands whose answer is a verdict by name, every other one :data:`EXIT_DONE`.
+EXIT_CODES = {
+    "demo": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the demo's verdict, on purpose; the "
+            "files are written), 2 bad input, 130 interrupted (the partial result written).",
+    "simulate": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the verdict; the files are "
+                "written), 2 bad input, 130 interrupted (the partial result written).",
+    "check": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the verdict), 2 bad input, 130 "
+             "interrupted.",
+    "retime": "Exit code: 0 retimed and verified achievable, 1 NOT ACHIEVABLE (the "
+              "verification), 2 bad input or no timing found (the error says why), 130 "
+              "interrupted (nothing written).",
+    "sweep": "Exit code: 0 done (each row holds its own verdict), 2 bad input, 130 interrupted "
+             "(the rows done written).",
+    "size": "Exit code: 0 every joint sized and the sized robot verified achievable, 1 no "
+            "drive in the catalogue fits a joint (the files are written), 2 bad input, 130 "
+            "interrupted.",
+}
+EXIT_DONE = "Exit code: 0 done, 2 bad input, 130 interrupted."
+
+
 class _Group(click.Group):
-    """Turns every error into one line on stderr and exit code 2, interrupts into exit 130."""
+    """Turns every error into one line on stderr and exit code 2, interrupts into exit 130;
+    gives every command the epilog of its exit codes (:data:`EXIT_CODES`)."""
+
+    def add_command(self, cmd: click.Command, name: str | None = None) -> None:
+        cmd.epilog = EXIT_CODES.get(name or cmd.name or "", EXIT_DONE)
+        super().add_command(cmd, name)
 
     def main(self, args: Any = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True, **extra: Any) -> Any:
@@ -226,7 +281,7 @@ class _Group(click.Group):
             except (MrneaError, OSError) as exc:
                 if debug:
                     raise
-                fail(str(exc))
+                fail(getattr(exc, "cli", None) or str(exc))  # in the command line's words
             except MemoryError:
                 if debug:
                     raise
@@ -246,6 +301,10 @@ def main(debug: bool) -> None:
 
     Tells, cycle by cycle, which joint accelerations the actuators can achieve and simulates the
     motion the robot will really make.
+
+    Exit codes, every command: 0 achievable (or done, for info, fig3 and sweep), 1 NOT
+    ACHIEVABLE (a verdict: demo, simulate, check, retime), 2 bad input (one 'mrnea: error:'
+    line), 130 interrupted (a run writes its partial result first).
     """
 
 
@@ -326,25 +385,32 @@ class _Gravity(click.ParamType):
 
 
 def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """--actuators, --tip, --payload, --gravity: what changes the robot of a command that takes
-    one. The command receives them as one keyword, ``robot_options`` (a
+    """--actuators, --tip, --payload, --gravity, --package-path: what changes the robot of a
+    command that takes one. The command receives them as one keyword, ``robot_options`` (a
     :class:`~mrnea.io.RobotOptions`); they override a program file's keys of the same names."""
     @functools.wraps(command)
-    def wrapper(*args: Any, actuators: str | None, tip: str | None, payload: Any,
-                gravity: Any, **kw: Any) -> Any:
-        return command(*args, robot_options=RobotOptions(actuators, tip, payload, gravity), **kw)
+    def wrapper(*args: Any, actuators: str | None, tip: tuple[str, ...], payload: Any,
+                gravity: Any, package_path: tuple[str, ...], **kw: Any) -> Any:
+        tips = None if not tip else tip[0] if len(tip) == 1 else tuple(tip)
+        return command(*args, robot_options=RobotOptions(actuators, tips, payload, gravity,
+                                                         package_path or None), **kw)
 
     for option in reversed([
         click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
                      help="Sidecar actuator file (TOML: rotor inertia, gear, friction, "
                           "torque-speed curves per joint; docs/robot-format.md)."),
-        click.option("--tip", metavar="LINK",
-                     help="The URDF chain's last link (when the moving joints branch)."),
+        click.option("--tip", metavar="LINK", multiple=True,
+                     help="Keep the URDF's joints up to this link (a chain); repeated, the "
+                          "subtree holding all the tips (default: the whole tree)."),
         click.option("--payload", type=_Payload(), metavar="KG[@X,Y,Z]|FILE",
                      help="A payload fixed to the last link: a mass [kg] at a point [m] of the "
                           "last link's frame, or a TOML file with mass, com and inertia."),
         click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
                      help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
+        click.option("--package-path", "package_path", multiple=True, metavar="DIR",
+                     type=click.Path(file_okay=False),
+                     help="Where the URDF's package:// meshes are: a package's folder or one "
+                          "holding it (repeatable; $ROS_PACKAGE_PATH is also searched)."),
     ]):
         wrapper = option(wrapper)
     return wrapper
@@ -358,9 +424,21 @@ def load_robot_arg(robot: str, options: RobotOptions) -> Robot:
     return load_robot_spec(robot, options=options)
 
 
+def load_program_arg(program: str) -> Program:
+    """The program a command's PROGRAM argument names: ``demo`` (:data:`DEMO_PROGRAM`, the SDT
+    demo's training profile, as ``examples/sdt_training.toml``) or a program file (.toml)."""
+    return training_program() if program == DEMO_PROGRAM else load_program(program)
+
+
+units_opt = click.option(
+    "--units", type=click.Choice(list(CSV_UNITS)), default=None,
+    help="The joint columns of a CSV PROGRAM: rad (SI: rad, m) [default] or deg (degrees for "
+         "revolute joints, mm for prismatic ones); a program file sets it in [path].")
+
+
 def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
-    """[ROBOT] PROGRAM [--dt] [--interpolation] [--mode] [--catch-up] and the robot options:
-    what a command simulating a program takes (:func:`load_run` reads them)."""
+    """[ROBOT] PROGRAM [--dt] [--interpolation] [--units] [--mode] [--catch-up] and the robot
+    options: what a command simulating a program takes (:func:`load_run` reads them)."""
     for option in reversed([
         click.argument("robot", required=False, metavar="[ROBOT]"),
         click.argument("program", required=False, metavar="PROGRAM",
@@ -370,6 +448,7 @@ def program_args(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
                      help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic]; "
                           "a program file sets it in [path]."),
+        units_opt,
         mode_opt,
         catch_opt,
         robot_options,
@@ -388,15 +467,17 @@ class Run(NamedTuple):
     f_ext_point: np.ndarray | None  # (3,) [m] or None
     mode: str | None  # the program's mode, or None
     interpolation: str | None  # of a CSV path's rows; None for waypoints
+    cartesian: CartesianPath | None = None  # a Cartesian program's tool path and verdict
 
 
 def load_run(robot: str | None, program: str | None, dt: float | None,
-             interpolation: str | None, options: RobotOptions) -> Run:
+             interpolation: str | None, options: RobotOptions, units: str | None = None) -> Run:
     """The :class:`Run` the arguments :func:`program_args` declares describe: ``[ROBOT]
     PROGRAM``, a program file (which may name its robot) or a CSV path.
 
-    One argument is the program: it must name its robot. With both, ROBOT must be the robot
-    the program names, if it names one (:meth:`mrnea.io.Program.load_robot`, which also warns
+    One argument is the program: it must name its robot. ``demo`` is the SDT demo's training
+    profile (:func:`load_program_arg`). With both, ROBOT must be the robot the program names,
+    if it names one (:meth:`mrnea.io.Program.load_robot`, which also warns
     where a resampled CSV path leaves a limit its rows respect).
     """
     if program is None:
@@ -404,10 +485,14 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
     suffix = "" if program is None else Path(program).suffix.lower()
     if program is None:
         raise click.UsageError("Missing argument 'PROGRAM'.")
-    if robot is None and (suffix not in (".csv", ".toml") or (
+    if units is not None and suffix != ".csv":
+        raise click.UsageError("--units applies to a CSV PROGRAM; a program file sets 'units' in "
+                               "its [path]")
+    if robot is None and program != DEMO_PROGRAM and (suffix not in (".csv", ".toml") or (
             suffix == ".toml" and os.path.isfile(program) and not is_program_file(program))):
         raise click.UsageError(f"Missing argument 'PROGRAM' ({quote(program)} is taken as ROBOT: a "
-                               f"program is a .toml file with a [program] table or a path .csv)")
+                               f"program is a .toml file with a [program] table, a path .csv or "
+                               f"{DEMO_PROGRAM!r})")
     if suffix == ".csv":
         if dt is None:
             raise click.UsageError("a CSV program needs --dt (the cycle time to resample to)")
@@ -415,12 +500,13 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
             raise click.UsageError("a CSV program needs ROBOT (ROBOT PATH.csv --dt SECONDS)")
         rob = load_robot_spec(robot, options=options)
         interpolation = interpolation or "cubic"
-        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob)
+        _, q = from_csv(program, dt, interpolation=interpolation, robot=rob,
+                        units=units or "rad")
         return Run(rob, q, dt, None, None, None, interpolation)
-    if suffix != ".toml":
-        raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml) nor a "
-                               f"path CSV (.csv)")
-    prog = load_program(program)
+    if suffix != ".toml" and program != DEMO_PROGRAM:
+        raise click.UsageError(f"PROGRAM {program!r} is neither a program file (.toml), a "
+                               f"path CSV (.csv) nor {DEMO_PROGRAM!r} (the SDT demo's profile)")
+    prog = load_program_arg(program)
     if dt is not None and not np.isclose(dt, prog.dt):
         raise click.UsageError(
             f"--dt {dt} differs from the program's dt {prog.dt}; edit the program instead")
@@ -428,5 +514,7 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
         raise click.UsageError(
             f"--interpolation {interpolation} differs from the program's "
             f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
-    return Run(prog.load_robot(robot, options), prog.q_cmd, prog.dt, prog.f_ext,
-               prog.f_ext_point, prog.mode, prog.interpolation)
+    rob = prog.load_robot(robot, options)
+    prog = solve_moves(prog, rob)  # a Cartesian program's joint path (others: unchanged)
+    return Run(rob, prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode,
+               prog.interpolation, prog.cartesian)

@@ -7,8 +7,10 @@ csv, dt, the mode, the retimed wrench and the robot options the run used: ``mrne
 DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia goes to
 ``payload.toml`` beside it), ``summary.json`` (strict JSON:
 :meth:`mrnea.retime.RetimeResult.summary`) and ``report.html`` (the phase plane, the effort
-ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) during the retiming
-writes nothing; once it is done, the files are written together.
+ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) ends the command
+within about a second (the retiming calls :func:`mrnea.cli.base.checkpoint` between its solves
+and simulation chunks; the files are written with a checkpoint between each) and writes
+nothing: files this run had already written are removed again. Exit code 130.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import json
 import shlex
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,21 +29,25 @@ import click
 import numpy as np
 
 from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
     FRACTION,
     POSITIVE,
     checkpoint,
     compile_notice,
     force_opt,
     json_opt,
+    load_program_arg,
     load_run,
     main,
     mode_opt,
     no_3d_opt,
     quiet_opt,
     robot_options,
+    units_opt,
 )
 from mrnea.errors import MrneaError, RetimeError
-from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_program, resolve_robot
+from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
@@ -71,7 +78,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
     if options.actuators is not None:
         keys["actuators"] = str(Path(options.actuators).resolve())
     if options.tip is not None:
-        keys["tip"] = options.tip
+        keys["tip"] = options.tip if isinstance(options.tip, str) else list(options.tip)
     if options.payload is not None:
         keys["payload"] = _point_mass(options) or PAYLOAD
         if keys["payload"] == PAYLOAD:
@@ -101,6 +108,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
                    "PROGRAM needs it).")
 @click.option("--interpolation", type=click.Choice(list(INTERPOLATIONS)), default=None,
               help="How a CSV PROGRAM's rows are resampled to --dt [default: cubic].")
+@units_opt
 @mode_opt
 @robot_options
 @no_3d_opt
@@ -108,24 +116,28 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @quiet_opt
 @json_opt
 def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
-           dt: float | None, interpolation: str | None, mode: str, robot_options: RobotOptions,
+           dt: float | None, interpolation: str | None, units: str | None, mode: str,
+           robot_options: RobotOptions,
            no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
-    ROBOT may be left out when PROGRAM is a program file that names its robot; the robot
-    options override the program's. Writes retimed.csv, retimed.toml, summary.json and
-    report.html into --out.
+    PROGRAM is a program file (.toml), a path CSV (with --dt) or ``demo`` (the SDT demo's
+    training profile, as examples/sdt_training.toml). ROBOT may be left out when PROGRAM names
+    its robot; the robot options override the program's. Writes retimed.csv, retimed.toml,
+    summary.json and report.html into --out.
     """
-    from mrnea.report.retime import write_retime_report
+    # toppra and SciPy take 1-4 s to import: before the run owns its folder (the stop bound)
+    import mrnea.retime.toppra  # noqa: F401
     from mrnea.retime import retime as retime_program
 
     robot_arg, program_arg = (None, robot) if program is None else (robot, program)
     csv = (program_arg or "").lower().endswith(".csv")
-    run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options)
+    run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options,
+                   units)
     if csv:
         spec, options = _robot_spec(robot_arg), robot_options
     else:
-        prog = load_program(program_arg)
+        prog = load_program_arg(program_arg)
         spec = _robot_spec(robot_arg or prog.robot)
         options = robot_options.over(prog.options)
     t = np.arange(run.q_cmd.shape[0]) * run.dt
@@ -136,18 +148,11 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
             try:
                 res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
                                      margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                     mode=run.mode or mode)
+                                     mode=run.mode or mode, checkpoint=checkpoint)
             except RetimeError as exc:  # about the program: say which file it is
                 raise RetimeError(f"{program_arg}: {exc}") from None
-        checkpoint()
-        name = f"{Path(program_arg).stem}-retimed"
-        res.save_csv(paths[CSV], force)
-        res.save_program(paths[PROGRAM], spec, CSV, name=name,
-                         program_keys=_program_keys(options, folder, force), overwrite=force)
-        res.save_summary(paths[SUMMARY], force)
-        write_retime_report(res, paths[REPORT], force, files={
-            "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
-            "summary": paths[SUMMARY]}, view3d=not no_3d)
+        _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,
+               not no_3d)
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))
@@ -156,6 +161,40 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
                    f"{paths[REPORT]}")
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
+    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
+
+
+def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
+           name: str, force: bool, view3d: bool) -> None:
+    """Write the run's files, a checkpoint before each; a stop request removes the files this
+    run wrote so far (the command leaves all of them or none of its own)."""
+    from mrnea.report.retime import write_retime_report
+
+    payload = folder / PAYLOAD
+    before = payload.exists()
+    steps = [
+        (paths[CSV], lambda: res.save_csv(paths[CSV], force)),
+        (paths[PROGRAM], lambda: res.save_program(
+            paths[PROGRAM], spec, CSV, name=name,
+            program_keys=_program_keys(options, folder, force), overwrite=force)),
+        (paths[SUMMARY], lambda: res.save_summary(paths[SUMMARY], force)),
+        (paths[REPORT], lambda: write_retime_report(res, paths[REPORT], force, files={
+            "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
+            "summary": paths[SUMMARY]}, view3d=view3d)),
+    ]
+    written: list[Path] = []
+    try:
+        for path, write in steps:
+            checkpoint()
+            write()
+            written.append(path)
+            if path == paths[PROGRAM] and payload.exists() and not before:
+                written.append(payload)
+        checkpoint()
+    except KeyboardInterrupt:
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
 
 
 def _option_args(options: RobotOptions) -> list[str]:
@@ -165,7 +204,8 @@ def _option_args(options: RobotOptions) -> list[str]:
     if options.actuators is not None:
         args += ["--actuators", options.actuators]
     if options.tip is not None:
-        args += ["--tip", options.tip]
+        for t in (options.tip,) if isinstance(options.tip, str) else options.tip:
+            args += ["--tip", t]
     if options.payload is not None:
         args += ["--payload", _point_mass(options) or "FILE"]
     if options.gravity is not None:
@@ -173,21 +213,40 @@ def _option_args(options: RobotOptions) -> list[str]:
     return args
 
 
+def outside_limits(robot: Robot, q_cmd: np.ndarray, dt: float) -> str | None:
+    """Why no timing can help a path ``q_cmd`` (K, n) [rad | m] at ``dt`` [s]: the first joint
+    whose path starts outside its position limits, else the first that leaves them (retiming
+    keeps the path); None when it stays within them."""
+    lower, upper = robot.lower, robot.upper
+    outside = (q_cmd < lower) | (q_cmd > upper)
+    if not outside.any():
+        return None
+    k, i = (int(x) for x in np.argwhere(outside)[0])
+    j = robot.joints[i]
+    where = (f"joint '{j.name}' starts at {q_cmd[0, i]:.4g} {j.unit('q')}" if k == 0 else
+             f"joint '{j.name}' reaches {q_cmd[k, i]:.4g} {j.unit('q')} at t = {k * dt:.4g} s")
+    return (f"{where}, outside its position limits [{lower[i]:.4g}, {upper[i]:.4g}] "
+            f"{j.unit('q')}, and retiming keeps the path")
+
+
 def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
                options: RobotOptions, q_cmd: np.ndarray, dt: float, f_ext: np.ndarray | None,
                f_ext_point: np.ndarray | None, interpolation: str | None = None,
-               mode: str | None = None) -> str:
+               mode: str | None = None, units: str | None = None) -> str:
     """What ``check`` and ``simulate`` print under a program that is not achievable: the
     ``retime`` command with the same robot, program, robot options and run (a CSV program's
-    --dt [s] and --interpolation, a --mode the program file does not set), and the duration
-    uniform time scaling would give by Hollerbach's closed-form estimate on the program's own
-    requirement (or why no timing can help)."""
+    --dt [s], --interpolation and --units, a --mode the program file does not set), and the
+    duration uniform time scaling would give by Hollerbach's closed-form estimate on the
+    program's own requirement; or why no timing can help: a path that starts or goes outside a
+    joint's position limits (:func:`outside_limits`), a requirement no speed can meet."""
     from mrnea.retime import scale_estimate
 
+    if (why := outside_limits(robot, q_cmd, dt)) is not None:
+        return f"No timing can make it achievable: {why}"
     program = program_arg or robot_arg or "PROGRAM"
     run = ["--dt", repr(float(dt))] if program.lower().endswith(".csv") else []
     run += [*(["--interpolation", interpolation] if interpolation else []),
-            *(["--mode", mode] if mode else [])]
+            *(["--units", units] if units else []), *(["--mode", mode] if mode else [])]
     args = [*([robot_arg] if robot_arg and program_arg else []), program, "--out",
             f"{Path(program).stem}-retimed", *run, *_option_args(options)]
     T = (q_cmd.shape[0] - 1) * dt

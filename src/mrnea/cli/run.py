@@ -3,13 +3,16 @@
 ``demo`` and ``simulate`` own their output folder for the run (:func:`mrnea.io.writer.own_folder`:
 a second run into the same folder refuses), refuse existing output files without ``--force``
 before any work, stream the per-cycle table to ``cycles.csv`` and then write ``summary.json``,
-the figures and ``report.html``. An interrupted run (Ctrl-C, SIGTERM) writes the same files for
-the cycles done, says so, and exits 130; so does ``check``, which writes nothing. The run stops
-at the end of the chunk of cycles it is computing (:func:`mrnea.cli.base.checkpoint`).
+the figures and ``report.html``. All three exit by one rule
+(:func:`mrnea.cli.base.exit_with_verdict`): 0 achievable, 1 NOT ACHIEVABLE, once the files are
+written. An interrupted run (Ctrl-C, SIGTERM) writes the same files for the cycles done, says
+so, and exits 130; so does ``check``, which writes nothing. The run stops at the end of the
+chunk of cycles it is computing (:func:`mrnea.cli.base.checkpoint`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -19,12 +22,11 @@ import numpy as np
 
 from mrnea import robots
 from mrnea.cli.base import (
-    EXIT_ACHIEVABLE,
     EXIT_NOT_ACHIEVABLE,
     POSITIVE,
     checkpoint,
     compile_notice,
-    exit_interrupted,
+    exit_with_verdict,
     fd_opt,
     force_opt,
     fresh_dir,
@@ -45,7 +47,7 @@ TABLE, SUMMARY, REPORT = "cycles.csv", "summary.json", "report.html"
 
 def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
          f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool,
-         out: Path | None = None, force: bool = False):
+         out: Path | None = None, force: bool = False, cartesian=None):
     """Simulate with a progress bar; with ``out``, stream the per-cycle table to cycles.csv.
 
     A stop request (Ctrl-C, SIGTERM) ends the simulation after the current chunk of cycles: the
@@ -67,7 +69,8 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
 
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
-                       stream=None if out is None else out / TABLE, overwrite=force)
+                       stream=None if out is None else out / TABLE, overwrite=force,
+                       cartesian=cartesian)
     if not res.completed:
         click.echo(f"mrnea: interrupted after {res.K} cycles; writing the partial result.",
                    err=True)
@@ -112,6 +115,26 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
             click.echo(f"Report: {report}")
 
 
+def _print_cartesian(path, quiet: bool) -> None:
+    """A Cartesian program's verdict on its tool path, when the robot cannot follow it (on
+    stderr: the dynamics' verdict follows on stdout; the command then exits 1)."""
+    if path is not None and not path.achievable and not quiet:
+        click.echo(f"Tool path: {path.verdict()}", err=True)
+
+
+def _cartesian_verdict(path, as_json: bool, quiet: bool) -> None:
+    """``check``'s answer for a Cartesian program the robot cannot follow: the first finding
+    (all of them with --json); the dynamics are not simulated on a path the robot cannot
+    take."""
+    if as_json:
+        click.echo(json.dumps({"achievable": False, "verdict": path.verdict(),
+                               "cartesian_findings": [dataclasses.asdict(f)
+                                                      for f in path.findings]},
+                              indent=2, allow_nan=False))
+    elif not quiet:
+        click.echo(path.verdict())
+
+
 @main.command()
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-demo].")
@@ -128,7 +151,8 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
 
     The profile (spin-up, a fast cabin yaw turn, roll and pitch manoeuvres, spin-down) exceeds
     the yaw drive's torque: the report shows where, by how much, and the loads the bearings see.
-    Writes report.html, PNG figures, cycles.csv and summary.json, and the paper's Fig. 3.
+    Writes report.html, PNG figures, cycles.csv and summary.json, and the paper's Fig. 3. Its
+    program is PROGRAM 'demo' of the other commands (examples/sdt_training.toml).
     """
     from mrnea.report import fig3
     from mrnea.robots.sdt_profile import training_profile
@@ -142,24 +166,23 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)
     _print_result(res, report, as_json, quiet)
-    if not res.completed:
-        exit_interrupted()
+    exit_with_verdict(res)
 
 
 def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
              run: tuple, interpolation: str | None, mode: str, quiet: bool,
-             as_json: bool) -> None:
+             as_json: bool, units: str | None = None) -> None:
     """Under a completed run that is not achievable: the retime command and the duration
     uniform scaling would give (:func:`mrnea.cli.retime.suggestion`); command line only (stderr
     with --json), never in the summary. ``run``: what :func:`load_run` returned;
-    ``interpolation``, ``mode``: the command's options."""
+    ``interpolation``, ``mode``, ``units``: the command's options."""
     if quiet or not res.completed or res.achievable is not False:
         return
     from mrnea.cli.retime import suggestion
 
     rob, q_cmd, dt, f_ext, f_pt, prog_mode = run[:6]
     click.echo(suggestion(rob, robot, program, options, np.asarray(q_cmd), dt, f_ext, f_pt,
-                          interpolation, None if prog_mode or mode == "hybrid" else mode),
+                          interpolation, None if prog_mode or mode == "hybrid" else mode, units),
                err=as_json)
 
 
@@ -173,25 +196,31 @@ def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
 @quiet_opt
 @json_opt
 def simulate(robot: str | None, program: str | None, dt: float | None,
-             interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+             interpolation: str | None, units: str | None, mode: str, catch_up: float,
+             robot_options: RobotOptions,
              fd: str, out: str | None, no_3d: bool, force: bool, quiet: bool,
              as_json: bool) -> None:
     """Simulate PROGRAM on ROBOT and write the report, figures, CSV and summary.json.
 
-    ROBOT may be left out when the program file names its robot; given, it must be that robot.
-    The robot options override the program's keys of the same names.
+    PROGRAM is a program file (.toml), a path CSV (with --dt) or 'demo' (the SDT demo's
+    training profile). ROBOT may be left out when the program file names its robot; given, it
+    must be that robot. The robot options override the program's keys of the same names.
     """
-    run = load_run(robot, program, dt, interpolation, robot_options)
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run
+    run = load_run(robot, program, dt, interpolation, robot_options, units)
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run[:7]
+    _print_cartesian(run.cartesian, quiet or as_json)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
         check_new(_outputs(folder), force)
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
-                   force)
+                   force, run.cartesian)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
-    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
-    if not res.completed:
-        exit_interrupted()
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
+             units)
+    if res.completed and run.cartesian is not None and not run.cartesian.achievable:
+        checkpoint()
+        sys.exit(EXIT_NOT_ACHIEVABLE)  # the tool path cannot be followed, whatever the dynamics
+    exit_with_verdict(res)
 
 
 @main.command()
@@ -199,18 +228,22 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
 @quiet_opt
 @json_opt
 def check(robot: str | None, program: str | None, dt: float | None,
-          interpolation: str | None, mode: str, catch_up: float, robot_options: RobotOptions,
+          interpolation: str | None, units: str | None, mode: str, catch_up: float,
+          robot_options: RobotOptions,
           quiet: bool, as_json: bool) -> None:
-    """Print the verdict alone. Exit code 0: achievable, 1: not, 2: bad input, 130: interrupted.
+    """Print the verdict alone; write nothing.
 
-    ROBOT may be left out when the program file names its robot (as for simulate).
+    PROGRAM is a program file (.toml), a path CSV (with --dt) or 'demo'; ROBOT may be left out
+    when the program file names its robot (as for simulate).
     """
-    run = load_run(robot, program, dt, interpolation, robot_options)
-    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run
-    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet)
+    run = load_run(robot, program, dt, interpolation, robot_options, units)
+    rob, q_cmd, dt, f_ext, f_pt, prog_mode, _ = run[:7]
+    if run.cartesian is not None and not run.cartesian.achievable:
+        _cartesian_verdict(run.cartesian, as_json, quiet)
+        sys.exit(EXIT_NOT_ACHIEVABLE)
+    res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet,
+               cartesian=run.cartesian)
     _print_result(res, None, as_json, quiet)
-    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json)
-    if not res.completed:
-        exit_interrupted()
-    checkpoint()
-    sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
+    _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
+             units)
+    exit_with_verdict(res)

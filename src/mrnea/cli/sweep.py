@@ -10,7 +10,9 @@ before any work: the grid's entries against the robot (one error naming the grid
 entry), the output files (never replaced without ``--force``).
 
 Writes into DIR (the run owns it: :func:`mrnea.io.writer.own_folder`) ``sweep.csv``,
-``sweep.parquet`` when pyarrow is installed, and ``sweep.html``, then prints one line. Ctrl-C
+``sweep.parquet`` when pyarrow is installed (else one warning line says it is not written), and
+``sweep.html``, then prints one line. The files name each result column with its unit, as
+cycles.csv does (:func:`with_units`). Ctrl-C
 or SIGTERM stops the sweep at its next check (a quarter of a second at most): the rows done are
 written and the command exits 130.
 """
@@ -19,7 +21,9 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -29,6 +33,7 @@ from mrnea.cli.base import (
     exit_interrupted,
     force_opt,
     fresh_dir,
+    load_program_arg,
     main,
     quiet_opt,
     robot_options,
@@ -39,18 +44,34 @@ from mrnea.io import (
     RobotOptions,
     is_program_file,
     load_grid_file,
-    load_program,
     load_robot_spec,
     resolve_robot,
 )
 from mrnea.io.dispatch import same_robot
-from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
-from mrnea.robots.sdt_profile import training_program
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 CSV, PARQUET, HTML = "sweep.csv", "sweep.parquet", "sweep.html"
+
+
+def has_pyarrow() -> bool:
+    """Whether pandas can write sweep.parquet (pyarrow, the ``parquet`` extra, is optional)."""
+    return importlib.util.find_spec("pyarrow") is not None
+
+
+def with_units(df: pd.DataFrame, robot: Robot) -> pd.DataFrame:
+    """The sweep's rows as the files hold them: each result column with a unit named
+    ``<name> [<unit>]``, as cycles.csv's are (``peak_motor_torque.cab_yaw [N m]``,
+    ``duration [s]``); the parameter columns keep the grid's keys, so a row's parameters
+    still rebuild its robot (``mrnea.sweep.variant``)."""
+    from mrnea.sweep.rows import column_units
+
+    units = column_units(robot, [c for c in df.columns if c not in df.attrs.get("units", {})])
+    return df.rename(columns={c: f"{c} [{u}]" for c, u in units.items()})
 
 
 def _is_robot(arg: str) -> bool:
@@ -117,8 +138,8 @@ def _axes(value: str | None, option: str, keys: list[str], count: int) -> list[s
 @click.option("--out", type=click.Path(file_okay=False), default=None,
               help="Output folder [default: a fresh ./mrnea-sweep].")
 @click.option("--scheduler", default=None, metavar="ADDR",
-              help="A Dask scheduler, tcp://HOST:PORT [default: a local cluster, one worker "
-                   "process per core].")
+              help="A Dask scheduler, tcp://HOST:PORT, checked first: where none answers, one "
+                   "error within 12 s [default: a local cluster, one worker process per core].")
 @click.option("--workers", type=click.IntRange(1), default=None, metavar="N",
               help="Worker processes of the local cluster [default: the usable cores].")
 @click.option("--retime", is_flag=True, help="Also retime each run (column retimed_duration).")
@@ -142,6 +163,7 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     from mrnea.report.sweep import write_sweep_html
     from mrnea.sweep import check_grid, load_programs
     from mrnea.sweep import sweep as run_sweep
+    from mrnea.sweep.cluster import check_scheduler
 
     spec = load_grid_file(grid_file)
     robot_arg = args[0] if args and _is_robot(args[0]) else None
@@ -149,17 +171,22 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
     if not names:
         raise SweepError("no program: give PROGRAM files, or 'programs' in the grid file's "
                          "[sweep]")
-    programs = [training_program() if n == DEMO_PROGRAM else load_program(n) for n in names]
+    programs = [load_program_arg(n) for n in names]
     robot = _robot(robot_arg, spec.robot, programs, robot_options)
     programs = load_programs(programs, robot)  # each against the robot's joint count
     keys = list(spec.grid)
     try:
-        check_grid(robot, spec.grid, spec.zip)
+        check_grid(robot, spec.grid, spec.zip, programs)
     except SweepError as exc:
         raise SweepError(f"{spec.source}: {exc}") from None
     axes = _axes(map_axes, "--map", keys, 2)
     curve = _axes(curves, "--curves", keys, 1)
-    files = [CSV, *([PARQUET] if importlib.util.find_spec("pyarrow") else []), HTML]
+    if scheduler is not None:  # a scheduler there, before the folder and the first line
+        check_scheduler(scheduler)
+    files = [CSV, *([PARQUET] if has_pyarrow() else []), HTML]
+    if PARQUET not in files:
+        warnings.warn(f"{PARQUET} is not written: pyarrow is not installed (python -m pip "
+                      f"install 'mrnea[parquet]'); {CSV} holds the same rows", stacklevel=1)
     with own_folder(Path(out) if out else fresh_dir("mrnea-sweep")) as folder:
         check_new([folder / f for f in files], force)
         if not quiet:
@@ -184,12 +211,13 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         if not done:
             click.echo(f"mrnea: interrupted after {len(df)} of {df.attrs['cases']} rows; "
                        "writing them.", err=True)
+        table = with_units(df, robot)
         with create(folder / CSV, force) as fh:
-            df.to_csv(fh)
+            table.to_csv(fh)
         if PARQUET in files:
             checkpoint()
             with create(folder / PARQUET, force, binary=True) as fh:
-                df.to_parquet(fh)
+                table.to_parquet(fh)
         checkpoint()
         write_sweep_html(df, folder / HTML, robot.name, keys, axes and tuple(axes),
                          curve and curve[0], overwrite=force)

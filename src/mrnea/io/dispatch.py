@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -19,10 +20,12 @@ from numpy.typing import NDArray
 
 from mrnea.errors import ModelError, ModelWarning, RobotFileError, quote
 from mrnea.io import native, urdf
+from mrnea.io.mesh import find_package_file
 from mrnea.io.payload import Payload
 from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path
 from mrnea.model import Robot
+from mrnea.visual import Visual
 
 __all__ = ["BUILTIN_ROBOTS", "SUFFIXES", "RobotOptions", "flange_of", "load_builtin",
            "load_robot", "load_robot_spec", "resolve_robot", "same_robot"]
@@ -152,15 +155,20 @@ class RobotOptions:
     Attributes
     ----------
     actuators : the path of a sidecar actuator file (:func:`apply_actuator_file`), or None.
-    tip : the URDF chain's last link (:func:`mrnea.io.urdf.load_urdf`), or None.
+    tip : the URDF chain's last link, or several (the subtree holding them), or None (the
+        whole tree): :func:`mrnea.io.urdf.load_urdf`.
     payload : a :class:`~mrnea.io.payload.Payload` fixed to the last link, or None.
     gravity : (3,) gravity [m/s^2] in base coordinates replacing the robot's, or None.
+    package_path : folders where the robot file's ``package://`` mesh names not found at load
+        are looked for (:func:`with_package_path`; the command line's ``--package-path``), or
+        None.
     """
 
     actuators: str | None = None
-    tip: str | None = None
+    tip: str | tuple[str, ...] | None = None
     payload: Payload | None = None
     gravity: tuple[float, float, float] | None = None
+    package_path: tuple[str, ...] | None = None
 
     def over(self, other: RobotOptions) -> RobotOptions:
         """These options where they are set, ``other``'s elsewhere (the command line's over a
@@ -199,6 +207,8 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
                              f"this robot is a chain already")
     robot = (load_builtin(source) if source in BUILTIN_ROBOTS else
              load_robot(source, **({} if opt.tip is None else {"tip": opt.tip})))
+    if opt.package_path is not None:
+        robot = with_package_path(robot, opt.package_path)
     if opt.actuators is not None:
         robot = apply_actuator_file(robot, opt.actuators)
     try:
@@ -209,6 +219,22 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
     except ModelError as exc:
         raise RobotFileError(f"{source}: {exc}") from None
     return robot
+
+
+def with_package_path(robot: Robot, folders: Sequence[str | os.PathLike[str]]) -> Robot:
+    """``robot`` with each mesh named ``package://PKG/...`` that was not found when it was
+    loaded looked for in ``folders`` (each ``PKG`` itself or a folder holding it, in order,
+    before ``$ROS_PACKAGE_PATH`` had its turn at load); a name no folder holds stays as it was
+    (the report draws that link as a capsule, and says so)."""
+    dirs = [Path(f) for f in folders]
+
+    def found(visuals: tuple[Visual, ...]) -> tuple[Visual, ...]:
+        return tuple(dataclasses.replace(v, mesh=find_package_file(v.mesh, dirs))
+                     if v.kind == "mesh" and v.mesh else v for v in visuals)
+
+    links = [dataclasses.replace(lk, visuals=found(lk.visuals)) for lk in robot.links]
+    return Robot(robot.joints, links, gravity=robot.gravity, name=robot.name, base=robot.base,
+                 base_visuals=found(robot.base_visuals))
 
 
 def flange_of(source: str) -> NDArray | None:

@@ -3,7 +3,9 @@
 
 A robot is loaded without reading its meshes: a :class:`mrnea.visual.Visual` holds the path,
 and the report's 3D view reads the file when it draws the robot, with trimesh (a dependency,
-imported on the first mesh read, not with mrnea).
+imported on the first mesh read, not with mrnea; pyproject.toml also declares what trimesh
+imports for these formats: charset-normalizer for text that is not UTF-8, as the Latin-1 solid
+names of some CAD exports' ASCII STL files, and networkx).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from numpy.typing import NDArray
 from mrnea.errors import RobotFileError
 from mrnea.io.source import read_bytes, refused_prolog
 
-__all__ = ["MAX_MESH_FILE", "mesh_path", "read_mesh"]
+__all__ = ["MAX_MESH_FILE", "find_package_file", "mesh_path", "read_mesh"]
 
 #: Largest mesh file read [bytes] (a detailed CAD export is a few MB).
 MAX_MESH_FILE = 64 * 2**20
@@ -43,23 +45,35 @@ def mesh_path(filename: str, referrer: Path) -> str:
 def _resolve(filename: str, referrer: Path) -> str:
     here = referrer.resolve().parent
     if filename.startswith("package://"):
-        package, _, rest = filename[len("package://"):].partition("/")
         folders = [here, *here.parents]
         folders += [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep)
                     if p]
-        for folder in folders:
-            candidates = [folder / package / rest]
-            if folder.name == package:
-                candidates.insert(0, folder / rest)
-            for c in candidates:
-                if c.is_file():
-                    return str(c.resolve())
-        return filename
+        return find_package_file(filename, folders)
     if filename.startswith("file://"):
         filename = filename[len("file://"):]
     elif "://" in filename:
         return filename
     return str((here / Path(filename).expanduser()).resolve())  # an absolute path stays
+
+
+def find_package_file(filename: str, folders: list[Path]) -> str:
+    """The file a ``package://PKG/path`` name means, looked for in ``folders`` in order (each
+    ``PKG`` itself, or a folder holding ``PKG``); ``filename`` itself where none holds it (and
+    for a name that is not ``package://``)."""
+    if not filename.startswith("package://"):
+        return filename
+    package, _, rest = filename[len("package://"):].partition("/")
+    for folder in folders:
+        candidates = [folder / package / rest]
+        if folder.name == package:
+            candidates.insert(0, folder / rest)
+        try:
+            found = next((c for c in candidates if c.is_file()), None)
+        except (OSError, ValueError):  # a name the file system refuses
+            found = None
+        if found is not None:
+            return str(found.resolve())
+    return filename
 
 
 def read_mesh(path: str | os.PathLike[str]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

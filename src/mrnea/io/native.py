@@ -62,7 +62,7 @@ __all__ = ["dumps_native", "load_native", "loads_native", "native_flange", "writ
 _TOP_KEYS = ("robot", "joint")
 _ROBOT_KEYS = ("name", "gravity", "dh", "base", "base_visual")
 _COMMON_JOINT_KEYS = ("name", "type", "link", *JOINT_FIELDS)
-_ORIGIN_JOINT_KEYS = ("origin", "axis")
+_ORIGIN_JOINT_KEYS = ("origin", "axis", "parent")
 _DH_JOINT_KEYS = ("a", "alpha", "d", "theta")
 _ORIGIN_KEYS = ("xyz", "rpy", "rotation")
 _LINK_KEYS = ("name", "mass", "com", "inertia", "visual")
@@ -180,6 +180,7 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
     joints: list[Joint] = []
     links: list[Link] = []
     parent = base
+    link_of = {base: base}  # joint name (or the base) -> the link it moves (issue 25: trees)
     for i, entry in enumerate(entries, start=1):
         if not isinstance(entry, dict):
             raise check.error(f"joint #{i}", f"expected a table, got {quote(entry)}")
@@ -206,13 +207,19 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         origin = _origin(check, check.table(entry.get("origin", {}), where, "origin"), where)
         axis = check.vector(check.require(entry, "axis", where), where, "axis", 3)
         lname = link.pop("link_name")
+        if "parent" in entry:  # the joint whose link carries this one; default: the previous
+            named = check.string(entry["parent"], where, "parent")
+            if named not in link_of:
+                raise check.error(where, f"parent {quote(named)} is neither the base "
+                                         f"{quote(base)} nor an earlier joint")
+            parent = link_of[named]
         try:
             links.append(Link(lname, **link))
             joints.append(Joint(jname, jtype, parent, lname, origin=origin, axis=axis,
                                 **fields))
         except ModelError as exc:
             raise check.error(where, str(exc)) from None
-        parent = lname
+        parent = link_of[jname] = lname
     if dh:
         try:
             return (*dh_joint_chain(rows, dh, base=base), dh_tip_transform(rows, dh))
@@ -396,8 +403,12 @@ def dumps_native(robot: Robot) -> str:
              "[robot]", f"name = {_string(robot.name)}", f"base = {_string(robot.base)}",
              f"gravity = {_numbers(robot.gravity)}",
              *_visual_lines("base_visual", robot.base_visuals)]
-    for j, lk in zip(robot.joints, robot.links, strict=True):
+    for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True)):
+        p = robot.parents[i]
+        parent = [] if p == i - 1 else [  # a tree: the joint whose link carries this one
+            f"parent = {_string(robot.base if p < 0 else robot.joints[p].name)}"]
         lines += ["", "[[joint]]", f"name = {_string(j.name)}", f"type = {_string(j.type)}",
+                  *parent,
                   f"axis = {_numbers(j.axis)}", *_joint_field_lines(j),
                   "[joint.origin]", *_origin_lines(j.origin),
                   "[joint.link]", f"name = {_string(lk.name)}", f"mass = {_number(lk.mass)}",

@@ -39,7 +39,8 @@ from mrnea.resources import format_bytes, require_memory
 from mrnea.trajectory import cycles, require_path_memory
 from mrnea.validate import choice, time_step
 
-__all__ = ["INTERPOLATIONS", "from_csv", "limit_warnings", "read_table", "resample", "save_csv"]
+__all__ = ["CSV_UNITS", "DELIMITERS", "INTERPOLATIONS", "from_csv", "limit_warnings", "read_table",
+           "resample", "save_csv"]
 
 #: The interpolations of a path CSV's rows, by name, and what each one is (the report says it).
 INTERPOLATIONS = {
@@ -51,8 +52,46 @@ INTERPOLATIONS = {
 }
 
 
+#: The units of a path CSV's joint columns: SI, or degrees (revolute) and mm (prismatic).
+CSV_UNITS = {"rad": "rad for revolute joints, m for prismatic ones (SI)",
+             "deg": "degrees for revolute joints, mm for prismatic ones"}
+#: The column delimiters a path CSV may use, by name; the header row says which (the first of
+#: comma, semicolon, tab it holds, else runs of spaces).
+DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab", " ": "spaces"}
+
+
+def _delimiter(line: str) -> str:
+    """The delimiter of a header row (:data:`DELIMITERS`)."""
+    for d in (",", ";", "\t"):
+        if d in line:
+            return d
+    return " "
+
+
+def _rows(text: str):
+    """(line number, cells) of every line of a path CSV, split at the header row's delimiter
+    (a controller's log: space-, tab- or semicolon-separated); the delimiter is yielded first."""
+    delimiter = None
+    lines = text.splitlines()
+    for number, raw in enumerate(lines, start=1):
+        line = raw.strip(" \t\r")
+        if not line or line.startswith("#"):
+            continue
+        if delimiter is None:
+            delimiter = _delimiter(line)
+            yield delimiter
+        if delimiter == " ":
+            yield number, line.split()
+        else:
+            for cells in csv.reader([line], delimiter=delimiter):
+                yield number, [c.strip(" \t") for c in cells]
+
+
 def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64]]:
     """Header and (R, 1 + n) numeric rows of a path CSV, every cell checked.
+
+    The columns are separated by the header row's delimiter: a comma, else a semicolon, else a
+    tab, else runs of spaces (:data:`DELIMITERS`); every row must use it.
 
     Parameters
     ----------
@@ -82,21 +121,23 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
     header_line = 0
     values = array("d")
     rows = last_time = 0
-    reader = csv.reader(io.StringIO(text))
+    lines = _rows(text)
+    delimiter = next(lines, ",")
     try:
-        for cells in reader:
-            line = reader.line_num
-            cells = [c.strip(" \t") for c in cells]
-            if not any(cells) or cells[0].startswith("#"):
-                continue  # blank line or comment
+        for line, cells in lines:
             if header is None:
                 header, header_line = cells, line
-                _check_header(path, line, header, n)
+                _check_header(path, line, header, n, delimiter)
                 continue
             if len(cells) != len(header):
+                found = [name for d, name in DELIMITERS.items()
+                         if d != delimiter and d != " " and d in text.splitlines()[line - 1]]
                 raise ProgramFileError(
                     f"{path}: line {line} (data row {rows + 1}): expected {len(header)} "
-                    f"columns as in the header (line {header_line}), got {len(cells)}")
+                    f"columns separated by {DELIMITERS[delimiter]} as in the header (line "
+                    f"{header_line}), got {len(cells)}"
+                    + (f" (the row has a {found[0]}: one delimiter for the whole file)"
+                       if found else ""))
             for col, cell in enumerate(cells):
                 try:
                     v = parse_number(cell)
@@ -114,7 +155,7 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
             last_time = values[-len(cells)]
             rows += 1
     except csv.Error as exc:
-        raise ProgramFileError(f"{path}: line {reader.line_num}: not valid CSV: {exc}") from None
+        raise ProgramFileError(f"{path}: not valid CSV: {exc}") from None
     if header is None:
         raise ProgramFileError(f"{path}: empty file: expected a header row (time, then one column "
                                "per joint) and at least two data rows")
@@ -124,12 +165,14 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
     return header, np.frombuffer(values, dtype=np.float64).reshape(rows, len(header)).copy()
 
 
-def _check_header(path: Path, line: int, header: list[str], n: int | None) -> None:
+def _check_header(path: Path, line: int, header: list[str], n: int | None,
+                  delimiter: str = ",") -> None:
     """The header row's shape (its text is never quoted: the file may not be a CSV at all)."""
     if len(header) < 2:
         raise ProgramFileError(
             f"{path}: line {line}: the header row needs a time column and at least one "
-            f"joint column, got {len(header)} column (is this a path CSV file?)")
+            f"joint column, got {len(header)} column: expected the columns separated by a "
+            "comma, a semicolon, a tab or spaces (is this a path CSV file?)")
     if n is not None and len(header) != n + 1:
         raise ProgramFileError(
             f"{path}: line {line}: expected {n + 1} columns (time + {n} joints), the "
@@ -148,12 +191,15 @@ def from_csv(
     n: int | None = None,
     interpolation: str = "cubic",
     robot: Robot | None = None,
+    units: str = "rad",
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Read a path CSV (time, q1..qn) and resample it to the interpolation cycle dt.
 
     File layout: one header row (column names, free text), then one row per sample: time [s]
-    (strictly increasing, need not be uniform) and n joint positions [rad | m]. Cells may be
-    padded with spaces; blank lines and lines whose first cell starts with ``#`` are ignored.
+    (strictly increasing, need not be uniform) and n joint positions [rad | m], or with
+    ``units="deg"`` [deg | mm]. The columns are separated by commas, semicolons, tabs or spaces
+    (the header row's, :func:`read_table`). Cells may be padded with spaces; blank lines and
+    lines whose first cell starts with ``#`` are ignored.
 
     The rows are interpolated at ``t[k] = t_first + k dt`` from the first row's time to the
     last's (:func:`resample`): by default a cubic spline through every row, with the path's own
@@ -172,7 +218,11 @@ def from_csv(
     interpolation : ``"cubic"`` (default), ``"quintic"`` or ``"linear"`` (:data:`INTERPOLATIONS`).
     robot : the robot the path is for: its joint count is expected, and a
         :class:`mrnea.errors.PathWarning` names each joint whose interpolated path leaves the
-        robot's position limits while the rows stay within them (:func:`limit_warnings`).
+        robot's position limits while the rows stay within them (:func:`limit_warnings`), or
+        says that rows in rad that start outside the limits look like degrees.
+    units : ``"rad"`` (default: SI, rad or m) or ``"deg"``: the joint columns in degrees, and
+        with ``robot`` a prismatic joint's in mm (:data:`CSV_UNITS`; without ``robot`` every
+        column is taken as degrees).
 
     Returns
     -------
@@ -190,6 +240,7 @@ def from_csv(
     """
     dt = time_step(dt)
     choice("interpolation", interpolation, INTERPOLATIONS)
+    choice("units", units, CSV_UNITS)
     if robot is not None:
         if not isinstance(robot, Robot):
             raise StateError(f"robot: expected a mrnea.Robot or None, got {robot!r}")
@@ -200,6 +251,11 @@ def from_csv(
         raise StateError(f"n: expected a number of joints >= 1 or None, got {n!r}")
     p = as_path(path, "path", ProgramFileError)
     _, data = read_table(p, None if n is None else int(n))
+    if units == "deg":
+        prismatic = np.zeros(data.shape[1] - 1, dtype=bool) if robot is None else robot.is_prismatic
+        data[:, 1:] *= np.where(prismatic, 1e-3, np.pi / 180.0)
+    elif robot is not None:
+        degree_hint(robot, data, str(p))
     try:
         t, q = resample(data[:, 0], data[:, 1:], dt, interpolation, str(p))
     except StateError as exc:  # too many cycles for dt
@@ -276,6 +332,24 @@ def _spline(time: NDArray, y: NDArray, k: int, source: str = "path"):
     zero = [(d, 0.0) for d in range(1, m + 1)]
     return make_interp_spline(time, y, k=k, t=knots,
                               bc_type=(zero if rest[0] else None, zero if rest[1] else None))
+
+
+def degree_hint(robot: Robot, rows: NDArray, source: str) -> None:
+    """A :class:`mrnea.errors.PathWarning` when rows read in rad start outside a joint's
+    position limits and look like degrees: every revolute value within +-360 and some beyond a
+    turn (2 pi), which a joint path in rad rarely is. ``rows``: (R, 1 + n) time and positions."""
+    q0, revolute = rows[0, 1:], ~robot.is_prismatic
+    outside = np.flatnonzero((q0 < robot.lower) | (q0 > robot.upper))
+    values = np.abs(rows[:, 1:][:, revolute])
+    if outside.size == 0 or values.size == 0 or values.max() > 360.0 or values.max() <= 2 * np.pi:
+        return
+    i = int(outside[0])
+    warnings.warn(
+        f"{source}: the joint columns look like degrees (every value within ±360, up to "
+        f"{values.max():.4g}); read in rad, joint '{robot.joint_names[i]}' starts at "
+        f"{q0[i]:.4g}, outside its limits [{robot.lower[i]:.4g}, {robot.upper[i]:.4g}]: if the "
+        "file is in degrees (mm for prismatic joints), pass --units deg (Python: units=\"deg\")",
+        PathWarning, stacklevel=3)
 
 
 def limit_warnings(robot: Robot, t: NDArray, q: NDArray, rows: NDArray, interpolation: str,

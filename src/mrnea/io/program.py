@@ -29,6 +29,7 @@ from mrnea.io.dispatch import (
     resolve_robot,
     same_robot,
 )
+from mrnea.io.moves import Moves, read_moves
 from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
 from mrnea.io.payload import parse_payload
 from mrnea.io.source import as_path, read_text
@@ -77,14 +78,20 @@ class Program:
         :data:`mrnea.io.pathcsv.INTERPOLATIONS`); None for a waypoint path.
     csv_rows : (R, 1 + n) the CSV path's rows, time [s] and positions [rad | m]; None for a
         waypoint path.
+    moves : a Cartesian program's tool, q0 and ``[[move]]`` tables (:class:`mrnea.io.moves.Moves`);
+        None for a joint path. Such a program's ``t`` and ``q_cmd`` are None until
+        :func:`mrnea.cartesian.solve` makes them with the robot (``mrnea.load_program`` does).
+    cartesian : the solved Cartesian path (:class:`mrnea.cartesian.CartesianPath`: the programmed
+        tool pose of every cycle, the move it belongs to, the inverse kinematics' errors and the
+        verdict), kept alongside q_cmd; None for a joint path or before solving.
 
     The arrays are read-only.
     """
 
     robot: str | None
     dt: float
-    t: NDArray[np.float64]
-    q_cmd: NDArray[np.float64]
+    t: NDArray[np.float64] | None
+    q_cmd: NDArray[np.float64] | None
     f_ext: NDArray[np.float64] | None
     f_ext_point: NDArray[np.float64] | None
     mode: Literal["hybrid", "paper"] | None
@@ -94,16 +101,22 @@ class Program:
     csv: str | None = None
     interpolation: str | None = None
     csv_rows: NDArray[np.float64] | None = None
+    moves: Moves | None = None
+    cartesian: Any = None
 
     @property
     def K(self) -> int:
         """Number of cycles."""
+        if self.q_cmd is None:
+            raise StateError(f"{self.source or self.name}: a Cartesian program has no cycles "
+                             f"before its inverse kinematics: mrnea.cartesian.solve(program, "
+                             f"robot) (mrnea.load_program solves it)")
         return int(self.q_cmd.shape[0])
 
     @property
     def n(self) -> int:
         """Number of joints."""
-        return int(self.q_cmd.shape[1])
+        return self.moves.n if self.q_cmd is None else int(self.q_cmd.shape[1])
 
     @property
     def duration(self) -> float:
@@ -145,6 +158,7 @@ class Program:
         loaded = load_robot_spec(source, options=(options or RobotOptions()).over(self.options))
         if loaded.n != self.n:
             what = (f"its CSV path {self.csv} has {self.n} joint columns" if self.csv else
+                    f"[program] q0 has {self.n} joint values" if self.moves else
                     f"{self.n} joint values per waypoint")
             raise ProgramFileError(f"{where}: {what}, robot {shorten(loaded.name)} has "
                                    f"{loaded.n}")
@@ -161,8 +175,10 @@ class Program:
                            self.source or self.name)
 
 
-_TOP_KEYS = ("program", "path", "wrench")
-_PROGRAM_KEYS = ("name", "robot", "dt", "mode", "actuators", "tip", "payload", "gravity")
+_TOP_KEYS = ("program", "path", "wrench", "move")
+_PROGRAM_KEYS = ("name", "robot", "dt", "mode", "actuators", "tip", "payload", "gravity", "tool",
+                 "q0")
+_MOVE_KEYS = ("tool", "q0")  # [program] keys of a Cartesian program only
 _CSV_KEYS = ("csv", "units", "interpolation")
 _PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
               "dwell", "csv", "units", "interpolation")
@@ -187,8 +203,10 @@ def _options(check: TomlCheck, prog: Mapping[str, Any], base_dir: Path) -> Robot
     if "actuators" in prog:
         p = Path(check.string(prog["actuators"], where, "actuators")).expanduser()
         kw["actuators"] = str(p if p.is_absolute() else base_dir / p)
-    if "tip" in prog:
-        kw["tip"] = check.string(prog["tip"], where, "tip")
+    if "tip" in prog:  # one link, or several (a URDF tree's subtree holding them)
+        tip = prog["tip"]
+        kw["tip"] = (tuple(check.string(t, where, "tip") for t in tip)
+                     if isinstance(tip, list) and tip else check.string(tip, where, "tip"))
     if "payload" in prog:
         try:
             kw["payload"] = parse_payload(check.string(prog["payload"], where, "payload"),
@@ -353,6 +371,18 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     if mode is not None and mode not in MODES:
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
                                        f"got {quote(mode)}")
+    if "move" in doc:
+        if "path" in doc or "wrench" in doc:
+            raise check.error("", f"a program of [[move]] tables cannot have a "
+                                  f"[{'path' if 'path' in doc else 'wrench'}] table (its path is "
+                                  f"its moves; a wrench with moves is not supported yet)")
+        moves = read_moves(check, prog, doc["move"])
+        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=None,
+                       mode=mode, name=name, source=source, options=options, moves=moves)
+    for key in _MOVE_KEYS:
+        if key in prog:
+            raise check.error("[program]", f"'{key}' belongs to a program of [[move]] tables "
+                                           f"(Cartesian moves), not to a [path]")
     path = check.table(check.require(doc, "path", "top level"), "top level", "path")
     t, q, interpolation, rows = _path(check, path, dt, base)
     if q.shape[0] < 2:

@@ -27,8 +27,8 @@ def joint_fields(check: TomlCheck, table: Mapping[str, Any], where: str) -> dict
     """The limit and actuator fields (:data:`JOINT_FIELDS`) a table sets, as Joint keywords.
 
     Numbers, ``torque_speed`` a ``[peak, corner_speed, no_load_speed]`` triple,
-    ``coulomb_friction`` a number or a ``[positive direction, negative direction]`` pair; NaN is
-    refused.
+    ``coulomb_friction`` a number or a ``[positive direction, negative direction]`` pair,
+    ``efficiency`` a number or a ``[driving, back-driven]`` pair; NaN is refused.
     ``effort_limit`` alone sets a constant limit (``torque_speed = None``: it replaces a curve);
     given with ``torque_speed``, it must equal the curve's peak.
     """
@@ -39,7 +39,7 @@ def joint_fields(check: TomlCheck, table: Mapping[str, Any], where: str) -> dict
         if key == "torque_speed":
             out[key] = tuple(check.vector(table[key], where, key, 3).tolist())
             continue
-        if key == "coulomb_friction" and isinstance(table[key], list):  # [F+, F-]
+        if key in ("coulomb_friction", "efficiency") and isinstance(table[key], list):
             out[key] = tuple(check.vector(table[key], where, key, 2).tolist())
             continue
         out[key] = check.number(table[key], where, key)
@@ -61,6 +61,7 @@ def apply_actuator_file(robot: Robot, path: str | Path) -> Robot:
     ``gear_ratio``, ``rotor_inertia`` [kg m^2, motor side], ``viscous_friction``,
     ``coulomb_friction`` (a number, or ``[positive direction, negative direction]``),
     ``effort_limit``, ``torque_speed = [peak, corner_speed, no_load_speed]``,
+    ``efficiency`` (a number in (0, 1], or ``[driving, back-driven]``),
     ``velocity_limit``, ``lower``, ``upper``::
 
         [shoulder_pan_joint]

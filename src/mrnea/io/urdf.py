@@ -1,24 +1,34 @@
 """URDF reader.
 
-:func:`load_urdf` turns a URDF file into a validated serial :class:`mrnea.Robot`
+:func:`load_urdf` turns a URDF file into a validated :class:`mrnea.Robot`, a chain or a tree
 (:mod:`mrnea.io.urdf_writer` writes one back; :mod:`mrnea.io.urdf_visual` reads the
 ``<visual>`` elements). Only the Python standard library's :mod:`xml.etree.ElementTree` is used.
 
-How a URDF tree becomes a serial chain
---------------------------------------
+How a URDF tree becomes a Robot
+-------------------------------
 * The *root* is the one link that is no joint's child. Moving joints are ``revolute``,
   ``continuous`` and ``prismatic``; ``fixed`` joints are merged away; ``floating`` and ``planar``
   joints are not supported.
-* The *chain* is the path from the root to a *tip* link. Without ``tip``, the moving joints must
-  all lie on one root-to-leaf path, and the chain ends at the child of the last moving joint.
-* Each chain link carries everything rigidly attached to it: fixed-joint children (tool frames,
-  sensors, flanges), the links after the last moving joint, and, when ``tip`` is given, every
-  subtree that leaves the chain (its moving joints frozen at ``q = 0``). Masses add up; the centre
-  of mass is the mass-weighted mean; inertias are rotated into the chain link's frame and moved to
-  the combined centre of mass with the parallel-axis theorem. This is the same lumping Pinocchio
-  does for fixed joints and for :func:`pinocchio.buildReducedModel` with the locked joints at 0.
+* Without ``tip`` the whole tree loads: every moving joint is a degree of freedom, in
+  depth-first order from the root, children in the order of the file's ``<joint>`` elements.
+  ``tip`` (one link) keeps the path from the root to it: a chain; several tips keep the
+  subtree that holds their paths.
+* Each kept link carries everything rigidly attached to it: fixed-joint children (tool frames,
+  sensors, flanges), the links after its last moving joint, and, when ``tip`` is given, every
+  subtree that leaves the kept joints (its moving joints frozen at ``q = 0``). Masses add up;
+  the centre of mass is the mass-weighted mean; inertias are rotated into the kept link's frame
+  and moved to the combined centre of mass with the parallel-axis theorem. This is the same
+  lumping Pinocchio does for fixed joints and for :func:`pinocchio.buildReducedModel` with the
+  locked joints at 0.
+* A link joined to a kept link by fixed joints only keeps its frame there
+  (:attr:`mrnea.model.Link.frames`: its pose in the kept link's frame, Pinocchio's fixed-joint
+  frames), so a tool can be named by it (``panda_hand_tcp``, :mod:`mrnea.tool`).
 * Links before the first moving joint are part of the fixed base: their inertia is dropped, and
   the first moving joint's origin is expressed in the root link's frame.
+* ``<mimic>`` joints (a joint driven as a linear function of another: gripper fingers, coupled
+  joints) are refused when kept, the error naming the joint: leave it out with ``tip`` (its
+  links are then lumped, at ``q = 0``, into the link it hangs from). A coupled joint is not an
+  independent degree of freedom, and mrnea's drives and verdicts are per joint.
 
 Actuator data: ``<limit>`` gives position, velocity and effort limits, ``<dynamics damping
 friction>`` viscous and Coulomb friction, and a ``<transmission>``'s ``<mechanicalReduction>``
@@ -34,6 +44,7 @@ import re
 import sys
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -45,7 +56,7 @@ from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
 from mrnea.io.urdf_transmission import transmissions
 from mrnea.io.urdf_visual import materials, visuals
-from mrnea.model import DEFAULT_GRAVITY, Joint, Link, Robot
+from mrnea.model import DEFAULT_GRAVITY, Frame, Joint, Link, Robot
 from mrnea.rigid import combine_inertials, transform
 from mrnea.visual import Visual
 
@@ -260,19 +271,19 @@ def _tip_candidates(links: dict[str, _UrdfLink], paths: list[tuple[str, list[_Ur
 
 
 def load_urdf(
-    path: str | Path, tip: str | None = None, actuators: str | Path | None = None
+    path: str | Path, tip: str | Sequence[str] | None = None,
+    actuators: str | Path | None = None
 ) -> Robot:
-    """Load a URDF file as a serial :class:`mrnea.Robot`.
+    """Load a URDF file as a :class:`mrnea.Robot`: the whole tree, or the joints ``tip`` keeps.
 
     Parameters
     ----------
     path : str or Path
         The URDF file.
-    tip : str, optional
-        Name of the link that ends the chain. Needed only when the moving joints branch (a hand
-        with moving fingers, a humanoid); the error then lists the candidate tip links (at most
-        ten, those whose chain moves the most mass first). Subtrees
-        off the root-to-tip path are lumped, at ``q = 0``, into the chain link they hang from.
+    tip : str or sequence of str, optional
+        None: every moving joint (the whole tree, depth first). A link name: the chain from the
+        root to that link. Several: the subtree holding the paths to all of them. Subtrees
+        off the kept joints are lumped, at ``q = 0``, into the kept link they hang from.
     actuators : str or Path, optional
         A sidecar actuator file (TOML) for what URDF cannot say: rotor inertias, torque-speed
         curves, or overrides (:func:`mrnea.io.sidecar.apply_actuator_file`).
@@ -280,12 +291,14 @@ def load_urdf(
     Returns
     -------
     Robot
-        ``n`` moving joints, root to tip. Link frames are the URDF link frames of the chain links
-        (the children of the moving joints); joint origins [m, rad] are expressed in the previous
-        chain link's frame (the root link's frame for the first joint), composed with any fixed
-        joints in between. Masses [kg], centres of mass [m, link frame] and inertias [kg m^2,
-        about the com, link-frame axes] include everything rigidly attached. Gravity is
-        ``(0, 0, -9.81)`` m/s^2 (URDF has no gravity). The base is the root link.
+        ``n`` moving joints, depth first from the root (children in file order); each joint's
+        parent is the kept link it hangs from (``Robot.parents``). Link frames are the URDF link
+        frames of the kept links (the children of the kept joints); joint origins [m, rad] are
+        expressed in the parent kept link's frame (the root link's frame for a joint on the
+        base), composed with any fixed joints in between. Masses [kg], centres of mass [m, link
+        frame] and inertias [kg m^2, about the com, link-frame axes] include everything rigidly
+        attached. Gravity is ``(0, 0, -9.81)`` m/s^2 (URDF has no gravity). The base is the root
+        link.
 
     Notes
     -----
@@ -299,19 +312,20 @@ def load_urdf(
     without one). A chain joint in a coupled transmission (differential, several actuators)
     gets 1 and a :class:`UserWarning`; transmissions naming joints the file does not have are
     ignored. Masses and inertias are checked (``mass >= 0``, inertia symmetric positive
-    semi-definite) only for links that end up in the chain: the fixed base's links are dropped
+    semi-definite) only for links that are kept: the fixed base's links are dropped
     unchecked. The robot's name is ``<robot name>`` (the file's stem if absent).
 
     Raises
     ------
     RobotFileError
         The file cannot be read, is not XML, not a URDF, not a tree, has an unsupported element
-        (``floating``/``planar`` joints, a ``<mimic>`` joint on the chain) or non-physical
+        (``floating``/``planar`` joints, a kept ``<mimic>`` joint) or non-physical
         values; the message names the file and the element.
     """
     path = as_path(path, "path", RobotFileError)
-    if tip is not None and not isinstance(tip, str):
-        raise RobotFileError(f"tip: expected a link name (str) or None, got "
+    tips = () if tip is None else (tip,) if isinstance(tip, str) else tip
+    if not isinstance(tips, (tuple, list)) or not all(isinstance(t, str) for t in tips):
+        raise RobotFileError(f"tip: expected a link name (str), several, or None, got "
                              f"{type(tip).__name__} {quote(tip)}")
     if actuators is not None:
         actuators = as_path(actuators, "actuators", RobotFileError)
@@ -383,33 +397,35 @@ def load_urdf(
             link = j.parent
         return out[::-1]
 
-    # --- choose the chain --------------------------------------------------------------------
+    # --- choose the joints: all, or those on the paths to the tips ------------------------
     n_moving = sum(j.type in MOVING_TYPES for j in joints.values())
     if n_moving == 0:
         raise rd.error(f"robot {quote(robot_name)} has no moving joint")
-    if tip is None:
-        leaves = [name for name in order if not children[name]]
-        moving_on_path = {lf: [j for j in path_to(lf) if j.type in MOVING_TYPES] for lf in leaves}
-        full = [lf for lf in leaves if len(moving_on_path[lf]) == n_moving]
-        if not full:
-            candidates = _tip_candidates(links, [(lf, path_to(lf)) for lf in leaves])
-            raise rd.error(
-                f"the moving joints branch: choose the chain's last link with tip=<link name> "
-                f"(command line: --tip LINK); candidate tip links, heaviest chain first: "
-                f"{listing(candidates)}"
-            )
-        chain_path = moving_on_path[full[0]]
-    else:
-        if tip not in links:
-            raise rd.error(f"tip link {quote(tip)} does not exist")
-        chain_path = [j for j in path_to(tip) if j.type in MOVING_TYPES]
-        if not chain_path:
-            raise rd.error(f"the path from root link {quote(base)} to tip link {quote(tip)} has "
-                           "no moving joint")
+    kept = {j.name for j in joints.values() if j.type in MOVING_TYPES}
+    if tips:
+        kept = set()
+        for t in tips:
+            if t not in links:
+                raise rd.error(f"tip link {quote(t)} does not exist")
+            on_path = [j.name for j in path_to(t) if j.type in MOVING_TYPES]
+            if not on_path:
+                raise rd.error(f"the path from root link {quote(base)} to tip link {quote(t)} "
+                               "has no moving joint")
+            kept.update(on_path)
+    # depth first, children in file order (``order``): Robot's order, and Pinocchio's
+    chain_path = [parent_joint[name] for name in order[1:] if parent_joint[name].name in kept]
     chain = {j.name: i + 1 for i, j in enumerate(chain_path)}  # joint -> body index (1..n)
     for j in chain_path:
         if j.mimic:
-            raise rd.error(f"joint {quote(j.name)}: <mimic> joints are not supported on the chain")
+            leaves = [name for name in order if not children[name]]
+            candidates = _tip_candidates(links, [(lf, path_to(lf)) for lf in leaves
+                                                 if j not in path_to(lf)])
+            raise rd.error(
+                f"joint {quote(j.name)}: <mimic> joints (coupled to another joint) are not "
+                f"supported: keep the links whose paths avoid it with tip=<link name> "
+                f"(command line: --tip LINK, once per branch), and it is lumped at q = 0 into "
+                f"the link it hangs from" + (f"; candidate tip links, heaviest chain first: "
+                                             f"{listing(candidates)}" if candidates else ""))
 
     # --- lump every link into its chain body ---------------------------------------------------
     # body 0 is the fixed base; pose[name] is the link's frame in its body's frame (q = 0 for
@@ -419,14 +435,21 @@ def load_urdf(
     chain_origin: dict[str, NDArray] = {}
     parts: list[list[tuple[float, NDArray, NDArray]]] = [[] for _ in range(len(chain) + 1)]
     looks: list[list[Visual]] = [[] for _ in range(len(chain) + 1)]  # visuals, body frames
+    # the links joined to a chain link by fixed joints only keep their frames (a tool frame)
+    rigid = {base}
+    fixed_frames: list[list[Frame]] = [[] for _ in range(len(chain) + 1)]
     for name in order:
         if name != base:
             j = parent_joint[name]
             if j.name in chain:
                 chain_origin[j.name] = pose[j.parent] @ j.origin
                 body[name], pose[name] = chain[j.name], np.eye(4)
+                rigid.add(name)
             else:
                 body[name], pose[name] = body[j.parent], pose[j.parent] @ j.origin
+                if j.type == "fixed" and j.parent in rigid:
+                    rigid.add(name)
+                    fixed_frames[body[name]].append(Frame(name, pose[name]))
         looks[body[name]] += [v.moved(pose[name]) for v in links[name].visuals]
         if body[name] == 0:  # part of the fixed base: dropped, hence not validated either
             continue
@@ -438,7 +461,7 @@ def load_urdf(
     trans = transmissions(rd, root)
     robot_joints, robot_links = [], []
     coupled: dict[str, list[str]] = {}  # coupled transmission -> its chain joints
-    prev = base
+    kept_link = [base] + [j.child for j in chain_path]  # body index -> its link
     try:
         for i, j in enumerate(chain_path, start=1):
             kw = dict(j.fields)
@@ -448,10 +471,11 @@ def load_urdf(
                     coupled.setdefault(tname, []).append(j.name)
                 else:
                     kw["gear_ratio"] = red
-            robot_joints.append(Joint(j.name, j.type, prev, j.child, chain_origin[j.name], **kw))
+            robot_joints.append(Joint(j.name, j.type, kept_link[body[j.parent]], j.child,
+                                      chain_origin[j.name], **kw))
             mass, com, inertia = combine_inertials(parts[i])
-            robot_links.append(Link(j.child, mass, com, inertia, tuple(looks[i])))
-            prev = j.child
+            robot_links.append(Link(j.child, mass, com, inertia, tuple(looks[i]),
+                                    tuple(fixed_frames[i])))
         robot = Robot(robot_joints, robot_links, DEFAULT_GRAVITY, name=robot_name, base=base,
                       base_visuals=looks[0])
     except ModelError as exc:  # Joint/Link/Robot errors name the joint or link: add the file

@@ -46,20 +46,22 @@ _FLAGS = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
 _NO_HARD_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK, errno.ENOSYS}
 
 
-def _refusal(path: Path, overwrite: bool) -> str | None:
-    """Why ``path`` may not be written (None if it may)."""
+def _refusal(path: Path, overwrite: bool) -> OutputError | None:
+    """Why ``path`` may not be written (None if it may), in the library's words and the
+    command line's (:class:`~mrnea.errors.MrneaError` ``cli``)."""
     try:
         st = os.lstat(path)
     except FileNotFoundError:
         return None
     except OSError as exc:
-        return f"{path}: cannot write: {exc.strerror}"
+        return OutputError(f"{path}: cannot write: {exc.strerror}")
     if stat.S_ISDIR(st.st_mode):
-        return f"{path} is a directory; name a file to write"
+        return OutputError(f"{path} is a directory; name a file to write")
     if overwrite:
         return None
-    what = " (a symbolic link)" if stat.S_ISLNK(st.st_mode) else ""
-    return f"{path} exists{what}; pass overwrite=True (CLI: --force) to replace it"
+    what = f"{path} exists" + (" (a symbolic link)" if stat.S_ISLNK(st.st_mode) else "")
+    return OutputError(f"{what}; pass overwrite=True to replace it",
+                       cli=f"{what}; add --force to replace it")
 
 
 def check_new(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False) -> None:
@@ -75,9 +77,9 @@ def check_new(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False) 
     if isinstance(paths, (str, bytes, os.PathLike)):
         raise OutputError(f"paths: expected a list of file paths, got one: {quote(paths)}")
     for p in paths:
-        reason = _refusal(as_path(p, "path", OutputError), overwrite)
-        if reason:
-            raise OutputError(reason)
+        refusal = _refusal(as_path(p, "path", OutputError), overwrite)
+        if refusal:
+            raise refusal
 
 
 @contextlib.contextmanager
@@ -151,15 +153,15 @@ def _flag(value: object, name: str = "overwrite") -> bool:
 def _publish(tmp: Path, path: Path, overwrite: bool) -> None:
     """Move the finished temporary file to ``path`` (see the module docstring)."""
     if overwrite:
-        reason = _refusal(path, True)  # a directory may have appeared meanwhile
-        if reason:
-            raise OutputError(reason)
+        refusal = _refusal(path, True)  # a directory may have appeared meanwhile
+        if refusal:
+            raise refusal
         os.replace(tmp, path)
         return
     try:
         os.link(tmp, path, follow_symlinks=False)  # fails if anything is at path
     except FileExistsError:
-        raise OutputError(_refusal(path, False) or f"{path} exists") from None
+        raise (_refusal(path, False) or OutputError(f"{path} exists")) from None
     except OSError as exc:
         if exc.errno not in _NO_HARD_LINKS:
             raise
@@ -179,19 +181,25 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
     behind, harmless). A folder this call created is removed again if the block fails before
     writing anything into it (a bad program leaves no empty folder behind).
 
+    ``folder`` itself must not be a symbolic link (checked before and after creating it): the
+    files of a run are never written through a link, a planted one at a default folder's name
+    included.
+
     Raises
     ------
     OutputError
-        ``folder`` cannot be created, or another run holds it.
+        ``folder`` is a symbolic link, cannot be created, or another run holds it.
     """
     folder = as_path(folder, "folder", OutputError)
     created = not os.path.lexists(folder)
+    _refuse_link(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
         raise OutputError(f"{folder} exists and is not a folder") from None
     except OSError as exc:
         raise OutputError(f"{folder}: cannot create the output folder: {exc.strerror}") from None
+    _refuse_link(folder)  # a link planted between the check and mkdir
     lock = folder / LOCK_NAME
     fd = _lock(folder, lock)
     failed = True
@@ -205,6 +213,18 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
         if failed and created:
             with contextlib.suppress(OSError):
                 folder.rmdir()  # only if empty: nothing written, nothing lost
+
+
+def _refuse_link(folder: Path) -> None:
+    """An OutputError if ``folder`` (its last component) is a symbolic link: an output folder is
+    never written through one, whether the user named it or it is a command's default."""
+    if os.path.islink(folder):
+        try:
+            target = f" (to {quote(os.readlink(folder))})"
+        except OSError:
+            target = ""
+        raise OutputError(f"{folder} is a symbolic link{target}; mrnea never writes through a "
+                          "link: name a real folder (the link's target itself, if that is meant)")
 
 
 def _lock(folder: Path, lock: Path) -> int:

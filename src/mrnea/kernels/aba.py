@@ -26,6 +26,7 @@ from mrnea.kernels.layout import (
     PARALLEL,
     is_prismatic,
     own_scratch,
+    parent,
     pose_buffers,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
@@ -83,8 +84,9 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
             S[i, :3] = zi
             oz = cross(vec(o, i), zi)
             S[i, 3:] = oz
-        if i > 0:
-            v[i] = v[i - 1]
+        p = parent(model, i)
+        if p >= 0:
+            v[i] = v[p]
         for a in range(6):
             v[i, a] += S[i, a] * qd[i]
             tmp[a] = S[i, a] * qd[i]
@@ -131,8 +133,9 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
                 status = i
             D[i] = 1.0
         u[i] = tau[i] - sp
-        if i > 0:
-            # Ia = IA - U U^T / D; pa = pA + Ia c + U u / D
+        p = parent(model, i)
+        if p >= 0:
+            # Ia = IA - U U^T / D; pa = pA + Ia c + U u / D, added to the parent's
             for a in range(6):
                 for b in range(6):
                     IA[i, a, b] -= U[i, a] * U[i, b] / D[i]
@@ -140,25 +143,29 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
                 acc = pA[i, a] + U[i, a] * u[i] / D[i]
                 for b in range(6):
                     acc += IA[i, a, b] * cb[i, b]
-                pA[i - 1, a] += acc
+                pA[p, a] += acc
                 for b in range(6):
-                    IA[i - 1, a, b] += IA[i, a, b]
+                    IA[p, a, b] += IA[i, a, b]
     if status != OK:
         return status
 
-    # pass 3, base to tip: accelerations
-    acc_p = np.zeros(6)
+    # pass 3, base to tip: accelerations, each link's from its parent's (the base's: -g)
+    acc = np.zeros((n, 6))
     g = (model[0, 0], model[0, 1], model[0, 2])
-    acc_p[3], acc_p[4], acc_p[5] = -g[0], -g[1], -g[2]
     for i in range(n):
+        p = parent(model, i)
+        if p >= 0:
+            acc[i] = acc[p]
+        else:
+            acc[i, 3], acc[i, 4], acc[i, 5] = -g[0], -g[1], -g[2]
         for a in range(6):
-            acc_p[a] += cb[i, a]
+            acc[i, a] += cb[i, a]
         s = 0.0
         for a in range(6):
-            s += U[i, a] * acc_p[a]
+            s += U[i, a] * acc[i, a]
         qdd[i] = (u[i] - s) / D[i]
         for a in range(6):
-            acc_p[a] += S[i, a] * qdd[i]
+            acc[i, a] += S[i, a] * qdd[i]
     return OK if finite(qdd) else OVERFLOW
 
 

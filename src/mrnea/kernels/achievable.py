@@ -10,7 +10,10 @@ measured 3-6 % faster in the simulation loop (docs/design.md).
 
 The drive's law (kernels/drive.py): tau = H_a qdd + u'_a + phi (Eqs. 42-43), the effort limit at
 speed and set-valued Coulomb friction phi. One cycle is one exact solve of that law with the
-drives' limits (kernels/drive_solve.py), in either mode:
+drives' limits (kernels/drive_solve.py). The limits are the effort box at the
+state's speed (kernels/drive.py ``effort_box``: the gear's efficiency makes the driving and
+back-driven limits differ); ``limit`` reports the one on the side of the effort applied. The
+two modes:
 
 * PAPER (Eq. 44): every required effort is clamped to +-limit, and the accelerations follow.
 * HYBRID (Sec. II: "other joint accelerations keep their values obtained from the path
@@ -30,7 +33,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite
-from mrnea.kernels.drive import actuator_terms, coulomb, effort_limit
+from mrnea.kernels.drive import actuator_terms, beyond, coulomb, effort_box
 from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
 from mrnea.kernels.layout import (
     ACHIEVABLE,
@@ -72,30 +75,33 @@ def achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, 
 
     Fills qdd (achievable), tau (effort applied, joint side), phi (Coulomb friction: the
     sliding friction of a moving joint, the resolved one of a joint at rest), tau_req (effort
-    qdd_des needs), limit (effort limit at the current speed), sat (True where the joint is
+    qdd_des needs), limit (the effort limit at the current speed on the side of tau, with the
+    gear's efficiency: kernels/drive.py ``effort_box``), sat (True where the joint is
     saturated) and stuck (a joint at rest that static friction keeps there). ``ws``: an
     ``ACHIEVABLE`` scratch.
     """
     n = q.shape[0]
     if not finite(qdd_des):
         return NONFINITE
-    Ha, ua, Fp, Fn, _, v, rest = achievable_buffers(ws, n)
+    Ha, ua, Fp, Fn, _, v, rest, lower = achievable_buffers(ws, n)
     status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws)
     if status != OK:
         return status
     for i in range(n):
-        limit[i] = effort_limit(act, i, qd[i])
+        lower[i], limit[i] = effort_box(act, i, qd[i])
         rest[i] = 0.0
         if qd[i] == 0.0:  # at rest: set-valued friction
             Fp[i], Fn[i] = act[i, FPOS], act[i, FNEG]
         else:  # moving: sliding friction, Eq. 43's F_s sign(qd)
             Fp[i], Fn[i] = 0.0, 0.0
             ua[i] += coulomb(qd[i], act[i, FPOS], act[i, FNEG])
-    status = solve_cycle(Ha, ua, rest, qdd_des, 1.0, limit, Fp, Fn, mode, v, qdd, tau, phi,
-                         tau_req, sat, stuck, ws)
+    status = solve_cycle(Ha, ua, rest, qdd_des, 1.0, lower, limit, Fp, Fn, mode, v, qdd, tau,
+                         phi, tau_req, sat, stuck, ws)
     if status != OK:
         return status
     for i in range(n):
+        if tau[i] < 0.0:  # the limit the effort meets
+            limit[i] = lower[i]
         if qd[i] != 0.0:
             phi[i] = coulomb(qd[i], act[i, FPOS], act[i, FNEG])
             stuck[i] = False
@@ -121,21 +127,25 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, 
     n = q.shape[0]
     if not (finite(q_cmd) and finite(qd_cmd) and np.isfinite(dt)):
         return NONFINITE
-    Ha, ua, Fp, Fn, v_des, _, _ = achievable_buffers(ws, n)
+    Ha, ua, Fp, Fn, v_des, _, _, lower = achievable_buffers(ws, n)
     for i in range(n):
         flags = 0
         qc = q_cmd[i]  # read only: the caller's command is never modified
         vc = qd_cmd[i]
-        if vc > act[i, VLIM] or vc < -act[i, VLIM]:
-            vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
+        lo, hi, vlim = act[i, LOWER], act[i, UPPER], act[i, VLIM]
+        # beyond a limit by more than rounding (kernels/drive.py): the velocity is a difference
+        # of positions over dt, so its rounding scales with |q| / dt
+        vscale = vlim + (abs(qc) + abs(q[i])) / dt
+        if beyond(vc, vlim, vscale) or beyond(-vc, vlim, vscale):
+            vc = min(max(vc, -vlim), vlim)
             flags |= CLAMP_VELOCITY
-        if qc > act[i, UPPER]:  # approach the limit, do not pass it
-            vc = min(vc, (act[i, UPPER] - q[i]) / dt)
+        if beyond(qc, hi, abs(hi) + abs(qc)):  # approach the limit, do not pass it
+            vc = min(vc, (hi - q[i]) / dt)
             flags |= CLAMP_POSITION
-        elif qc < act[i, LOWER]:
-            vc = max(vc, (act[i, LOWER] - q[i]) / dt)
+        elif beyond(-qc, -lo, abs(lo) + abs(qc)):
+            vc = max(vc, (lo - q[i]) / dt)
             flags |= CLAMP_POSITION
-        if vc > act[i, VLIM] or vc < -act[i, VLIM]:  # coming back from past a limit
+        if beyond(vc, vlim, vscale) or beyond(-vc, vlim, vscale):  # coming back from past a limit
             vc = min(max(vc, -act[i, VLIM]), act[i, VLIM])
             flags |= CLAMP_VELOCITY
         clamp[i] = flags
@@ -145,14 +155,16 @@ def step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, 
     if status != OK:
         return status
     for i in range(n):
-        limit[i] = effort_limit(act, i, qd[i])
+        lower[i], limit[i] = effort_box(act, i, qd[i])
         Fp[i], Fn[i] = act[i, FPOS], act[i, FNEG]
-    status = solve_cycle(Ha, ua, qd, v_des, dt, limit, Fp, Fn, mode, qd_next, qdd, tau, phi,
-                         tau_req, sat, stuck, ws)
+    status = solve_cycle(Ha, ua, qd, v_des, dt, lower, limit, Fp, Fn, mode, qd_next, qdd, tau,
+                         phi, tau_req, sat, stuck, ws)
     if status != OK:
         return status
     for i in range(n):
         q_next[i] = q[i] + qd_next[i] * dt
+        if tau[i] < 0.0:  # the limit the effort meets
+            limit[i] = lower[i]
     return OK if finite(qd_next) and finite(tau) and finite(tau_req) else OVERFLOW
 
 

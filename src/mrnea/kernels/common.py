@@ -28,6 +28,7 @@ from mrnea.kernels.layout import (
     ROTC,
     ZAX,
     is_prismatic,
+    parent,
 )
 
 # --- 3-vector algebra on tuples -----------------------------------------------------------------
@@ -158,16 +159,24 @@ def put_mat(M, k, A):
 def kinematics(model, q, R, o, z, c, Ic):
     """Link poses in base coordinates: fills R, o, z, c, Ic (shapes in the module docstring).
 
-    ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)``. A revolute joint turns the joint frame about its
-    unit axis a by q_i: ``R_i = R_{i-1} (A + sin q_i A[a]x + (1 - cos q_i) A[a]x^2)``, a product
-    of exact rotations, so rounding does not compound along the chain. A prismatic joint moves
-    the origin by ``z_i q_i``. ``z_i = R_{i-1} (A a)``. Terms of a zero offset are skipped
-    (NOPOS, NOCOM).
+    ``T_i = T_{λ(i)} @ origin_i @ motion_i(q_i)``: the parent's pose is carried from the previous
+    link when λ(i) = i - 1 (always, on a chain), else read back from R, o (docs/notation.md).
+    A revolute joint turns the joint frame about its unit axis a by q_i:
+    ``R_i = R_{i-1} (A + sin q_i A[a]x + (1 - cos q_i) A[a]x^2)``, a product of exact rotations,
+    so rounding does not compound along the chain. A prismatic joint moves the origin by
+    ``z_i q_i``. ``z_i = R_{i-1} (A a)`` (``R_{λ(i)}`` on a tree). Terms of a zero offset are
+    skipped (NOPOS, NOCOM).
     """
     Rp = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # orientation of the parent (the base)
     op = (0.0, 0.0, 0.0)
     for i in range(q.shape[0]):
         r = i + 1
+        p = parent(model, i)
+        if p != i - 1:  # a later child: its parent's pose (the base's: the identity)
+            if p >= 0:
+                Rp, op = rot(R, p), vec(o, p)
+            else:
+                Rp, op = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0)
         zi = mvt(Rp, triple(model[r, ZAX:ZAX + 3]))
         oi = op if model[r, NOPOS] else add(op, mvt(Rp, triple(model[r, POS:POS + 3])))
         A = mat(model[r, ROT:ROT + 9])

@@ -16,8 +16,19 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from mrnea.kernels.common import add, cross, dot, finite, kinematics, mv, scale, sub, vec
-from mrnea.kernels.layout import ALLOC, MASS, force_buffers, is_prismatic, pose_arrays, pose_buffers
+from mrnea.kernels.common import add, cross, dot, finite, kinematics, mv, put, scale, sub, vec
+from mrnea.kernels.layout import (
+    ALLOC,
+    BRANCH,
+    JIT,
+    MASS,
+    carries,
+    force_buffers,
+    is_prismatic,
+    parent,
+    pose_arrays,
+    pose_buffers,
+)
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
@@ -41,34 +52,55 @@ def crba_bias(model, q, qd, fext, pe, H, u, ws):
     kinematics(model, q, R, o, z, c, Ic)
     f, nm = force_buffers(ws, n)  # the joint forces and moments, not needed here
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm)
+    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)
     composite(model, o, z, c, Ic, H)
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
+@nb.njit(**JIT)
+def join(J, r, M1, h1, C1, J2, r2, M2, h2, C2):
+    """Body 2 (mass M2, first moment h2 = M2 C2, inertia ``J2[r2]`` about its centre of mass C2)
+    joined to body 1 (M1, h1, C1, inertia ``J[r]``): ``J[r]`` becomes the inertia of the two
+    about their common centre of mass (parallel-axis theorem); returns its mass, first moment
+    and centre of mass."""
+    M_new = M1 + M2
+    C_new = scale(add(h1, h2), 1.0 / M_new) if M_new > 0.0 else C2
+    d_1 = sub(C1, C_new)
+    d_2 = sub(C2, C_new)
+    for a in range(3):
+        for b in range(3):
+            kron = 1.0 if a == b else 0.0
+            J[r, a, b] += (J2[r2, a, b]
+                           + M1 * (dot(d_1, d_1) * kron - d_1[a] * d_1[b])
+                           + M2 * (dot(d_2, d_2) * kron - d_2[a] * d_2[b]))
+    return M_new, add(h1, h2), C_new
+
+
 @nb.njit(**ALLOC)
 def composite(model, o, z, c, Ic, H):
-    """The composite-rigid-body recursion, given the kinematics of this state; fills H."""
+    """The composite-rigid-body recursion, given the kinematics of this state; fills H.
+
+    The composite body of the first child (j + 1) is carried, as on a chain; on a tree a later
+    child's is joined to its parent's stash (``Ms``, ``hs``, ``Js``, ``Cs``, by branch point)
+    and joined to the parent's composite at its step (docs/notation.md, Trees). H_ij = 0 unless
+    one of i, j carries the other.
+    """
     n = o.shape[0]
     Mc = 0.0  # composite mass
     hc = (0.0, 0.0, 0.0)  # composite first moment, sum m_k c_k
     Jc = np.zeros((1, 3, 3))  # composite inertia about the composite centre of mass
     Cc = (0.0, 0.0, 0.0)  # composite centre of mass
+    Ms = np.zeros(n)  # a tree's later children's composites, by parent
+    hs = np.zeros((n, 3))
+    Js = np.zeros((n, 3, 3))
+    Cs = np.zeros((n, 3))
     for j in range(n - 1, -1, -1):
         # add link j to the composite body (parallel-axis theorem about the new centre of mass)
         m = model[j + 1, MASS]
         cj = vec(c, j)
-        M_new = Mc + m
-        C_new = scale(add(hc, scale(cj, m)), 1.0 / M_new) if M_new > 0.0 else cj
-        d_old = sub(Cc, C_new)
-        d_j = sub(cj, C_new)
-        for a in range(3):
-            for b in range(3):
-                kron = 1.0 if a == b else 0.0
-                Jc[0, a, b] += (Ic[j, a, b]
-                             + Mc * (dot(d_old, d_old) * kron - d_old[a] * d_old[b])
-                             + m * (dot(d_j, d_j) * kron - d_j[a] * d_j[b]))
-        Mc, hc, Cc = M_new, add(hc, scale(cj, m)), C_new
+        Mc, hc, Cc = join(Jc, 0, Mc, hc, Cc, Ic, j, m, scale(cj, m), cj)
+        if model[j + 1, BRANCH]:  # the later children's, stashed
+            Mc, hc, Cc = join(Jc, 0, Mc, hc, Cc, Js, j, Ms[j], vec(hs, j), vec(Cs, j))
 
         # force and moment (about C_j) that a unit acceleration of joint j needs
         zj = vec(z, j)
@@ -79,10 +111,20 @@ def composite(model, o, z, c, Ic, H):
             F = scale(cross(zj, sub(Cc, vec(o, j))), Mc)
             Nc = mv(Jc, 0, zj)
         for i in range(j + 1):
-            zi = vec(z, i)
-            if is_prismatic(model, i):
-                h = dot(zi, F)
-            else:
-                h = dot(zi, add(Nc, cross(sub(Cc, vec(o, i)), F)))
+            h = 0.0  # unless joint i carries link j
+            if carries(model, i, j):
+                zi = vec(z, i)
+                if is_prismatic(model, i):
+                    h = dot(zi, F)
+                else:
+                    h = dot(zi, add(Nc, cross(sub(Cc, vec(o, i)), F)))
             H[i, j] = h
             H[j, i] = h
+        b = parent(model, j)
+        if b != j - 1:  # a later child: to its parent's stash; a leaf starts from nothing
+            if b >= 0:
+                Ms[b], hb, Cb = join(Js, b, Ms[b], vec(hs, b), vec(Cs, b), Jc, 0, Mc, hc, Cc)
+                put(hs, b, hb)
+                put(Cs, b, Cb)
+            Mc, hc, Cc = 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+            Jc[0] = 0.0

@@ -4,13 +4,15 @@ Usage: ``status = actuator_terms(model, act, q, qd, fext, pe, engine, Ha, ua, ws
 (n, n) and u'_a (n,) without the Coulomb term (``actuator_terms_batch(compiled, ...)``,
 ``compiled = (model, act)``, over a batch, with it); ``drive_effort(act, i, qd_i, qdd_i)``, the
 same terms of one joint; ``effort_limit(act, i, qd_i)`` (``effort_limits`` over a batch,
-``limit_tangents`` the curve's branches and slopes for a linearisation); the Coulomb friction
+``limit_tangents`` the curve's branches and slopes for a linearisation); the gear's efficiency,
+``effort_box(act, i, qd_i)`` (the lower and upper effort limits of a cycle), ``side_limit`` (the
+one an effort meets) and ``motor_side`` (``motor_torques`` over a batch); the Coulomb friction
 law, ``coulomb`` (a moving joint), ``holding_friction`` (a joint held at rest) and
 ``wanted_friction`` (a wanted motion). The actuator array ``act`` (n, NACT) as
 kernels/layout.py describes it: per joint, joint side, gear ratio G (motor turns per joint
 turn), rotor inertia J_m (motor side), viscous friction F_v, Coulomb friction F+ and F- (the
 magnitudes opposing positive and negative motion), the
-torque-speed curve and the joint limits.
+torque-speed curve, the joint limits and the gear efficiency eta (driving, back-driven).
 
 Actuator equation (Eqs. 42-43), joint side, on the rigid-body H and u' of one engine
 (kernels/engines.py)::
@@ -29,11 +31,35 @@ and friction share a holding effort h (only their difference is fixed): friction
 capacity first, the drive the rest, phi = ``holding_friction(h, F+, F-)`` = clip(-h, -F-, F+).
 The public u'_a (``actuator_terms_batch``, :mod:`mrnea.actuators`) adds ``coulomb(qd)``, the
 friction of a joint that moves on (0 at rest). The motor torque is tau / G
-(mrnea.actuators.motor_torque).
+(mrnea.actuators.motor_torque) with an ideal gear; with efficiency, below.
 
 Effort limit at speed |qd|: ``peak`` up to the corner speed, then the smaller of constant power
 ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the no-load
 speed; zero beyond it. A constant limit has corner = no-load = inf.
+
+Gear efficiency. The effort limit L above (``effort_limit``) is the ideal gear's, G times the
+motor's peak torque T_pk. A gear of efficiency eta loses power in the direction it flows: while
+the drive delivers power (effort and speed of the same sign) the joint gets eta_d G T_pk; while
+the load drives it back (braking: effort against the speed) the motor holds G T_pk / eta_b at
+the joint. A cycle knows its speed qd at its start, so its effort box is (``effort_box``)::
+
+    qd > 0:  -L / eta_b <= tau <= eta_d L      qd < 0:  -eta_d L <= tau <= L / eta_b
+    qd = 0:  -eta_d L <= tau <= eta_d L        (at rest the drive must deliver power)
+
+and the motor torque of a joint-side effort tau is (``motor_side``)::
+
+    tau / (G eta_d)   driving (tau qd >= 0: at rest, or effort and speed of the same sign)
+    tau eta_b / G     back-driven (tau qd < 0)
+
+eta = 1 (the default) gives the ideal gear's numbers bit for bit (x 1.0 and / 1.0 are exact).
+
+Limits and rounding: a value is over a limit (effort, velocity, position) only when it exceeds
+it by more than rounding, ``beyond(x, limit, scale)``: x > limit + LIMIT_RTOL * scale, with
+LIMIT_RTOL = 8 ulps of 1 (8 eps, 1.8e-15) and ``scale`` the magnitude of the quantities x is
+computed from (velocity: the limit and |q| / dt of the positions it is the difference of;
+position: the limit and |q|; effort: the limit and |tau_req|). A program planned exactly to a
+limit (a commanded speed of 2.0000000000000004 against 2.0) is within it; one over it by a real
+amount (1e-12 relative and more) is not.
 """
 
 from __future__ import annotations
@@ -44,6 +70,8 @@ import numpy as np
 from mrnea.kernels.engines import mass_matrix_bias
 from mrnea.kernels.layout import (
     CORNER,
+    ETAB,
+    ETAD,
     FNEG,
     FPOS,
     FV,
@@ -57,6 +85,16 @@ from mrnea.kernels.layout import (
     own_scratch,
 )
 from mrnea.kernels.status import OK
+
+LIMIT_RTOL = 8.0 * float(np.finfo(np.float64).eps)
+"""Relative tolerance of a limit comparison (module docstring, 'Limits and rounding')."""
+
+
+@nb.njit(**INLINE)
+def beyond(x, limit, scale):
+    """True if x exceeds limit by more than rounding: x > limit + LIMIT_RTOL * scale, ``scale``
+    >= 0 the magnitude of the quantities x and limit are computed from (inf: never beyond)."""
+    return x > limit + LIMIT_RTOL * scale
 
 
 @nb.njit(**INLINE)
@@ -80,6 +118,45 @@ def effort_limit(act, i, qd_i):
         return 0.0
     power, _, line, _ = curve_branches(act, i, w)
     return min(power, line)
+
+
+@nb.njit(**INLINE)
+def effort_box(act, i, qd_i):
+    """Joint i's effort box at speed qd_i, with the gear's efficiency (module docstring): the
+    magnitudes ``(lower, upper)`` of the limits on a negative and on a positive effort,
+    ``-lower <= tau <= upper``."""
+    L = effort_limit(act, i, qd_i)
+    drive, back = act[i, ETAD] * L, L / act[i, ETAB]
+    if qd_i > 0.0:
+        return back, drive
+    if qd_i < 0.0:
+        return drive, back
+    return drive, drive
+
+
+@nb.njit(**INLINE)
+def side_limit(act, i, qd_i, tau_i):
+    """The limit of joint i's effort box at speed qd_i on the side of the effort tau_i (the upper
+    one for tau_i >= 0): what tau_i is measured against."""
+    lower, upper = effort_box(act, i, qd_i)
+    return upper if tau_i >= 0.0 else lower
+
+
+@nb.njit(**INLINE)
+def motor_side(act, i, qd_i, tau_i):
+    """The motor torque of joint i's joint-side effort tau_i at speed qd_i (module docstring):
+    tau / (G eta_d) driving or at rest, tau eta_b / G back-driven."""
+    if tau_i * qd_i < 0.0:
+        return tau_i * act[i, ETAB] / act[i, GEAR]
+    return tau_i / (act[i, GEAR] * act[i, ETAD])
+
+
+@nb.njit(**JIT)
+def motor_torques(act, QD, TAU, out):
+    """``motor_side`` of every joint over a batch: out (B, n) from speeds QD and efforts TAU."""
+    for b in range(QD.shape[0]):
+        for i in range(QD.shape[1]):
+            out[b, i] = motor_side(act, i, QD[b, i], TAU[b, i])
 
 
 @nb.njit(**JIT)

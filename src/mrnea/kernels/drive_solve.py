@@ -1,8 +1,8 @@
 """One interpolation cycle solved exactly: effort limits and Coulomb friction (paper Secs. II
 and V, Eqs. 42-44).
 
-Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi,
-tau_req, sat, stuck, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py,
+Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau,
+phi, tau_req, sat, stuck, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py,
 ``drive_solve_buffers``).
 
 Everything is joint side. The cycle starts at speed qd [rad/s | m/s]; the drives hold the new
@@ -12,27 +12,33 @@ that this cycle resolves (kernels/drive.py; u'_a = u' + F_v qd, Eq. 43 without F
     H_a qdd + u'_a + phi = tau
     phi_i = F+_i (v_i > 0),  -F-_i (v_i < 0),  anything in [-F-_i, F+_i] (v_i = 0: stuck)
     HYBRID (Sec. II, speed-controlled drives, their velocity loops infinitely stiff):
-        tau_i = +L_i if v_i < v_des_i,  -L_i if v_i > v_des_i,  |tau_i| <= L_i if v_i = v_des_i
-    PAPER (Eq. 44): tau_i = clip(tau_req_i, -L_i, L_i), whatever v does
+        tau_i = +U_i if v_i < v_des_i,  -D_i if v_i > v_des_i,
+        -D_i <= tau_i <= U_i if v_i = v_des_i
+    PAPER (Eq. 44): tau_i = clip(tau_req_i, -D_i, U_i), whatever v does
 
-L_i is the effort limit at the cycle's speed (inf: none; 0: no drive). These are the optimality
-conditions of minimising the strictly convex (H_a is SPD) function
+[-D_i, U_i] = [-Llo_i, Lhi_i] is the effort box at the cycle's speed: the effort limit, scaled
+by the gear's efficiency on the side where the drive delivers power and on the side where it is
+driven back (kernels/drive.py ``effort_box``; D = U = L for an ideal gear). D_i, U_i >= 0, both
+inf (no limit) or both finite; D_i = U_i = 0: no drive. These are the optimality conditions of
+minimising the strictly convex (H_a is SPD) function
 
     f(v) = 1/2 (v - qd)^T H_a (v - qd) + dt u'_a^T v + dt sum_i g_i(v_i)
-    g_i(v) = L_i |v - v_des_i| + F+_i max(v, 0) + F-_i max(-v, 0)      HYBRID
-    g_i(v) = -tau_i v          + F+_i max(v, 0) + F-_i max(-v, 0)      PAPER
+    g_i(v) = U_i max(v_des_i - v, 0) + D_i max(v - v_des_i, 0)
+             + F+_i max(v, 0) + F-_i max(-v, 0)                       HYBRID
+    g_i(v) = -tau_i v + F+_i max(v, 0) + F-_i max(-v, 0)             PAPER
 
 (df/dv / dt = H_a qdd + u'_a + s, s_i in dg_i(v_i), s = phi - tau), so v is unique. Each g_i is
 convex and piecewise linear with at most two breakpoints, 0 (if F+ + F- > 0) and v_des_i
-(HYBRID, L_i > 0; merged when v_des_i = 0). A joint's *pattern* p says where v_i is: p = 2k on
+(HYBRID, D_i + U_i > 0; merged when v_des_i = 0). A joint's *pattern* p says where v_i is: p = 2k on
 the open piece k (slope sigma_k; piece k lies between breakpoints k - 1 and k), p = 2k + 1 held
 at breakpoint beta_k with s_i in [sigma_k, sigma_{k+1}]. Crossing a breakpoint moves p by one.
-In HYBRID, L_i = inf fixes v_i = v_des_i (slopes -inf, +inf).
+In HYBRID, D_i = U_i = inf fixes v_i = v_des_i (slopes -inf, +inf).
 
 Algorithm, a primal active-set method on this piecewise quadratic (W: held joints, F: free):
 
-0. tau_req (the program's requirement, below). HYBRID fast path: if every |tau_req_i| <= L_i,
-   v = v_des is optimal (its subgradient condition) and nothing is solved.
+0. tau_req (the program's requirement, below). HYBRID fast path: if every tau_req_i lies in
+   [-D_i, U_i] (up to rounding: kernels/drive.py ``beyond``), v = v_des is optimal (its
+   subgradient condition) and nothing is solved.
 1. Start: HYBRID v_i = v_des_i (qd_i without a drive), PAPER v = qd; each joint on the piece
    holding it, held where it sits on a breakpoint.
 2. Eq. 44 for the free joints, the held ones' accelerations known:
@@ -65,8 +71,9 @@ HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi
 (``holding_friction``). The program's requirement: tau_req = H_a qdd_des + u'_a + phi_des,
 qdd_des = (v_des - qd) / dt, phi_des = coulomb(v_des), and for v_des_i = 0 the same split
 (kernels/drive.py ``wanted_friction``).
-Flags: sat_i (HYBRID) v_i != v_des_i, the drive is at +-L_i and misses the program; (PAPER)
-|tau_req_i| > L_i. stuck_i: v_i == 0 exactly (friction holds the joint).
+Flags: sat_i (HYBRID) v_i != v_des_i, the drive is at U_i or -D_i and misses the program;
+(PAPER) tau_req_i outside [-D_i, U_i] by more than rounding. stuck_i: v_i == 0 exactly (friction
+holds the joint).
 """
 
 from __future__ import annotations
@@ -75,7 +82,7 @@ import math
 
 import numba as nb
 
-from mrnea.kernels.drive import coulomb, holding_friction, wanted_friction
+from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
 from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import CYCLE_LIMIT, OK
@@ -100,14 +107,22 @@ def _required(Ha, ua, qdd_des, i, v_des_i, Fp, Fn):
 
 
 @nb.njit(**INLINE)
-def _setup_joint(i, hybrid, v_des_i, L_i, Fp, Fn, tauc_i, bp, sl):
+def _over(tau_req_i, Llo_i, Lhi_i):
+    """tau_req_i outside the box [-Llo_i, Lhi_i] by more than rounding (kernels/drive.py
+    ``beyond``; for a symmetric box, |tau_req_i| over L_i)."""
+    scale = abs(tau_req_i)
+    return beyond(tau_req_i, Lhi_i, Lhi_i + scale) or beyond(-tau_req_i, Llo_i, Llo_i + scale)
+
+
+@nb.njit(**INLINE)
+def _setup_joint(i, hybrid, v_des_i, Llo_i, Lhi_i, Fp, Fn, tauc_i, bp, sl):
     """Breakpoints (sorted) and piece slopes of g_i; returns their number."""
-    if hybrid and L_i == math.inf:  # fixed to the program: held at v_des forever
+    if hybrid and Lhi_i == math.inf:  # fixed to the program: held at v_des forever
         bp[0, i] = v_des_i
         sl[0, i], sl[1, i] = -math.inf, math.inf
         return 1
     has_zero = Fp + Fn > 0.0
-    has_vdes = hybrid and L_i > 0.0
+    has_vdes = hybrid and Llo_i + Lhi_i > 0.0
     nb_, iz, iv = 0, 2, 2  # number of breakpoints; index of the breakpoint 0, of v_des (2: none)
     if has_zero and has_vdes and v_des_i == 0.0:  # merged
         bp[0, i] = 0.0
@@ -124,7 +139,8 @@ def _setup_joint(i, hybrid, v_des_i, L_i, Fp, Fn, tauc_i, bp, sl):
         nb_, iv = 1, 0
     for k in range(nb_ + 1):  # piece k lies above breakpoints 0..k-1
         fric = Fp if iz < k else -Fn  # slope of F+ max(v, 0) + F- max(-v, 0)
-        drive = (L_i if iv < k else -L_i) if hybrid else -tauc_i  # of L |v - v_des|, or -tau v
+        # of U max(v_des - v, 0) + D max(v - v_des, 0), or -tau v
+        drive = (Llo_i if iv < k else -Lhi_i) if hybrid else -tauc_i
         sl[k, i] = drive + fric
     return nb_
 
@@ -142,8 +158,8 @@ def _start(v0, nb_, i, bp):
 
 
 @nb.njit(**INTO)
-def solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req, sat,
-                stuck, ws):
+def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
+                sat, stuck, ws):
     """Solve one cycle exactly (module docstring). Returns OK, the joint index of a failed
     pivot of a free block of H_a (singular), or CYCLE_LIMIT.
 
@@ -154,8 +170,9 @@ def solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
     qd : (n,) velocity at the start of the cycle [rad/s | m/s].
     v_des : (n,) velocity the program wants over the next interval (qd + qdd_des dt).
     dt : cycle time [s] > 0.
-    L : (n,) effort limits at speed qd [N m | N]; inf = no limit (HYBRID: the joint is fixed to
-        the program; PAPER: not clamped); 0 = no drive.
+    Llo, Lhi : (n,) the effort box at speed qd [N m | N], -Llo <= tau <= Lhi, both >= 0
+        (kernels/drive.py ``effort_box``); both inf = no limit (HYBRID: the joint is fixed to
+        the program; PAPER: not clamped); both 0 = no drive.
     Fpos, Fneg : (n,) Coulomb friction magnitudes >= 0 against positive / negative motion.
     mode : PAPER or HYBRID.
     v, qdd, tau, phi, tau_req : (n,) out: new velocity (exactly 0 for a stuck joint, exactly
@@ -176,16 +193,16 @@ def solve_cycle(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
         v[i] = v_des[i]
         sat[i] = False
         stuck[i] = v_des[i] == 0.0
-        fast = fast and abs(tau_req[i]) <= L[i]
+        fast = fast and not _over(tau_req[i], Llo[i], Lhi[i])
     if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
         return OK
-    return _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
-                       sat, stuck, ws)
+    return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
+                       tau_req, sat, stuck, ws)
 
 
 @nb.njit(**INTO)
-def _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req, sat,
-                stuck, ws):
+def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
+                sat, stuck, ws):
     """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`; tau_req filled)."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
@@ -194,9 +211,12 @@ def _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
     # 1. breakpoints, slopes and the start point
     max_iter = 1
     for i in range(n):
-        tauc[i] = min(max(tau_req[i], -L[i]), L[i])  # Eq. 44's clamp (PAPER)
-        nbp[i] = _setup_joint(i, hybrid, v_des[i], L[i], Fpos[i], Fneg[i], tauc[i], bp, sl)
-        v[i] = v_des[i] if hybrid and L[i] > 0.0 else qd[i]
+        # Eq. 44's clamp (PAPER); a requirement within the limit up to rounding is given whole
+        tauc[i] = (min(max(tau_req[i], -Llo[i]), Lhi[i]) if _over(tau_req[i], Llo[i], Lhi[i])
+                   else tau_req[i])
+        nbp[i] = _setup_joint(i, hybrid, v_des[i], Llo[i], Lhi[i], Fpos[i], Fneg[i], tauc[i],
+                              bp, sl)
+        v[i] = v_des[i] if hybrid and Llo[i] + Lhi[i] > 0.0 else qd[i]
         pat[i] = _start(v[i], nbp[i], i, bp)
         if pat[i] % 2 == 1:
             qdd[i] = (v[i] - qd[i]) / dt
@@ -295,8 +315,8 @@ def _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
             if gain > worst_gain:
                 worst, worst_gain, worst_side = i, gain, dirn
         if worst < 0:
-            _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sat,
-                     stuck, tauc, pat)
+            _efforts(Ha, ua, v_des, Llo, Lhi, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req,
+                     sat, stuck, tauc, pat)
             return OK
         released, side, pat_from = worst, worst_side, pat[worst]
         pat[worst] += worst_side  # onto the piece its multiplier points to
@@ -304,8 +324,8 @@ def _active_set(Ha, ua, qd, v_des, dt, L, Fpos, Fneg, mode, v, qdd, tau, phi, ta
 
 
 @nb.njit(**INLINE)
-def _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sat, stuck, tauc,
-             pat):
+def _efforts(Ha, ua, v_des, Llo, Lhi, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sat, stuck,
+             tauc, pat):
     """tau, phi and the flags at the solution (module docstring, 'Efforts')."""
     n = v.shape[0]
     for i in range(n):
@@ -317,7 +337,7 @@ def _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sa
         if not hybrid:
             tau[i] = tauc[i]
         elif v[i] != v_des[i]:
-            tau[i] = L[i] if v[i] < v_des[i] else 0.0 - L[i]
+            tau[i] = Lhi[i] if v[i] < v_des[i] else 0.0 - Llo[i]
         if v[i] != 0.0:
             phi[i] = coulomb(v[i], Fpos[i], Fneg[i])
         elif not hybrid or v[i] != v_des[i]:  # stuck, the drive's effort known
@@ -325,6 +345,6 @@ def _efforts(Ha, ua, v_des, L, Fpos, Fneg, hybrid, v, qdd, tau, phi, tau_req, sa
         else:  # stuck on program: friction first, the drive the rest
             phi[i] = holding_friction(h, Fpos[i], Fneg[i])
         if hybrid and v[i] == v_des[i]:  # on program: the drive gives what it takes
-            tau[i] = min(max(h + phi[i], -L[i]), L[i])
-        sat[i] = v[i] != v_des[i] if hybrid else abs(tau_req[i]) > L[i]
+            tau[i] = min(max(h + phi[i], -Llo[i]), Lhi[i])
+        sat[i] = v[i] != v_des[i] if hybrid else _over(tau_req[i], Llo[i], Lhi[i])
         stuck[i] = v[i] == 0.0

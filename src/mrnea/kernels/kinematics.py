@@ -2,10 +2,11 @@
 
 Usage: ``frames(model, q, out, ws)`` fills ``out`` (n + 1, 4, 4) with the homogeneous poses of
 the base (the identity) and of every link frame in base coordinates, ``T_i = T_{i-1} @ origin_i
-@ motion_i(q_i)``: ``out[i + 1]`` is link i's ``[[R_i, o_i], [0, 1]]`` (the paper's D_i and
-p_i). ``jacobian(model, q, pe, J, ws)`` fills ``J`` (6, n): column k is the velocity ``[v; w]``
-[m/s; rad/s] of the point p = o_n + R_n pe, fixed to the last link (``pe=None``: its origin
-o_n), per unit rate of joint k, in base coordinates (rows linear then angular, Pinocchio's order)::
+@ motion_i(q_i)`` (``T_{λ(i)}`` on a tree): ``out[i + 1]`` is link i's ``[[R_i, o_i], [0, 1]]``
+(the paper's D_i and p_i). ``jacobian(model, q, pe, J, ws)`` fills ``J`` (6, n): column k is
+the velocity ``[v; w]`` [m/s; rad/s] of the point p = o_n + R_n pe, fixed to the last link
+(``pe=None``: its origin o_n), per unit rate of joint k, in base coordinates (rows linear then
+angular, Pinocchio's order)::
 
     revolute k:   v = z_k x (p - o_k),   w = z_k       (the paper's b_ik, Eq. 5, at the point p)
     prismatic k:  v = z_k,               w = 0
@@ -19,7 +20,15 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import cross, finite, kinematics, sub, tip_point, vec
-from mrnea.kernels.layout import ENTRY, JIT, PARALLEL, is_prismatic, own_scratch, pose_buffers
+from mrnea.kernels.layout import (
+    ENTRY,
+    JIT,
+    PARALLEL,
+    carries,
+    is_prismatic,
+    own_scratch,
+    pose_buffers,
+)
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
@@ -56,15 +65,24 @@ def frames(model, q, out, ws):
 def jacobian_ws(model, q, pe, J, ws):
     """The geometric Jacobian (6, n) of one state at the point pe of the last link (module
     docstring) into ``J``; a status."""
+    return link_jacobian_ws(model, q, q.shape[0] - 1, pe, J, ws)
+
+
+@nb.njit(**JIT)
+def link_jacobian_ws(model, q, t, pe, J, ws):
+    """As :func:`jacobian_ws` at the point pe of link t (0 <= t < n): column k is zero unless
+    joint k carries link t (on a tree: k in κ(t) ∪ {t}, docs/notation.md)."""
     n = q.shape[0]
     if not (finite(q) and finite(pe)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic)
-    p = tip_point(o, R, n, pe)  # o_n + R_n p_e, base coordinates
+    p = tip_point(o, R, t + 1, pe)  # o_t + R_t p_e, base coordinates
     for k in range(n):
         zk = vec(z, k)
-        if is_prismatic(model, k):
+        if k > t or not carries(model, k, t):
+            v, w = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        elif is_prismatic(model, k):
             v, w = zk, (0.0, 0.0, 0.0)
         else:
             v, w = cross(zk, sub(p, vec(o, k))), zk  # Eq. 5 at the point p

@@ -3,7 +3,8 @@ scratch they write (named slots), the Numba options they are compiled with and t
 single-state entries. The status codes are in ``status.py`` (no Numba there).
 
 Compiled model (:func:`compile_model`): one read-only float64 array of shape ``(n + 1, NCOL)``.
-Row 0 holds the gravity vector in ``[0:3]``; row ``i + 1`` describes joint ``i`` and link ``i``::
+Row 0 holds the gravity vector in ``[0:3]`` and, in ``[TREE]``, 1 for a tree (some λ(i) < i - 1),
+0 for a serial chain; row ``i + 1`` describes joint ``i`` and link ``i``::
 
     TYPE        0 revolute (and continuous), 1 prismatic (kernels ask :func:`is_prismatic`)
     ROT  (9)    origin rotation A, parent link frame -> joint frame, row-major
@@ -17,6 +18,18 @@ Row 0 holds the gravity vector in ``[0:3]``; row ``i + 1`` describes joint ``i``
     ZAX  (3)    A a, the joint axis in the parent link frame
     NOPOS       1 for a revolute joint whose POS is exactly zero: o_i is the parent's origin
     NOCOM       1 where COM is exactly zero: the centre of mass is the link frame's origin
+    PARENT      λ(i), the joint whose link carries link i (-1: the base); λ(i) = i - 1 on a chain
+    SUBEND      end of the subtree ν(i) = [i, SUBEND): k is an ancestor-or-self of i iff
+                k <= i < SUBEND(k) (:func:`carries`)
+    BRANCH      1 where link i has two children or more (its forward quantities are kept for
+                the later children, its backward sums stashed: docs/notation.md, Trees)
+    STASH       for a branch point, the first slot of its stash in ``column_stash`` (a stack,
+                laid out here by :func:`tree_columns`); -1 elsewhere
+    DEPTH       the number of joints carrying link i (0: hangs from the base); column k of a
+                stash is in slot STASH + DEPTH(k)
+
+Joints are in depth-first order from the base (``Robot`` checks it), so λ(i) < i and every
+subtree is a contiguous index range; the integer columns are stored as exact floats.
 
 NOPOS and NOCOM are the specialisation the paper's Sec. IV makes by hand for the SDT: terms with
 a zero offset vanish, and the kernels skip them (``compile_model(robot, specialise=False)``
@@ -29,11 +42,12 @@ for joint i (fields: :data:`mrnea.model.ACTUATOR_FIELDS`)::
     FPOS, FNEG  Coulomb friction F+, F- (magnitudes opposing positive, negative motion)
     PEAK, CORNER, NOLOAD   the torque-speed curve (a constant limit: CORNER = NOLOAD = inf)
     LOWER, UPPER, VLIM     position and velocity limits
+    ETAD, ETAB  gear efficiency driving, back-driven (kernels/drive.py ``effort_box``)
 
 The kernels that need both take them as one tuple, ``compiled = (model, act)``.
 
 Scratch (:func:`scratch`): the buffers of one state, the tuple ``(T, V, S, I)`` of 3x3 matrices
-T (2n, 3, 3), 3-vectors V (7n, 3), rows of n floats S and rows of n ints I. A kernel takes its
+T (2n, 3, 3), 3-vectors V (10n, 3), rows of n floats S and rows of n ints I. A kernel takes its
 buffers through the slot functions below (first-axis slices: no copy, no reshape), never by row
 arithmetic of its own; :func:`scratch` is told what the scratch is for (``POSE``, ``SOLVE``,
 ``ACHIEVABLE``) and allocates the rows those slots need (allocation costs time by the
@@ -44,9 +58,12 @@ holds because every kernel writes a slot before it reads it::
                                                                    kinematics.py's frames, J)
     mrnea_buffers     e, d, E, M = V[3n:7n]                        the mRNEA pass
     force_buffers     f, nm = V[3n:5n]                             the Newton-Euler passes
+    branch_buffers    w, wd, a = V[7n:10n]                         a tree's forward passes
+    stash_buffers     Sc, Sn = V[7n:9n]                            a tree's backward passes
+    column_stash      S[n:2n]                                      mRNEA's, on a tree
     effort_buffer     S[0]                                         reactions' efforts
     solve_buffers     H, L = S[:2n]; u', rhs = S[2n:2n + 2]         forward dynamics
-    achievable_buffers  H_a = S[:n]; S[3n:3n + 6]                  one cycle's problem
+    achievable_buffers  H_a = S[:n]; S[3n:3n + 6], S[3n + 15]      one cycle's problem
     drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
@@ -69,12 +86,14 @@ if TYPE_CHECKING:
 # --- the compiled model ---------------------------------------------------------------------------
 TYPE, ROT, POS, AXIS, MASS, COM, INER, ROTB, ROTC, ZAX, NOPOS, NOCOM = (
     0, 1, 10, 13, 16, 17, 20, 29, 38, 47, 50, 51)
-NCOL = 52
+PARENT, SUBEND, BRANCH, STASH, DEPTH = 52, 53, 54, 55, 56
+TREE = 3  # row 0: 1.0 for a tree
+NCOL = 57
 PRISMATIC = 1.0
 
 # --- the actuator array ---------------------------------------------------------------------------
-GEAR, JM, FV, FPOS, FNEG, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM = range(11)
-NACT = 11
+GEAR, JM, FV, FPOS, FNEG, PEAK, CORNER, NOLOAD, LOWER, UPPER, VLIM, ETAD, ETAB = range(13)
+NACT = 13
 
 # --- Numba options, set in one place: compiled code is cached on disk next to the sources --------
 # JIT: a kernel that allocates nothing runs without reference counting ("_nrt": False). Every
@@ -122,6 +141,53 @@ def is_prismatic(model, i):
     return model[i + 1, TYPE] == PRISMATIC
 
 
+@nb.njit(**INLINE)
+def parent(model, i):
+    """λ(i): the joint whose link carries link i (-1: the base)."""
+    return int(model[i + 1, PARENT])
+
+
+@nb.njit(**INLINE)
+def carries(model, k, i):
+    """Whether link k carries link i or is it (k in κ(i) ∪ {i}), given k <= i: i < SUBEND(k)."""
+    return i < model[k + 1, SUBEND]
+
+
+def tree_columns(parents: tuple[int, ...]) -> np.ndarray:
+    """``(n, 5)``: PARENT, SUBEND, BRANCH, STASH and DEPTH (layout above) of a depth-first
+    parent array.
+
+    The stashes of a backward pass form a stack: branch point b's opens when its last child is
+    done (the pass runs n - 1 -> 0) and closes at b's own step, and every stash opened in
+    between belongs to a branch point inside b's subtree, so it closes first. Each holds
+    DEPTH(b) + 1 slots (the columns k in κ(b) ∪ {b}) of 6 floats; at most about n^2 / 6 slots
+    are open at once (docs/notation.md, Trees), so the stack fits the n x n floats of
+    ``column_stash``.
+    """
+    n = len(parents)
+    end = list(range(1, n + 1))
+    count = [0] * n  # children
+    depth = [0] * n
+    for i in range(n):
+        if parents[i] >= 0:
+            depth[i] = depth[parents[i]] + 1
+            count[parents[i]] += 1
+    for i in range(n - 1, -1, -1):
+        if parents[i] >= 0:
+            end[parents[i]] = max(end[parents[i]], end[i])
+    stash, top = [-1] * n, 0
+    for i in range(n - 1, -1, -1):  # the backward pass's order
+        if count[i] > 1:  # b's step closes its stash, the top of the stack
+            top = stash[i]
+        b = parents[i]
+        if b >= 0 and b != i - 1 and end[i] == end[b]:  # b's last child done: b's stash opens
+            stash[b] = top
+            top += depth[b] + 1
+            assert 6 * top <= n * n  # the bound above
+    return np.array([[parents[i], end[i], float(count[i] > 1), stash[i], depth[i]]
+                     for i in range(n)], dtype=float)
+
+
 def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
     """Flatten a validated Robot into the ``(n + 1, NCOL)`` array described above.
 
@@ -129,6 +195,8 @@ def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
     """
     m = np.zeros((robot.n + 1, NCOL))
     m[0, :3] = robot.gravity
+    m[1:, PARENT:DEPTH + 1] = tree_columns(robot.parents)
+    m[0, TREE] = float(any(p != i - 1 for i, p in enumerate(robot.parents)))
     for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True), start=1):
         A = j.origin[:3, :3]
         ax = np.asarray(j.axis, dtype=float)
@@ -156,7 +224,7 @@ def compile_actuators(robot: Robot) -> np.ndarray:
     for i, j in enumerate(robot.joints):
         curve = j.torque_speed or (j.effort_limit, math.inf, math.inf)
         a[i] = (j.gear_ratio, j.rotor_inertia, j.viscous_friction, *j.coulomb_pair,
-                *curve, j.lower, j.upper, j.velocity_limit)
+                *curve, j.lower, j.upper, j.velocity_limit, *j.efficiency_pair)
     a.setflags(write=False)
     return a
 
@@ -172,7 +240,7 @@ BATCH_PAD = 8  # unused rows after each thread's scratch in a batch stack (``new
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
-        return 3 * n + 15, 4
+        return 3 * n + 16, 4
     if kind == SOLVE:
         return 2 * n + 2, 0
     return 1, 0  # POSE: S[0], the reactions' efforts
@@ -181,12 +249,12 @@ def scratch_rows(n, kind):
 @nb.njit(**ALLOC)
 def new_scratches(n, s_rows, i_rows, count, pad):
     """``count`` scratches with s_rows rows of S and i_rows of I (at least one each), stacked on
-    a leading axis: ``(T, V, S, I)`` of shapes (count, 2n + pad, 3, 3), (count, 7n + pad, 3),
+    a leading axis: ``(T, V, S, I)`` of shapes (count, 2n + pad, 3, 3), (count, 10n + pad, 3),
     (count, s + pad, n), (count, i + pad, n). The ``pad`` rows at the end of each scratch are
     never used: 8 of them keep the rows two threads write at least a cache line (64 bytes)
     apart, so that the threads of a batch do not take the same cache line from each other
     (false sharing: up to 1.5x the time of a 6-joint batch on two threads, measured)."""
-    return (np.empty((count, 2 * n + pad, 3, 3)), np.empty((count, 7 * n + pad, 3)),
+    return (np.empty((count, 2 * n + pad, 3, 3)), np.empty((count, 10 * n + pad, 3)),
             np.empty((count, max(s_rows, 1) + pad, n)),
             np.empty((count, max(i_rows, 1) + pad, n), dtype=np.int64))
 
@@ -256,6 +324,33 @@ def force_buffers(ws, n):
 
 
 @nb.njit(**INTO_CALLER)
+def branch_buffers(ws, n):
+    """w, wd, a (n, 3): a tree's forward pass keeps there, for each link with a second child,
+    its angular velocity, angular acceleration and its joint point's acceleration (the
+    later children read them: docs/notation.md, Trees). Unused on a chain."""
+    V = ws[1]
+    return V[7 * n:8 * n], V[8 * n:9 * n], V[9 * n:10 * n]
+
+
+@nb.njit(**INTO_CALLER)
+def stash_buffers(ws, n):
+    """Sc, Sn (n, 3): a tree's backward passes put the later children's force and moment
+    aside there, by branch point (the RNEA's f, n; mRNEA's E_c, n'_c: docs/notation.md, Trees).
+    Rows of ``branch_buffers``, free once the forward pass is done. Unused on a chain."""
+    V = ws[1]
+    return V[7 * n:8 * n], V[8 * n:9 * n]
+
+
+@nb.njit(**INTO_CALLER)
+def column_stash(ws, n):
+    """(n, n) floats: mRNEA's stash of a tree's later children's columns E_k, M_k, a stack of
+    6-float slots laid out by ``tree_columns`` (slot s: floats 6s .. 6s + 5, row-major). The L
+    slot of ``solve_buffers`` and the Hs slot of ``drive_solve_buffers``, both written after
+    the mRNEA pass; so mRNEA runs on a ``SOLVE`` or ``ACHIEVABLE`` scratch. Unused on a chain."""
+    return ws[2][n:2 * n]
+
+
+@nb.njit(**INTO_CALLER)
 def effort_buffer(ws):
     """(n,): the efforts of the Newton-Euler pass under the joint reactions (not returned)."""
     return ws[2][0]
@@ -271,11 +366,12 @@ def solve_buffers(ws, n):
 @nb.njit(**INTO_CALLER)
 def achievable_buffers(ws, n):
     """One cycle's problem (kernels/achievable.py): H_a (n, n) and the (n,) rows u'_a, F+, F-
-    (the Coulomb friction the solve resolves), v_des (the velocity wanted), v (the new one)
-    and rest (zeros: the start velocity of the one-state form)."""
+    (the Coulomb friction the solve resolves), v_des (the velocity wanted), v (the new one),
+    rest (zeros: the start velocity of the one-state form) and the magnitude of the lower
+    effort limit (kernels/drive.py ``effort_box``; the caller's ``limit`` holds the upper)."""
     S = ws[2]
     return (S[:n], S[3 * n], S[3 * n + 1], S[3 * n + 2], S[3 * n + 3], S[3 * n + 4],
-            S[3 * n + 5])
+            S[3 * n + 5], S[3 * n + 15])
 
 
 @nb.njit(**INTO_CALLER)

@@ -58,19 +58,46 @@ from mrnea.kernels.common import (
     wrench,
 )
 from mrnea.kernels.layout import (
+    BRANCH,
+    DEPTH,
     ENTRY,
+    INLINE,
     JIT,
     MASS,
     NOCOM,
     NOPOS,
+    STASH,
+    SUBEND,
+    carries,
+    column_stash,
     is_prismatic,
     mrnea_buffers,
+    parent,
     pose_buffers,
     solve_buffers,
+    stash_buffers,
 )
 from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import solve_forward
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
+
+
+@nb.njit(**INLINE)
+def slot(SC, t):
+    """3-vector t of the column stash ``SC`` (n, n), read as a flat row-major array."""
+    n = SC.shape[1]
+    f = 3 * t
+    return (SC[f // n, f % n], SC[(f + 1) // n, (f + 1) % n], SC[(f + 2) // n, (f + 2) % n])
+
+
+@nb.njit(**INLINE)
+def put_slot(SC, t, v):
+    """Writes 3-vector t of the column stash ``SC`` (as :func:`slot`)."""
+    n = SC.shape[1]
+    f = 3 * t
+    SC[f // n, f % n] = v[0]
+    SC[(f + 1) // n, (f + 1) % n] = v[1]
+    SC[(f + 2) // n, (f + 2) % n] = v[2]
 
 
 @nb.njit(**ENTRY)
@@ -114,7 +141,10 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
     # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
-    link_forces(model, o, z, c, Ic, qd, None, g, e, d)
+    link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws)
+    # a tree's later children put their sums aside here (docs/notation.md, Trees)
+    Sc, Sn = stash_buffers(ws, n)
+    SC = column_stash(ws, n)
 
     # backward pass: E sums and n' coefficients, tip to base
     # E_{i+1} starts as f_{n+1} = f_e, n'_{(i+1)c} as n_e
@@ -125,18 +155,33 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
         m_i = model[i + 1, MASS]
         l_i = sub(ci, oi)
         p_star = sub(p_next, oi)  # p*_i
+        # the first child i + 1 (on a chain, every link but the last has it); on a tree a leaf
+        # starts from zero sums (a later child's step cleared them)
+        first = i < n - 1 and parent(model, i + 1) == i
         # Sec. IV's simplifications: terms with p*_i = 0 (o_{i+1} = o_i, NOPOS) or l_i = 0
         # (NOCOM) vanish; at i = n-1 the a2, a3 terms do too (E_{(n+1)k} = 0: f_e has no qdd part)
-        has_p = i < n - 1 and not model[i + 2, NOPOS]
+        has_p = first and not model[i + 2, NOPOS]
         has_l = not model[i + 1, NOCOM]
-        if has_p:  # a2 (Eq. 25): p*_i x E_{(i+1)k}, k <= i+1
+        if has_p:  # a2 (Eq. 25): p*_i x E_{(i+1)k}, k <= i+1 (k in κ(i+1) ∪ {i+1} on a tree)
             for k in range(i + 2):
-                put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
-            if full:  # a3 (Eq. 26): p*_i x E_kk, k >= i+2
-                for k in range(i + 2, n):
+                if carries(model, k, i + 1):
                     put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
-        # a1 (Eq. 24): d_ik + l_i x e_ik, k <= i; and E_{ik} = E_{(i+1)k} + e_ik
+            if full:  # a3 (Eq. 26): p*_i x E_kk, k >= i+2 (in ν(i+1) on a tree)
+                for k in range(i + 2, int(model[i + 2, SUBEND])):
+                    put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
+        branch = model[i + 1, BRANCH]
+        if branch:  # the later children's columns k in κ(i) ∪ {i}, stashed at o_i
+            s0 = int(model[i + 1, STASH])
+            k = i
+            while k >= 0:
+                s = s0 + int(model[k + 1, DEPTH])
+                put(E, k, add(vec(E, k), slot(SC, 2 * s)))
+                put(M, k, add(vec(M, k), slot(SC, 2 * s + 1)))
+                k = parent(model, k)
+        # a1 (Eq. 24): d_ik + l_i x e_ik, k <= i (k in κ(i) ∪ {i}); and E_{ik} = E_{(i+1)k} + e_ik
         for k in range(i + 1):
+            if not carries(model, k, i):
+                continue
             zk = vec(z, k)
             if is_prismatic(model, k):
                 e_ik = scale(zk, m_i)  # Eqs. 5, 15
@@ -157,15 +202,48 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
             n_ic = add(n_ic, cross(p_star, E_c))
         n_c = add(n_c, n_ic)
         E_c = add(E_c, e_i)  # E_i
+        if branch:  # the later children's velocity parts, stashed at o_i
+            n_c, E_c = add(n_c, vec(Sn, i)), add(E_c, vec(Sc, i))
         # Eqs. 35-36: moments projected on the axis; forces for a prismatic joint
         prismatic = is_prismatic(model, i)
         C = E if prismatic else M
+        end = model[i + 1, SUBEND]
         for k in range(n if full else i + 1):
-            H[i, k] = dot(zi, vec(C, k))
+            # h_ik = 0 unless k carries i or i carries k (the latter: the full form only)
+            if carries(model, k, i) if k <= i else k < end:
+                H[i, k] = dot(zi, vec(C, k))
+            else:
+                H[i, k] = 0.0
             if not full:
                 H[k, i] = H[i, k]
         u[i] = dot(zi, E_c if prismatic else n_c)
         p_next = oi
+        b = parent(model, i)
+        if b != i - 1:
+            # a later child of b: its sums moved to o_b and put aside until b's step (b's last
+            # child opens b's stash: written, not added to), then a leaf starts from zero
+            if b >= 0:
+                ob = vec(o, b)
+                r = sub(oi, ob)
+                opens = model[i + 1, SUBEND] == model[b + 1, SUBEND]
+                n_b = add(n_c, cross(r, E_c))
+                put(Sc, b, E_c if opens else add(vec(Sc, b), E_c))
+                put(Sn, b, n_b if opens else add(vec(Sn, b), n_b))
+                s0 = int(model[b + 1, STASH])
+                k = b
+                while k >= 0:
+                    s = s0 + int(model[k + 1, DEPTH])
+                    Ek = vec(E, k)
+                    Mk = add(vec(M, k), cross(r, Ek))
+                    put_slot(SC, 2 * s, Ek if opens else add(slot(SC, 2 * s), Ek))
+                    put_slot(SC, 2 * s + 1, Mk if opens else add(slot(SC, 2 * s + 1), Mk))
+                    put(E, k, (0.0, 0.0, 0.0))
+                    put(M, k, (0.0, 0.0, 0.0))
+                    k = parent(model, k)
+                if full:  # its own columns, to o_b in place
+                    for k in range(i, int(model[i + 1, SUBEND])):
+                        put(M, k, add(vec(M, k), cross(r, vec(E, k))))
+            E_c, n_c = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     return OK if finite(H) and finite(u) else OVERFLOW
 
 

@@ -39,6 +39,7 @@ from mrnea.kernels.common import (
     wrench,
 )
 from mrnea.kernels.layout import (
+    BRANCH,
     ENTRY,
     JIT,
     MASS,
@@ -46,30 +47,44 @@ from mrnea.kernels.layout import (
     NOPOS,
     PARALLEL,
     ROT,
+    SUBEND,
+    branch_buffers,
     effort_buffer,
     force_buffers,
     is_prismatic,
     own_scratch,
+    parent,
     pose_buffers,
+    stash_buffers,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
-def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
     centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
 
     ``qdd=None`` means qdd = 0 (the velocity terms alone, as mRNEA needs them): Numba compiles
-    that case without the qdd terms.
+    that case without the qdd terms. On a tree, the parent's w, wd, a_o are carried from the
+    previous link when λ(i) = i - 1, else read back from the scratch ``ws``'s
+    ``branch_buffers``, where each link with a second child keeps them (docs/notation.md).
     """
+    n = qd.shape[0]
+    Wb, WDb, Ab = branch_buffers(ws, n)
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
     wd = (0.0, 0.0, 0.0)  # its angular acceleration
     a_o = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
-    for i in range(qd.shape[0]):
+    for i in range(n):
         zi, oi = vec(z, i), vec(o, i)
+        p = parent(model, i)
+        if p != i - 1:  # a later child: its parent's values (the base's: zero)
+            if p >= 0:
+                w, wd, a_o = vec(Wb, p), vec(WDb, p), vec(Ab, p)
+            else:
+                w, wd, a_o = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if not model[i + 1, NOPOS]:  # p*: from the parent's origin to o_i (zero: skipped)
-            p_star = sub(oi, vec(o, i - 1)) if i > 0 else oi
+            p_star = sub(oi, vec(o, p)) if p >= 0 else oi
             # acceleration of the point of the parent coinciding with o_i
             a_o = add(a_o, add(cross(wd, p_star), cross(w, cross(w, p_star))))
         if is_prismatic(model, i):
@@ -81,6 +96,10 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
             if qdd is not None:
                 wd = add(wd, scale(zi, qdd[i]))
             w = add(w, scale(zi, qd[i]))
+        if model[i + 1, BRANCH]:  # kept for the later children
+            put(Wb, i, w)
+            put(WDb, i, wd)
+            put(Ab, i, a_o)
         # Eq. 4: acceleration of the centre of mass
         a_cm = a_o
         if not model[i + 1, NOCOM]:
@@ -91,15 +110,19 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N):
 
 
 @nb.njit(**JIT)
-def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
+def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     """The two Newton-Euler passes, given the kinematics (R, o, z, c, Ic) of this state.
 
     ``g`` is the gravity 3-tuple (Walker-Orin's columns pass zero); ``qdd=None`` means zero.
     Fills tau, f, nm; f and nm first hold each link's F (Eq. 6) and N (Eq. 7), which the
     backward pass reads once, tip to base, before it writes the joint force and moment there.
+    On a tree (docs/notation.md, Trees) the first child's f, n are carried as on a chain, a
+    later child's are moved to its parent's point and stashed (``ws``'s ``stash_buffers``)
+    until the parent's step adds them (Eqs. 18-19 summed over the children).
     """
     n = qd.shape[0]
-    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm)
+    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws)
+    Sf, Sn = stash_buffers(ws, n)
 
     # backward pass: forces and moments, tip to base
     f_next, n_next = wrench(fext)  # f_{n+1} = f_e, n_{n+1} = n_e (Eqs. 10-11)
@@ -111,13 +134,28 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm):
         ni = add(n_next, vec(nm, i))  # Eq. 19: n_{i+1} + N_i + l_i x F_i + p*_i x f_{i+1}
         if not model[i + 1, NOCOM]:
             ni = add(ni, cross(sub(vec(c, i), oi), Fi))
-        if i == n - 1 or not model[i + 2, NOPOS]:  # p*_i = 0 where o_{i+1} = o_i
+        # p*_i x f_{i+1} with the first child i + 1 (p*_i = 0 where o_{i+1} = o_i); at the
+        # last link, the wrench's point
+        if i == n - 1 or (parent(model, i + 1) == i and not model[i + 2, NOPOS]):
             ni = add(ni, cross(sub(p_next, oi), f_next))
+        if model[i + 1, BRANCH]:  # the later children's, stashed at o_i
+            fi, ni = add(fi, vec(Sf, i)), add(ni, vec(Sn, i))
         put(f, i, fi)
         put(nm, i, ni)
         # Eq. 33: projection on the axis of motion (force for a prismatic joint)
         tau[i] = dot(vec(z, i), fi if is_prismatic(model, i) else ni)
         f_next, n_next, p_next = fi, ni, oi
+        b = parent(model, i)
+        if b != i - 1:  # a later child: to its parent's stash, moved to o_b; then a leaf next
+            if b >= 0:
+                n_b = add(ni, cross(sub(oi, vec(o, b)), fi))
+                if model[i + 1, SUBEND] == model[b + 1, SUBEND]:  # b's last child: opens it
+                    put(Sf, b, fi)
+                    put(Sn, b, n_b)
+                else:
+                    put(Sf, b, add(vec(Sf, b), fi))
+                    put(Sn, b, add(vec(Sn, b), n_b))
+            f_next, n_next = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
 
 
 @nb.njit(**JIT)
@@ -134,7 +172,7 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     if not pose_ready:
         kinematics(model, q, R, o, z, c, Ic)
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm)
+    newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws)
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 
@@ -165,7 +203,9 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
     f, nm = force_buffers(ws, n)
     for i in range(n):
         # joint frame: the parent's orientation times the origin rotation, D_{i-1} in Eq. 32
-        Rp = rot(R, i - 1) if i > 0 else (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+        # (D_{λ(i)} on a tree)
+        p = parent(model, i)
+        Rp = rot(R, p) if p >= 0 else (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
         Rj = mm(Rp, mat(model[i + 1, ROT:ROT + 9]))
         if is_prismatic(model, i):
             # moment about the joint frame's origin, o_i - z_i q_i: add (z_i q_i) x f_i

@@ -31,7 +31,8 @@ qdd_des = (qd_cmd[k+1] - qd_cmd[k]) / dt, h = ID(q_cmd[k], qd_cmd[k], qdd_des, f
 qdd_des + F_v qd_cmd[k] (the RNEA pass, Eq. 42's H_a qdd_des + u'_a without forming H_a), and
 the requirement h + phi_des with the friction of that motion (kernels/drive.py
 ``wanted_friction``), as the cycle's exact solve forms it; the effort limit at the program's
-speed.
+speed on the side of that requirement (kernels/drive.py ``side_limit``: with the gear's
+efficiency, the driving or the back-driven limit).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.achievable import step
-from mrnea.kernels.drive import drive_effort, effort_limit, wanted_friction
+from mrnea.kernels.drive import drive_effort, side_limit, wanted_friction
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import ACHIEVABLE, ALLOC, FNEG, FPOS, POSE, scratch
 from mrnea.kernels.rnea import reactions_ws, rnea_ws
@@ -101,4 +102,4 @@ def program_requirement(compiled, program, dt, friction, k0, k1, out, status):
             v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
             h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])
             req[k, i] = h + wanted_friction(h, v, act[i, FPOS], act[i, FNEG]) if friction else h
-            limit[k, i] = effort_limit(act, i, qd_cmd[k, i])
+            limit[k, i] = side_limit(act, i, qd_cmd[k, i], req[k, i])

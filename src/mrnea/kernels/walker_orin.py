@@ -32,14 +32,14 @@ def walker_orin(model, q, qd, fext, pe, H, u, ws):
     kinematics(model, q, R, o, z, c, Ic)
     f, nm = force_buffers(ws, n)
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm)
+    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)
     zero_n = np.zeros(n)
     unit = np.zeros(n)
     col = np.empty(n)
     for k in range(n):
         unit[k] = 1.0
         newton_euler(model, R, o, z, c, Ic, zero_n, unit, (0.0, 0.0, 0.0), None, None, col, f,
-                     nm)
+                     nm, ws)
         H[:, k] = col
         unit[k] = 0.0
     return OK if finite(H) and finite(u) else OVERFLOW

@@ -178,13 +178,13 @@ def peak(a: NDArray) -> float:
 
 
 def fit_ylim(ax: Axes, core: Sequence[NDArray],
-              optional: Sequence[tuple[str, NDArray]]) -> None:
+              optional: Sequence[tuple[str, NDArray]], unit: str = "") -> None:
     """Scale the y axis to ``core`` and to each ``optional`` series unless it would dwarf them.
 
     An optional series whose peak exceeds :data:`_OFF_SCALE` times the range so far (e.g. the
     one-cycle spike of required effort a velocity step in the program causes, or an effort limit
     of 1e9) is drawn clipped, scaled by its 99.5th percentile if that fits, and its peak is noted
-    in the corner of the axes.
+    in the corner of the axes, with ``unit`` (the axis' unit; "" for a ratio).
     """
     top = max((peak(a) for a in core), default=0.0)
     notes = []
@@ -201,7 +201,7 @@ def fit_ylim(ax: Axes, core: Sequence[NDArray],
         robust = float(np.quantile(finite, 0.995))
         if robust <= _OFF_SCALE * top:
             top = max(top, robust)
-        notes.append(f"{label} peak {fmt_number(highest)} off scale")
+        notes.append(f"{label} peak {fmt_number(highest)}{f' {unit}' if unit else ''} off scale")
     if clipped and top > 0:
         ax.set_ylim(-1.1 * top, 1.1 * top)
         ax.text(0.995, 0.97, "; ".join(notes), transform=ax.transAxes, ha="right", va="top",

@@ -109,7 +109,7 @@ def _motion_figure(r: SimulationResult) -> Figure:
         j, u = r.robot.joints[i], units[i]
         cols = (("position", "q", r.q_cmd, r.q, r.position_clamped),
                 ("velocity", "qd", r.qd_cmd, r.qd, r.velocity_clamped),
-                ("acceleration", "qdd", r.qdd_des, r.qdd, None))
+                ("acceleration", "qdd", r.program_qdd(), r.qdd, None))
         for c, (what, key, prog, real, clamp) in enumerate(cols):
             ax = axs[row, c]
             if clamp is not None and shade(ax, t, clamp[:, i], r.dt, _C_CLAMP):
@@ -119,7 +119,7 @@ def _motion_figure(r: SimulationResult) -> Figure:
             if t_first is not None:
                 ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
             if key == "qdd":
-                fit_ylim(ax, [real[:, i]], [("programmed", prog[:, i])])
+                fit_ylim(ax, [real[:, i]], [("programmed", prog[:, i])], u[key])
             ax.set_title(f"{label(j.name)}: {what}", fontsize="medium", loc="left")
             sym = {"q": "q", "qd": "q̇", "qdd": "q̈"}[key]
             ax.set_ylabel(f"{sym} [{u[key]}]")
@@ -127,7 +127,7 @@ def _motion_figure(r: SimulationResult) -> Figure:
     for ax in axs[-1]:
         ax.set_xlabel("time t [s]")
     handles: list[Any] = [
-        Line2D([], [], color=_C_CMD, ls="--", label="programmed (q_cmd, qd_cmd, qdd_des)"),
+        Line2D([], [], color=_C_CMD, ls="--", label="programmed (q_cmd, qd_cmd, program_qdd)"),
         Line2D([], [], color=_C_ACT, label="achieved (q, qd, qdd)"),
     ]
     if t_first is not None:
@@ -158,7 +158,7 @@ def _efforts_figure(r: SimulationResult) -> Figure:
         plot_line(ax, t, need, color=_C_REQ, lw=1.0, ls="--")  # dashes on top
         if t_first is not None:
             ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
-        fit_ylim(ax, [r.tau[:, i]], [("program requirement", need), ("limit", lim)])
+        fit_ylim(ax, [r.tau[:, i]], [("program requirement", need), ("limit", lim)], u["tau"])
         G = float(r.robot.gear_ratio[i])
         sec = ax.secondary_yaxis("right", functions=(lambda x, G=G: x / G,
                                                      lambda x, G=G: x * G))
@@ -170,8 +170,8 @@ def _efforts_figure(r: SimulationResult) -> Figure:
             jd = r.summary()["joints"][i]
             ratio = jd["program_effort_ratio"]
             title += (f"; the program needs up to {fmt_number(jd['program_peak_effort'])} "
-                      f"{u['tau']}, " + (f"{ratio:.2f} {TIMES} limit" if ratio is not None
-                                         else jd["drive"]))
+                      f"{u['tau']}, " + (f"at most {ratio:.2f} {TIMES} the limit at its speed"
+                                         if ratio is not None else jd["drive"]))
         ax.set_title(title + ")", fontsize="medium", loc="left")
         ax.grid(True, alpha=0.3)
     axs[-1].set_xlabel("time t [s]")
@@ -238,12 +238,18 @@ def _tracking_figure(r: SimulationResult) -> Figure:
         if t_first is not None:
             ax.axvline(t_first, color=_C_SAT, lw=0.8, ls=":")
         title = f"{label(j.name)}: tracking error q_cmd - q"
-        if e.size:
+        if not e.any():  # none (0 below the resolution): say so, no axis of rounding noise
+            title += ": none"
+            ax.set_ylim(-1.0, 1.0)
+            ax.set_yticks([0.0])
+            ax.text(0.5, 0.5, "no tracking error", transform=ax.transAxes, ha="center",
+                    va="center", color="0.35", fontsize="medium")
+        else:
             k = int(np.argmax(np.abs(e)))
             ax.plot([t[k]], [e[k]], "o", color=_C_SAT, ms=5)
             title += (f" (max |e| = {fmt_number(abs(float(e[k])))} {u['q']} "
                       f"at t = {fmt_number(float(t[k]))} s)")
-            if abs(float(e[k])) < _MIN_ERR:  # rounding noise: draw it as the flat line it is
+            if abs(float(e[k])) < _MIN_ERR:  # a tiny error: not drawn as a huge one
                 ax.set_ylim(-_MIN_ERR, _MIN_ERR)
         ax.set_title(title, fontsize="medium", loc="left")
         ax.set_ylabel(f"e [{u['q']}]")
@@ -285,7 +291,8 @@ def plot_result(result: SimulationResult, path: str | os.PathLike[str] | None = 
         right-hand axis. ``"reactions"``: per joint, magnitude, axial
         and radial parts of the reaction force [N] and of the reaction moment [N m] (the
         across-axis moment is the bending moment a bearing carries). ``"tracking"``: per joint,
-        ``q_cmd - q`` with its largest value marked.
+        ``q_cmd - q`` with its largest value marked, or "no tracking error" where it is 0 (below
+        the resolution of :attr:`~mrnea.simulate.SimulationResult.tracking_error`).
 
     Notes
     -----

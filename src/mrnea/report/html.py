@@ -26,7 +26,6 @@ from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_u
 from mrnea.report.figures import plot_result, require_result
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
-from mrnea.summary import TIMES
 from mrnea.validate import choice
 
 if TYPE_CHECKING:
@@ -44,6 +43,9 @@ h2 { font-size: 1.15em; border-bottom: 1px solid #ccc; padding-bottom: 0.2em; ma
 .partial { background: #a15c00; }
 table { border-collapse: collapse; font-size: 0.9em; margin: 0.4em 0; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
+td { white-space: nowrap; }
+th .u { white-space: nowrap; }
+h3 { font-size: 1em; margin: 1.2em 0 0.3em 0; }
 th { background: #f0f0f0; text-align: center; }
 td.l, th.l { text-align: left; }
 tr.sat td { background: #fdecea; }
@@ -52,6 +54,13 @@ tr.sat td { background: #fdecea; }
 figure { margin: 1em 0 2em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: 0.9em; color: #444; margin-top: 0.3em; }
+@media (max-width: 960px) {
+  body { padding: 0.6em 0.8em; }
+  th, td { padding: 0.2em 0.35em; }
+  .figscroll { overflow-x: auto; }
+  .figscroll img { max-width: none; width: 1040px; }
+  .figscroll .mv3d-figwrap { max-width: none; }
+}
 pre { background: #f7f7f7; padding: 0.6em; overflow-x: auto; font-size: 0.85em; }
 """
 
@@ -64,12 +73,29 @@ _CAPTIONS = {
                "applied; shaded: saturated. Right-hand axis: motor side (τ/G).",
     "reactions": "Reaction force and moment each joint transmits (magnitude, axial part, "
                  "radial force / bending moment), in the joint frame.",
-    "tracking": "Tracking error q_cmd - q per joint; shaded: effort saturated.",
+    "tracking": "Tracking error q_cmd - q per joint; shaded: effort saturated. A joint whose "
+                "error stays 0 (below the resolution the cycle resolves) says \u201cno tracking "
+                "error\u201d.",
+    "fig3": "The paper's Fig. 3 along the simulated motion: (a) each joint's torque by the RNEA "
+            "(lines) and by the mRNEA, H q\u0308 + u\u2032 from one pass (markers); (b) the "
+            "accelerations of the motion (lines) and those forward dynamics (the mRNEA and one "
+            "Cholesky solve) recovers from the RNEA torques (markers). The titles give the "
+            "largest differences: rounding, so the two algorithms agree.",
 }
 
 
 def _e(x: object) -> str:
     return html.escape(str(x), quote=True)
+
+
+NBSP = "\u00a0"
+_QUANTITY = re.compile(r"(\d) (N m|N|rad/s|rad|m/s|m|s|%)(?![\w/])")
+
+
+def nobreak(text: str) -> str:
+    """``text`` with each number bound to its unit by no-break spaces (``4000\u00a0N\u00a0m``),
+    so that a line never breaks between them or inside ``N m``."""
+    return _QUANTITY.sub(lambda m: m[1] + NBSP + m[2].replace(" ", NBSP), text)
 
 
 def _row(cells: Sequence[str], cls: str = "", head: bool = False) -> str:
@@ -123,8 +149,9 @@ def _first_infeasible_html(result: SimulationResult, link: bool) -> str:
         ("time", _Html(f"{_instant(fi['time'], result.dt, link)} s (cycle {k:,})")),
         ("joint", fi["joint"]),
         ("reason", fi["reason"]),
-        ("required effort", f"{fmt_number(req)} {u['tau']}"),
-        ("available effort (limit at that speed)", f"{fmt_number(avail)} {u['tau']}"),
+        ("required effort (this cycle, from the robot's own state)",
+         f"{fmt_number(req)} {u['tau']}"),
+        ("available effort (limit at the robot's speed)", f"{fmt_number(avail)} {u['tau']}"),
         ("required / available", f"{ratio:.3g}" if math.isfinite(ratio) else "∞"),
     ]
     nxt = min(k + 1, result.K - 1)  # cycle k heads for the command of row k + 1
@@ -139,7 +166,25 @@ def _first_infeasible_html(result: SimulationResult, link: bool) -> str:
     return _kv_table(rows)
 
 
+def _unit(units: Sequence[dict[str, str]], key: str) -> str:
+    """The unit of quantity ``key`` over every joint, for a column's header: ``N m``, or
+    ``N m | N`` where revolute and prismatic joints mix (the type column says which)."""
+    return " | ".join(dict.fromkeys(u[key] for u in units))
+
+
+def _head(name: str, unit: str = "") -> str:
+    """A column header: the name (may wrap) and its unit, which never splits across lines."""
+    return _e(name) + (f' <span class="u">[{_e(unit)}]</span>' if unit else "")
+
+
+def _table(head: Sequence[str], rows: Sequence[str], ident: str) -> str:
+    return (f'<div class="scroll"><table class="joints" id="{ident}">'
+            f'{_row(head, head=True)}{"".join(rows)}</table></div>')
+
+
 def _joints_html(result: SimulationResult, link: bool) -> str:
+    """The per-joint tables: what the program needs, what the simulated robot did, and the
+    motor torques with the bearing loads; units in the headers only."""
     if result.K == 0:
         return "<p>No cycle was completed.</p>"
     s = result.summary()
@@ -147,39 +192,75 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
     with np.errstate(divide="ignore", invalid="ignore"):
         use = np.where(result.limit > 0, np.abs(result.tau) / result.limit, 0.0)
     use = np.nan_to_num(use, nan=0.0, posinf=0.0)
-    head = ["joint", "type", "time saturated [s]", "saturated cycles",
-            "clamped cycles (pos / vel)", "program's peak effort", "peak motor torque",
-            "RMS motor torque", "peak effort / rated limit", "peak |τ| / limit at speed",
-            "peak reaction force [N]",
-            "peak axial force [N]", "peak radial force [N]", "peak reaction moment [N m]",
-            "peak bending moment [N m]", "max tracking error", "at t [s]"]
-    rows = [_row([_e(h) for h in head], head=True)]
-    for i, (jd, j, u) in enumerate(zip(s["joints"], result.robot.joints, units, strict=True)):
+    tau, q, motor = _unit(units, "tau"), _unit(units, "q"), _unit(units, "motor")
+    program, response, loads = [], [], []
+    for i, (jd, j) in enumerate(zip(s["joints"], result.robot.joints, strict=True)):
         nsat = int(result.saturated[:, i].sum())
         npos = int(result.position_clamped[:, i].sum())
         nvel = int(result.velocity_clamped[:, i].sum())
         lim = math.inf if jd["effort_limit"] is None else jd["effort_limit"]  # null: unlimited
-        pct = f" ({100 * jd['peak_effort'] / lim:.0f} %)" if 0 < lim < math.inf else ""
         ratio = jd["program_effort_ratio"]
-        need = f"{fmt_number(jd['program_peak_effort'])} {u['tau']}" + (
-            f" ({ratio:.2f} {TIMES} limit)" if ratio is not None else f" ({jd['drive']})")
+        if ratio is not None:
+            there, source = fmt_number(jd["program_limit_at_ratio"]), jd["program_limit_source"]
+            if source == "torque-speed curve":
+                source = (f"torque\u2013speed curve at {fmt_number(jd['program_speed_at_ratio'])}"
+                          f" {jd['velocity_unit']}")
+            ratio_text = f"{ratio:.2f}"
+        else:
+            there, source = "\u2013", {"unlimited": "unlimited", "unpowered": "no drive (0)"}.get(
+                jd["drive"], "beyond the no-load speed")
+            ratio_text = "\u2013"
+        program.append(_row([_e(c) for c in (
+            jd["joint"], j.type, fmt_number(jd["program_peak_effort"]),
+            _time(jd["program_peak_time"], result.dt), ratio_text, there, source)],
+            cls="sat" if ratio is not None and ratio > 1 else ""))
         cells = [
-            jd["joint"], j.type, fmt_number(jd["time_saturated"]), f"{nsat:,}",
-            f"{npos:,} / {nvel:,}", need,
-            f"{fmt_number(jd['peak_motor_torque'])} {u['motor']}",
-            f"{fmt_number(jd['rms_motor_torque'])} {u['motor']}",
-            f"{fmt_number(jd['peak_effort'])} / {fmt_number(lim)} {u['tau']}{pct}",
-            f"{100 * float(use[:, i].max()) if use.size else 0.0:.1f} %",
-            fmt_number(jd["peak_reaction_force"]), fmt_number(jd["peak_axial_force"]),
-            fmt_number(jd["peak_radial_force"]), fmt_number(jd["peak_reaction_moment"]),
-            fmt_number(jd["peak_bending_moment"]),
-            f"{fmt_number(jd['max_tracking_error'])} {u['q']}",
+            jd["joint"], fmt_number(jd["time_saturated"]), f"{nsat:,}", f"{npos:,} / {nvel:,}",
+            fmt_number(jd["peak_effort"]), fmt_number(lim),
+            f"{100 * jd['peak_effort'] / lim:.0f}" if 0 < lim < math.inf else "\u2013",
+            f"{100 * float(use[:, i].max()) if use.size else 0.0:.1f}",
+            fmt_number(jd["max_tracking_error"]),
             _instant(jd["max_tracking_error_time"], result.dt, link),
         ]
-        bad = nsat or npos or nvel
-        rows.append(_row([c if isinstance(c, _Html) else _e(c) for c in cells],
-                         cls="sat" if bad else ""))
-    return f'<div class="scroll"><table>{"".join(rows)}</table></div>'
+        response.append(_row([c if isinstance(c, _Html) else _e(c) for c in cells],
+                             cls="sat" if nsat or npos or nvel else ""))
+        loads.append(_row([_e(c) for c in (
+            jd["joint"], fmt_number(jd["peak_motor_torque"]), fmt_number(jd["rms_motor_torque"]),
+            fmt_number(jd["peak_reaction_force"]), fmt_number(jd["peak_axial_force"]),
+            fmt_number(jd["peak_radial_force"]), fmt_number(jd["peak_reaction_moment"]),
+            fmt_number(jd["peak_bending_moment"]))]))
+    return f"""<h3>What the program needs (its own requirement, before any lag)</h3>
+{_table([_head("joint"), _head("type"), _head("peak effort", tau), _head("at t", "s"),
+         _head("peak / limit at the program's speed"), _head("that limit", tau),
+         _head("the limit from")], program, "joints-program")}
+<h3>What the simulated robot did</h3>
+{_table([_head("joint"), _head("time saturated", "s"), _head("cycles saturated"),
+         _head("cycles clamped (pos / vel)"), _head("peak effort", tau),
+         _head("rated limit", tau), _head("peak / rated limit", "%"),
+         _head("peak |τ| / limit at speed", "%"), _head("max tracking error", q),
+         _head("at t", "s")], response, "joints-response")}
+<h3>Motor torques and bearing loads</h3>
+{_table([_head("joint"), _head("peak motor torque", motor), _head("RMS motor torque", motor),
+         _head("peak reaction force", "N"), _head("peak axial force", "N"),
+         _head("peak radial force", "N"), _head("peak reaction moment", "N m"),
+         _head("peak bending moment", "N m")], loads, "joints-loads")}""" + _tool_html(result, link)
+
+
+def _tool_html(result: SimulationResult, link: bool) -> str:
+    """A Cartesian program's tool errors (the real motion against the programmed pose): the
+    peaks, in mm and mrad, and when; nothing for a joint program."""
+    s = result.summary()
+    if "max_tool_position_error" not in s:
+        return ""
+    cells = [_e("tool (Cartesian program)"),
+             _e(f"max position error {fmt_number(s['max_tool_position_error'] * 1e3)} mm"),
+             _instant(s["max_tool_position_error_time"], result.dt, link),
+             _e(f"max orientation error {fmt_number(s['max_tool_orientation_error'] * 1e3)} "
+                f"mrad"),
+             _instant(s["max_tool_orientation_error_time"], result.dt, link)]
+    head = ["tool path", "position", "at t [s]", "orientation", "at t [s]"]
+    return (f'<table class="tool">{_row([_e(h) for h in head], head=True)}'
+            f"{_row(cells)}</table>")
 
 
 def _params_html(result: SimulationResult, interpolation: str | None) -> str:
@@ -312,21 +393,30 @@ def write_report(
         uri = png_data_uri(fig)  # the figure drawn as saved: figure_axes reads that layout
         axes = f" data-xaxes='{figure_axes(fig)}'" if view3d else ""
         fig_html.append(
-            f'<figure id="fig{k + 1}-{slug}"{axes}><img alt="{_e(name)}" src="{uri}">'
+            f'<figure id="fig{k + 1}-{slug}"{axes}><div class="figscroll">'
+            f'<img alt="{_e(name)}" src="{uri}"></div>'
             f"<figcaption><b>{_e(name)}</b>{caption}</figcaption></figure>")
     view_html = (f"<h2>3D view</h2>\n{scene_html(result_scene(result))}" if view3d else "")
 
     body = f"""\
 <p class="note">Will the robot make the programmed motion? Generated {_e(stamp())} by mrnea.</p>
-<div class="verdict {cls}" id="verdict">{_e(verdict)}</div>
+<div class="verdict {cls}" id="verdict">{_e(nobreak(verdict))}</div>
+<p class="note" id="verdict-note">The verdict's numbers are the <b>program's own
+requirement</b>: the effort the commanded motion needs (full actuator model, before any lag)
+against each joint's limit at the program's speed.</p>
 {view_html}
 <h2>First infeasible instant</h2>
+<p class="note" id="first-note">The <b>first cycle over a limit</b> of the simulated robot: the
+effort that cycle needs from where the robot really is, against the limit at its real speed. It
+can come before the verdict's peak and be smaller: once a drive saturates the robot lags, and the
+later cycles no longer follow the program.</p>
 {_first_infeasible_html(result, view3d)}
 <h2>Per joint</h2>
 {_joints_html(result, view3d)}
 <p class="note">Efforts are joint side (N m for revolute, N for prismatic joints); motor torque
 is τ/G. Reaction loads are in each joint's frame: axial along the joint axis, radial / bending
-across it. Rows in red: the joint saturated or its command was clamped.</p>
+across it. Rows in red: the program needs more than the limit, or the joint saturated or its
+command was clamped.</p>
 <h2>Run parameters</h2>
 {_params_html(result, interpolation)}
 <details><summary>Robot model</summary><pre>{_e(describe(result.robot, width=120))}</pre></details>

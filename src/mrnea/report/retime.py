@@ -50,6 +50,8 @@ RETIME_FIGURES = ("phase_plane", "effort_ratio")
 """The names of :func:`retime_figures`' figures."""
 
 _C_LIM, _C_NEW, _C_OLD, _C_DWELL = "C3", "C0", "0.45", "0.85"
+REST_FRACTION = 0.01  # the phase plane leaves out grid points where no joint moves faster than
+#                       this fraction of the piece's fastest |dq/ds| (the path at rest)
 _CAPTIONS = {
     "phase_plane": "Path speed ds/dt against the path position s (the program's own clock, so "
                    "ds/dt = 1 is the program's timing). Red: the limit curve, the largest path "
@@ -57,6 +59,9 @@ _CAPTIONS = {
                    "limit at that speed and its velocity limit (the true model: rotor inertia, "
                    "viscous and Coulomb friction, torque-speed curves, the wrench); blue: the "
                    "retimed program; grey bands: dwells, kept as holds of the same duration. "
+                   "Where the path is at rest (the ends of a move, via points) no joint moves, "
+                   "the limit curve is unbounded and the path speed means nothing: neither is "
+                   "drawn there. "
                    "The retimed speed stays below the curve where a joint needs its whole "
                    "effort to keep accelerating or to brake in time for what follows, and "
                    "touches it where the speed itself is the limit.",
@@ -78,8 +83,13 @@ def _phase_figure(res: RetimeResult) -> Figure:
         if p.t0 > end:  # a dwell before this piece
             ax.axvspan(end, p.t0, color=_C_DWELL, alpha=0.5, lw=0)
         end = float(x[-1])
-        ax.plot(x, np.minimum(p.limit_curve(), top * 1.05), color=_C_LIM, lw=1.2)
-        ax.plot(x, np.minimum(p.sd, top * 1.05), color=_C_NEW, lw=1.2)
+        # where the path is at rest (a piece's ends, via points) no joint moves: the limit curve
+        # is unbounded there and the path speed means nothing, so neither is drawn (drawn, both
+        # were vertical spikes to the top of the axis at every dwell boundary: issue 22)
+        speed = np.max(np.abs(p.coefficients.qs), axis=1)
+        still = speed < REST_FRACTION * speed.max()
+        for y, color in ((p.limit_curve(), _C_LIM), (p.sd, _C_NEW)):
+            ax.plot(x, np.where(still, np.nan, np.minimum(y, top * 1.05)), color=color, lw=1.2)
     if res.original_duration > end:
         ax.axvspan(end, res.original_duration, color=_C_DWELL, alpha=0.5, lw=0)
     ax.axhline(1.0, color="k", lw=0.8, ls=":")
@@ -140,14 +150,19 @@ def retime_figures(result: RetimeResult) -> dict[str, Figure]:
 
 def _numbers(res: RetimeResult) -> list[tuple[str, str]]:
     s = res.summary()
-    rows = [("program", f"{fmt_number(res.original_duration)} s ({res.original_q_cmd.shape[0]:,} "
-                        f"cycles of {res.original_dt:g} s)"),
-            ("retimed", f"{fmt_number(res.duration)} s ({res.t.size:,} cycles of {res.dt:g} s)"),
+    # a program of M rows lasts (M - 1) dt from its first row to its last (issue 22)
+    rows = [("program", f"{fmt_number(res.original_duration)} s from its first row to its last "
+                        f"({res.original_q_cmd.shape[0]:,} rows at {res.original_dt:g} s)"),
+            ("retimed", f"{fmt_number(res.duration)} s from its first row to its last "
+                        f"({res.t.size:,} rows at {res.dt:g} s; the simulation runs one cycle "
+                        f"per row, {fmt_number(res.t.size * res.dt)} s)"),
             ("speed-up", f"{s['speedup']:.3g} x" if s["speedup"] else "-"),
-            ("method", "toppra: time-optimal along the path (TOPP-RA)" if res.method == "toppra"
+            ("method", "toppra: TOPP-RA along the path, held at every cycle"
+             if res.method == "toppra"
              else "scale: uniform time scaling (Hollerbach), bisected on the simulation")]
     if res.method == "toppra":
-        rows += [("planning margin", f"{res.margin:.4g} (margins tried: "
+        rows += [("planning margin", f"{res.margin:.4g} (asked {s['margin_asked']:.4g}; margins "
+                                     "tried: "
                                      f"{', '.join(f'{m:.4g}' for m in s['margins_tried'])})"),
                  ("TOPP-RA solves", str(s["toppra_solves"]))]
     else:

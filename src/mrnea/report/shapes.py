@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError, StateError, quote
+from mrnea.errors import MeshWarning, MrneaError, StateError, quote
 from mrnea.io.mesh import read_mesh
 from mrnea.model import Robot
 from mrnea.visual import VISUAL_KINDS
@@ -130,9 +130,13 @@ def decimate(vertices: ArrayLike, faces: ArrayLike, max_faces: int
              ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """A mesh of at most ``max_faces`` (>= 4) triangles approximating (V, 3), (F, 3).
 
-    Quadric decimation (the ``fast_simplification`` package) where it meets the budget;
-    otherwise the convex hull of every k-th vertex, at most ``max_faces // 2`` of them
-    (a hull of m points has at most 2 m - 4 faces; holes and concavities are lost).
+    Quadric decimation (the ``fast_simplification`` package, gentle first, more aggressive
+    where a gentle run stops short of the budget) where it meets the budget; otherwise the
+    convex hull of every k-th vertex, at most ``max_faces // 2`` of them
+    (a hull of m points has at most 2 m - 4 faces; holes and concavities are lost). The mesh
+    is welded first (:func:`weld`): CAD and COLLADA files repeat a vertex on each side of a
+    seam (normals, texture coordinates), and decimating those sides apart tears holes along
+    every seam (the UR5's meshes: 2022 of 2898 edges of its base open before, 0 after).
     """
     V, F = np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64)
     if F.shape[0] <= max_faces:
@@ -140,13 +144,30 @@ def decimate(vertices: ArrayLike, faces: ArrayLike, max_faces: int
     import fast_simplification
     import trimesh
 
-    V2, F2 = fast_simplification.simplify(V, F, target_count=max_faces)
-    if 0 < F2.shape[0] <= max_faces:
-        return np.asarray(V2, dtype=float), np.asarray(F2, dtype=np.int64)
+    V, F = weld(V, F)
+    # gentle first: its default aggressiveness (7) lost 20-37 % of the UR5 upper arm's and
+    # forearm's volume where 3 kept 97 %; a gentler run can stop short of the target, so the
+    # next one is more aggressive
+    for agg in (3, 5, 7, 10):
+        V2, F2 = fast_simplification.simplify(V, F, target_count=max_faces, agg=agg)
+        if 0 < F2.shape[0] <= max_faces:
+            return np.asarray(V2, dtype=float), np.asarray(F2, dtype=np.int64)
 
     every = math.ceil(V.shape[0] / max(4, max_faces // 2))
     hull = trimesh.convex.convex_hull(V[::every])
     return np.asarray(hull.vertices, dtype=float), np.asarray(hull.faces, dtype=np.int64)
+
+
+def weld(vertices: NDArray[np.float64], faces: NDArray[np.int64]
+         ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The mesh with vertices closer than 1e-7 of its size merged into one, and the triangles
+    that merging collapses (two corners the same) dropped."""
+    size = float(np.ptp(vertices, axis=0).max()) if len(vertices) else 0.0
+    key = np.round(vertices / (1e-7 * size)) if size > 0 else vertices
+    _, first, index = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    F = index.reshape(-1)[faces]
+    keep = (F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])
+    return vertices[first], F[keep]
 
 
 def _rgb(color: tuple[float, ...] | None) -> int | None:
@@ -156,11 +177,29 @@ def _rgb(color: tuple[float, ...] | None) -> int | None:
     return (r << 16) | (g << 8) | b
 
 
+def _missing_meshes(robot: Robot, failed: dict[str, str]) -> MeshWarning:
+    """The warning for the mesh files not drawn (``failed``: name -> why): short, the first
+    reason only; its hint names the ``package://`` packages not found and how to point mrnea at
+    them."""
+    first = next(iter(failed.values()))
+    more = f" (and {len(failed) - 1} more)" if len(failed) > 1 else ""
+    packages = sorted({name[len("package://"):].split("/")[0] for name in failed
+                       if name.startswith("package://")})
+    hint = None
+    if packages:
+        hint = (f"to draw the meshes, point mrnea at package {', '.join(map(quote, packages))}: "
+                "--package-path DIR (the package's folder or one holding it), or "
+                "ROS_PACKAGE_PATH=DIR")
+    return MeshWarning(f"3D view of {quote(robot.name)}: {len(failed)} mesh file(s) not drawn, "
+                       f"their links drawn as capsules: {first}{more}", hint)
+
+
 def robot_shapes(robot: Robot, max_faces: int = MAX_SCENE_FACES) -> list[list[Shape]]:
     """The shapes of every body: ``[base, link 0, ..., link n-1]``, each in its body's frame.
 
     Mesh files that cannot be read (not found, not installed trimesh, not a mesh) give one
-    UserWarning saying why, and a body is drawn as if it had no visual (:func:`fallback`) when
+    :class:`~mrnea.errors.MeshWarning` saying why (and, for ``package://`` names, how to point
+    mrnea at them), and a body is drawn as if it had no visual (:func:`fallback`) when
     none of its visuals is left.
     """
     bodies = [robot.base_visuals, *(lk.visuals for lk in robot.links)]
@@ -173,10 +212,7 @@ def robot_shapes(robot: Robot, max_faces: int = MAX_SCENE_FACES) -> list[list[Sh
             except MrneaError as exc:
                 failed[str(v.mesh)] = str(exc)
     if failed:
-        warnings.warn(f"3D view of {quote(robot.name)}: {len(failed)} mesh file(s) not drawn "
-                      "(a link left without any shape is drawn as a capsule): "
-                      + "; ".join(list(failed.values())[:3])
-                      + ("; ..." if len(failed) > 3 else ""), UserWarning, stacklevel=3)
+        warnings.warn(_missing_meshes(robot, failed), stacklevel=3)
     total = sum(F.shape[0] for _, F in meshes.values())
     for path, (V, F) in meshes.items():  # the budget shared in proportion to the faces
         meshes[path] = decimate(V, F, max(100, max_faces * F.shape[0] // max(total, 1)))

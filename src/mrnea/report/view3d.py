@@ -248,7 +248,8 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     """:func:`scene_data` of a simulation run (at least one cycle): frames at
     :func:`frame_indices` from :func:`mrnea.forward_kinematics` of ``q`` (real) and ``q_cmd``
     (the ghost), the pooled saturation flags, the robot's shapes and the slider on the cycle
-    clock."""
+    clock. The end-effector paths are those of a Cartesian program's tool point (its commanded
+    path is the programmed Cartesian path), else of :func:`tip_point`."""
     robot = result.robot
     idx = frame_indices(result.t, robot.n)
     real = forward_kinematics(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
@@ -256,4 +257,4 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     t = result.t
     return scene_data(t[idx], real, cmd, robot_shapes(robot), pool_flags(result.saturated, idx),
                       robot.joint_names, (float(t[0]), float(t[-1]), float(result.dt)),
-                      tip_point(robot))
+                      tip_point(robot) if result.tool_point is None else result.tool_point)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numbers
 import time
+from collections.abc import Callable
 from typing import Any, Literal
 
 import numpy as np
@@ -17,16 +18,14 @@ from mrnea import validate
 from mrnea.actuators import actuator_mass_matrix_and_bias
 from mrnea.errors import RetimeError, StateError
 from mrnea.model import Robot
-from mrnea.retime.job import Job, accelerations, peak_ratio
-from mrnea.retime.path import grid_points, path_coefficients, piece_rows, piece_spline
+from mrnea.retime.job import Job
+from mrnea.retime.path import grid_points, path_coefficients, piece_spline
 from mrnea.retime.result import PhasePiece, RetimeResult
 from mrnea.retime.rows import Limits, holding_need, static_check
 from mrnea.retime.scale import retime_scale
 
 METHODS = {"toppra": "toppra", "scale": "scale"}
-MIN_MARGIN = 0.5  # the verification loop gives up below this planning margin
 GRID = (200, 1000)  # default grid intervals per moving piece: half its rows, clipped to this
-REFINE = 3  # grid refinements where the verification failed, before the margin is lowered
 
 
 def retime(
@@ -41,6 +40,7 @@ def retime(
     acceleration_limit: ArrayLike | None = None,
     grid: int | None = None,
     mode: Literal["hybrid", "paper"] | None = None,
+    checkpoint: Callable[[], None] | None = None,
 ) -> RetimeResult:
     """Retime a program: keep its path (the sequence of joint positions), change its timing to
     the fastest the robot can make, and verify the result by simulation.
@@ -77,6 +77,12 @@ def retime(
         Grid intervals per moving piece (default: half its rows, clipped to [200, 1000]).
     mode : ``"hybrid"`` or ``"paper"``, optional (keyword)
         The verifying simulation's mode; default the program's, else ``"hybrid"``.
+    checkpoint : callable, optional (keyword)
+        Called with no argument between the steps of the retiming (each piece's path
+        coefficients, each TOPP-RA solve, each chunk of 2000 cycles of a verifying simulation:
+        well under a second apart on the cases of docs/retime.md); an exception it raises
+        (KeyboardInterrupt: the CLI's stop request) ends the retiming, which then returns
+        nothing.
 
     Returns
     -------
@@ -103,7 +109,7 @@ def retime(
     """
     method = validate.choice("method", method, METHODS)
     margin = validate.fraction(margin, "margin")
-    job = Job.of(robot, program, dt, f_ext, f_ext_point, mode)
+    job = Job.of(robot, program, dt, f_ext, f_ext_point, mode, checkpoint)
     acc = None
     if acceleration_limit is not None:
         acc = validate.per_joint(acceleration_limit, "acceleration_limit", robot.n)
@@ -114,7 +120,9 @@ def retime(
         raise StateError(f"grid: expected an int >= 10, got {grid!r}")
     if method == "scale" and acc is not None:
         raise StateError("acceleration_limit: only method 'toppra' takes it")
+    job.checkpoint()
     _check_holds(job, margin if method == "toppra" else 1.0)
+    job.checkpoint()
     if not job.moving:
         raise RetimeError("the program never moves: there is nothing to retime")
     if (acc is None and not np.isfinite(robot.effort_limit).any()
@@ -127,12 +135,12 @@ def retime(
         phase = _phase(job, paths, {j: np.full(v[1].s.size, 1.0 / f) for j, v in paths.items()})
         return _result(job, Q, FE, PE, sim, "scale", used, phase, [log], f, log["estimate"])
     m, phase, Q, FE, PE, sim, logs = _retime_toppra(job, margin, acc, grid)
-    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None)
+    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None, margin)
 
 
 def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: Any,
             method: str, margin: float, phase: tuple, log: list, factor: float | None,
-            estimate: float | None) -> RetimeResult:
+            estimate: float | None, margin_asked: float | None = None) -> RetimeResult:
     M = Q.shape[0]
     return RetimeResult(
         t=np.arange(M) * job.dt, q_cmd=Q, f_ext=FE, f_ext_point=PE, dt=job.dt, mode=job.mode,
@@ -140,7 +148,8 @@ def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: A
         method=method, margin=float(margin), achievable=bool(sim.achievable), simulation=sim,
         factor=factor, estimate=estimate, phase=phase, original_q_cmd=job.q,
         original_dt=job.program_dt, original_f_ext=job.f_ext,
-        original_f_ext_point=job.f_ext_point, log=log, timings=job.timings)
+        original_f_ext_point=job.f_ext_point, log=log, timings=job.timings,
+        margin_asked=margin_asked)
 
 
 def _check_holds(job: Job, margin: float) -> None:
@@ -177,71 +186,25 @@ def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
     """Every moving piece j: :func:`_piece`; its time counts as the retiming's
     ``coefficients`` if ``timed``."""
     t0 = time.perf_counter()
-    out = {j: _piece(job, j, None, grid) for j, _, _ in job.moving}
+    out = {}
+    for j, _, _ in job.moving:
+        job.checkpoint()
+        out[j] = _piece(job, j, None, grid)
     if timed:
         job.timings["coefficients"] += time.perf_counter() - t0
     return out
 
 
-def _refine(job: Job, paths: dict[int, tuple], sim: Any, clock: NDArray) -> bool:
-    """Halve the grid intervals where the verification found a limit exceeded (the interval
-    of each failing cycle's path position, the next cycle's, and their neighbours), in place;
-    False if there is none to refine."""
-    bad = np.flatnonzero(np.any(sim.saturated | sim.position_clamped | sim.velocity_clamped,
-                                axis=1))
-    where = clock[np.unique(np.minimum(np.concatenate([bad, bad + 1]), clock.size - 1))]
-    t0, changed = time.perf_counter(), False
-    for j, (_, pc, _) in list(paths.items()):
-        local = where - job.clock[job.runs[j][1]]
-        local = local[(local >= pc.s[0]) & (local <= pc.s[-1])]
-        if local.size == 0:
-            continue
-        i = np.clip(np.searchsorted(pc.s, local) - 1, 0, pc.s.size - 2)
-        i = np.unique(np.clip(np.concatenate([i - 1, i, i + 1]), 0, pc.s.size - 2))
-        paths[j] = _piece(job, j, np.union1d(pc.s, (pc.s[i] + pc.s[i + 1]) / 2), None)
-        changed = True
-    job.timings["coefficients"] += time.perf_counter() - t0
-    return changed
-
-
 def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | None) -> tuple:
-    """The toppra method's verification loop: solve each piece (:mod:`mrnea.retime.toppra`),
-    assemble, simulate; where the simulation finds a limit exceeded, first refine the grid
-    there (up to :data:`REFINE` times: the constraints hold at the grid points only), then
-    lower the margin."""
-    from mrnea.retime.toppra import sample_profile, toppra_profile
+    """The toppra method: every piece's path coefficients, then the margin search of
+    :mod:`mrnea.retime.search` (TOPP-RA per piece, held at the cycle resolution, verified)."""
+    from mrnea.retime.search import search
 
     paths = _pieces(job, grid)
-    m, logs, refined = margin, [], 0
-    while True:
-        lim = Limits.of(job.robot, m, acc)
-        retimed, speeds = {}, {}
-        for j, (spline, pc, need) in paths.items():
-            k0, k1 = job.runs[j][1:]
-            static_check(job.robot, need, job.clock[k0] + pc.s, m)
-            t0 = time.perf_counter()
-            sd, log = toppra_profile(pc, lim, job.dt)
-            t1 = time.perf_counter()
-            job.timings["toppra"] += log["solver_time"]
-            job.timings["rows"] += t1 - t0 - log["solver_time"]
-            retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt, job.robot.n),
-                                    job.q[k0], job.q[k1])
-            job.timings["sampling"] += time.perf_counter() - t1
-            speeds[j] = sd
-            logs.append({"margin": m, "piece": j, "grid": pc.s.size, **log})
-        Q, FE, PE, clock = job.assemble(retimed)
-        sim = job.verify(Q, FE, PE)
-        over_acc = 0.0 if acc is None else float(np.max(np.abs(accelerations(Q, job.dt)) / acc))
-        if sim.achievable and over_acc <= 1:
-            break
-        if not sim.achievable and refined < REFINE and _refine(job, paths, sim, clock):
-            refined += 1
-            continue
-        if m <= MIN_MARGIN:
-            raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
-                              f"simulation accepts; the last one: {sim.verdict()}")
-        m = max(MIN_MARGIN, m * min(0.99, 1 / max(peak_ratio(sim), over_acc, 1 + 1e-6)))
-    return m, _phase(job, paths, speeds, acc), Q, FE, PE, sim, logs
+    logs: list[dict] = []
+    best = search(job, paths, margin, acc, logs)
+    return (best.margin, _phase(job, paths, best.speeds, acc), best.Q, best.FE, best.PE,
+            best.sim, logs)
 
 
 def _phase(job: Job, paths: dict[int, tuple], speeds: dict[int, NDArray],

@@ -15,6 +15,7 @@ timing inside that dwell, one applied during motion moves with the path.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,7 +27,7 @@ from mrnea.achievable import MODES
 from mrnea.errors import RetimeError, StateError
 from mrnea.io.program import Program
 from mrnea.model import Robot
-from mrnea.retime.path import at_clock, pieces
+from mrnea.retime.path import at_clock, pieces, polyline_error
 from mrnea.simulate import SimulationResult, simulate
 
 TIMINGS = ("coefficients", "rows", "toppra", "sampling", "verification")
@@ -35,12 +36,20 @@ one batched mRNEA call per piece (scale: the Hollerbach coefficients), the const
 their linearisation, the TOPP-RA solves (toppra's set-up included), the sampling of the profile
 at dt with the wrench, and the verifying simulations."""
 
+PATH_TOL = 1e-3  # rad | m: how far the retimed rows, joined by straight lines, may leave the path
+#                  (or the program's own bulge out of its spline, if larger: Job.check_resolution)
+
+
+def _never() -> None:
+    """The default checkpoint: no stop is ever requested."""
+
 
 @dataclass
 class Job:
     """A program to retime (module docstring). ``q`` (K, n) rows at ``program_dt`` [s]; ``dt``
     the retimed program's cycle [s]; ``f_ext`` (K, 6) or None and ``f_ext_point`` (3,), (K, 3)
-    or None on the program's clock; ``mode`` the simulation's; ``runs`` :func:`pieces`."""
+    or None on the program's clock; ``mode`` the simulation's; ``runs`` :func:`pieces`;
+    ``checkpoint`` called between the steps of the retiming (raising from it stops it)."""
 
     robot: Robot
     q: NDArray
@@ -51,10 +60,12 @@ class Job:
     mode: str
     runs: list[tuple[str, int, int]]
     timings: dict[str, float] = field(default_factory=lambda: dict.fromkeys(TIMINGS, 0.0))
+    checkpoint: Callable[[], None] = _never
+    _paths: dict[int, dict] = field(default_factory=dict, repr=False)  # polyline_error's cache
 
     @classmethod
     def of(cls, robot: Robot, program: Any, dt: float | None, f_ext: Any, f_ext_point: Any,
-           mode: str | None) -> Job:
+           mode: str | None, checkpoint: Callable[[], None] | None = None) -> Job:
         """The job of :func:`mrnea.retime`'s arguments: ``program`` a :class:`Program`, a
         ``(t, q)`` pair at a constant step, or a (K, n) array whose cycle is ``dt``."""
         validate.require_robot(robot)
@@ -105,7 +116,8 @@ class Job:
                               f"position limits [{lower[i]:.4g}, {upper[i]:.4g}] at t = "
                               f"{k * pdt:.4g} s of the program ({q[k, i]:.4g}); no timing "
                               "can fix that")
-        return cls(robot, np.ascontiguousarray(q), pdt, dt, fe, pe, mode, pieces(q))
+        return cls(robot, np.ascontiguousarray(q), pdt, dt, fe, pe, mode, pieces(q),
+                   checkpoint=checkpoint or _never)
 
     @property
     def K(self) -> int:
@@ -153,10 +165,50 @@ class Job:
                reactions: bool = True) -> SimulationResult:
         """Simulate the retimed rows with the job's robot, mode and wrench."""
         t0 = time.perf_counter()
+        self.checkpoint()
         sim = simulate(self.robot, Q, self.dt, mode=self.mode, f_ext=FE, f_ext_point=PE,
-                       reactions=reactions)
+                       reactions=reactions, progress=lambda done, total: self.checkpoint())
         self.timings["verification"] += time.perf_counter() - t0
+        if not sim.completed:  # the checkpoint raised KeyboardInterrupt: simulate kept it
+            raise KeyboardInterrupt
         return sim
+
+    def check_resolution(self, j: int, spline: Any, rows: NDArray, s: NDArray,
+                         qdd_max: NDArray) -> None:
+        """Refuse a cycle too coarse for moving piece j's path: its retimed ``rows`` (M, n) at
+        path positions ``s`` (M,), joined by straight lines as the simulation and a controller
+        take them, must stay within :data:`PATH_TOL` of the path (``spline``), or within the
+        program's own bulge out of the spline if that is larger, at every program row of the
+        piece and half-way between (:func:`mrnea.retime.path.polyline_error`).
+
+        ``qdd_max`` (n,) the largest joint acceleration of the retimed piece [rad/s^2 | m/s^2]:
+        a curve sampled every dt leaves its chord by at most |qdd| dt^2 / 8, which gives the
+        cycle the message suggests.
+
+        Raises
+        ------
+        RetimeError
+            Naming dt, the joint, the program instant, the deviation and a cycle that keeps it.
+        """
+        k0, k1 = self.runs[j][1:]
+        own, err, where = polyline_error(spline, self.q[k0:k1 + 1], self.program_dt, rows, s,
+                                         self._paths.setdefault(j, {}))
+        tol = np.maximum(PATH_TOL, own)
+        bad = err > tol
+        if not bad.any():
+            return
+        i = int(np.argmax(np.where(bad, err / tol, 0.0)))
+        joint = self.robot.joints[i]
+        unit = "m" if joint.is_prismatic else "rad"
+        with np.errstate(divide="ignore"):
+            fit = float(np.min(np.sqrt(8 * tol / qdd_max)))
+        hint = (f"; a cycle of {fit:.3g} s or shorter keeps it" if 0 < fit < self.dt else "")
+        raise RetimeError(
+            f"dt = {self.dt:g} s is too coarse for this path: the retimed rows, joined by "
+            f"straight lines as the simulation and a controller take them, leave the path by "
+            f"{err[i]:.3g} {unit} at joint '{joint.name}' (t = "
+            f"{self.clock[k0] + where[i]:.4g} s of the program), more than the "
+            f"{tol[i]:.3g} {unit} allowed{hint}")
 
 
 def peak_ratio(sim: SimulationResult) -> float:

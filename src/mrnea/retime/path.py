@@ -23,7 +23,7 @@ grid point from ONE batched call of :func:`mrnea.actuators.actuator_mass_matrix_
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -83,6 +83,32 @@ def piece_rows(spline: CubicSpline, s: NDArray, first: NDArray, last: NDArray
     keep = np.ones(len(r), dtype=bool)
     keep[1:-1] = np.any(r[1:-1] != first, axis=1) & np.any(r[1:-1] != last, axis=1)
     return r[keep], s[keep]
+
+
+def polyline_error(spline: CubicSpline, q: NDArray, dt: float, rows: NDArray, s: NDArray,
+                   cache: dict | None = None) -> tuple[NDArray, NDArray, NDArray]:
+    """How far a piece's retimed rows leave its path, per joint (n,) [rad | m].
+
+    ``q`` (K, n) the program's rows of the piece at ``k dt`` (``spline`` through them), ``rows``
+    (M, n) the retimed rows at path positions ``s`` (M,). At each program row and half-way
+    between two, the path (the spline) against the straight line between the retimed rows
+    around it (linear in s, as in time within a cycle). Returns ``(own, err, where)``: the
+    program's own bulge (its rows' straight lines against the spline half-way between them),
+    the retimed rows' largest deviation, and the path position [s] of that largest deviation.
+    ``cache``: a dict kept for the same piece (its path side is computed once).
+    """
+    cache = {} if cache is None else cache
+    if "ref" not in cache:
+        k = np.arange(q.shape[0]) * dt
+        mid = k[:-1] + dt / 2
+        path_mid = spline(mid)
+        cache["own"] = np.max(np.abs(path_mid - (q[:-1] + q[1:]) / 2), axis=0)
+        cache["ref"] = np.concatenate([k, mid])
+        cache["path"] = np.concatenate([q, path_mid])
+    own, ref = cache["own"], cache["ref"]
+    line = np.stack([np.interp(ref, s, rows[:, c]) for c in range(rows.shape[1])], axis=1)
+    dev = np.abs(cache["path"] - line)
+    return own, dev.max(axis=0), ref[np.argmax(dev, axis=0)]
 
 
 def grid_points(s: NDArray, q: NDArray, N: int, qss: NDArray | None = None,
@@ -154,7 +180,8 @@ class PathCoefficients:
     sign : sign(q_s) where it is the same at the point and both neighbours, else NaN (there the
         direction of the Coulomb friction is not known over the adjacent intervals).
     qs_range, qss_range : (N, n, 2) min and max of q_s and q_ss over each interval (sampled at
-        9 points), for the interval-robust acceleration rows.
+        9 points), for the interval-robust acceleration rows (computed when first asked:
+        only acceleration limits need them).
     """
 
     s: NDArray
@@ -165,8 +192,25 @@ class PathCoefficients:
     b: NDArray
     c: NDArray
     sign: NDArray
-    qs_range: NDArray
-    qss_range: NDArray
+    spline: CubicSpline = field(repr=False, compare=False)
+    _ranges: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def _range(self, k: int) -> NDArray:
+        if not self._ranges:
+            s = self.s
+            sub = s[:-1, None] + np.diff(s)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
+            for d in (1, 2):  # (N, 9, n) -> (N, n, 2)
+                v = self.spline(sub, d)
+                self._ranges[d] = np.stack([v.min(axis=1), v.max(axis=1)], axis=-1)
+        return self._ranges[k]
+
+    @property
+    def qs_range(self) -> NDArray:
+        return self._range(1)
+
+    @property
+    def qss_range(self) -> NDArray:
+        return self._range(2)
 
 
 def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDArray | None,
@@ -195,9 +239,5 @@ def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDAr
     b = np.einsum("kij,kj->ki", H2[:G], qss) + u1 - c
     padded = np.concatenate([sgn[:1], sgn, sgn[-1:]])
     same = (padded[:-2] == sgn) & (padded[2:] == sgn)
-    sub = s[:-1, None] + np.diff(s)[:, None] * np.linspace(0.0, 1.0, 9)[None, :]
-    ranges = [np.stack([v.min(axis=1), v.max(axis=1)], axis=-1)
-              for v in (spline(sub, 1), spline(sub, 2))]  # (N, 9, n) -> (N, n, 2)
     return PathCoefficients(s=s, q=q, qs=qs, qss=qss, a=a, b=b, c=c,
-                            sign=np.where(same, sgn, np.nan), qs_range=ranges[0],
-                            qss_range=ranges[1])
+                            sign=np.where(same, sgn, np.nan), spline=spline)

@@ -81,6 +81,8 @@ class RetimeResult:
     original_q_cmd, original_dt, original_f_ext, original_f_ext_point : the program retimed.
     log : per margin tried (toppra) or the factors evaluated (scale).
     timings : seconds spent (:data:`mrnea.retime.job.TIMINGS`).
+    margin_asked : toppra: the planning margin asked; ``margin`` is below it only where no plan
+        at it verified (the highest that verifies, to 0.1 %: :mod:`mrnea.retime.search`).
     """
 
     t: NDArray
@@ -104,6 +106,7 @@ class RetimeResult:
     original_f_ext_point: NDArray | None
     log: list[dict[str, Any]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    margin_asked: float | None = None
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -132,11 +135,17 @@ class RetimeResult:
     def verdict(self) -> str:
         """One line: the retimed duration against the program's, and the verification's
         verdict."""
-        how = (f"time-optimal along the path (TOPP-RA, planning margin {self.margin:.3g})"
-               if self.method == "toppra" else
-               f"uniform time scaling by {self.factor:.4g}")
-        return (f"RETIMED ({self.method}): {self.duration:.4g} s instead of "
-                f"{self.original_duration:.4g} s, {how}. Verification: "
+        if self.method == "toppra":
+            how = f"TOPP-RA along the path at planning margin {self.margin:.4g}"
+            if self.margin_asked is not None and self.margin < self.margin_asked:
+                how += (f" (asked {self.margin_asked:.4g}: the highest margin that verifies, "
+                        "to 0.1 %)")
+        else:
+            how = f"uniform time scaling by {self.factor:.4g}"
+        M = self.t.size
+        return (f"RETIMED ({self.method}): {self.duration:.4g} s from its first row to its last "
+                f"({M} rows; simulated as {M} cycles of {self.dt:g} s, {M * self.dt:.4g} s) "
+                f"instead of {self.original_duration:.4g} s, {how}. Verification: "
                 f"{self.simulation.verdict()}")
 
     def summary(self) -> dict[str, Any]:
@@ -146,7 +155,8 @@ class RetimeResult:
         ``duration``, ``original_duration`` [s], ``speedup`` (their ratio), ``method``,
         ``achievable``, ``margin`` (:class:`RetimeResult`), ``dt``, ``original_dt``, ``cycles``,
         ``mode``, ``factor`` and ``scale_estimate`` (scale, else null), ``moving_pieces``,
-        ``dwells``, ``toppra_solves`` (toppra), ``margins_tried``, ``verdict``, ``timings``
+        ``dwells``, ``toppra_solves`` (toppra), ``margin_asked`` (toppra, else null),
+        ``margins_tried`` (every margin planned, highest first), ``verdict``, ``timings``
         [s]; per joint ``peak_effort_ratio_before`` and ``_after`` (:meth:`effort_ratios`) and
         the time of each; ``worst_joint_before`` / ``_after``.
         """
@@ -177,6 +187,7 @@ class RetimeResult:
             "moving_pieces": len(self.phase),
             "dwells": _dwells(self.original_q_cmd),
             "toppra_solves": solves if self.method == "toppra" else None,
+            "margin_asked": self.margin_asked,
             "margins_tried": sorted({float(lg["margin"]) for lg in self.log if "margin" in lg},
                                     reverse=True),
             "verdict": self.simulation.verdict(),
@@ -225,7 +236,7 @@ class RetimeResult:
             wrench = {"times": self.t[k], "values": self.f_ext[k]}
             if self.f_ext_point is not None:
                 wrench["point"] = np.asarray(self.f_ext_point)
-        how = ("time-optimal (TOPP-RA), planning margin " + f"{self.margin:.4g}"
+        how = ("TOPP-RA, planning margin " + f"{self.margin:.4g}"
                if self.method == "toppra" else f"uniform time scaling by {self.factor:.6g}")
         comment = (f"Retimed by mrnea ({how}): {self.duration:.6g} s instead of "
                    f"{self.original_duration:.6g} s. Verified: "

@@ -41,12 +41,14 @@ SD_PLOT = 1e2  # the limit curve's ceiling (limit_curve)
 
 @dataclass(frozen=True)
 class Limits:
-    """The planning limits: ``margin`` times each joint's effort curve and velocity limit, and
+    """The planning limits: ``margin`` times each joint's effort curve and velocity limit (a
+    float, or (N + 1, 1) per grid point of one piece: the margin search's local tightening,
+    :mod:`mrnea.retime.search`; :func:`limit_curve` takes a float), and
     optional acceleration limits (n,) [rad/s^2 | m/s^2]. ``peak``, ``corner`` (inf: a constant
     limit), ``fv`` and ``vlim`` (n,) are the robot's, unscaled."""
 
     robot: Robot
-    margin: float
+    margin: float | NDArray
     acceleration: NDArray | None
     peak: NDArray
     corner: NDArray

@@ -203,6 +203,9 @@ def retime_scale(job: Job) -> tuple[float, float, tuple, dict]:
             retimed = {j: scaled(splines[j], job.q[k0:k1 + 1], job.program_dt, job.dt, f)
                        for j, k0, k1 in job.moving}
             job.timings["sampling"] += time.perf_counter() - t1
+            for j, (rows, s) in retimed.items():
+                job.check_resolution(j, splines[j], rows, s,
+                                     np.max(np.abs(splines[j](s, 2)), axis=0) / f ** 2)
             Q, FE, PE, clk = job.assemble(retimed)
             cache[f] = (Q, FE, PE, clk, job.verify(Q, FE, PE, reactions=False))
         return cache[f]

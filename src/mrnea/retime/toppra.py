@@ -17,15 +17,14 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from toppra.algorithm import TOPPRA
-from toppra.constraint import LinearConstraint
+from scipy.optimize import linprog  # here, not on the first stall: 1-2 s (the stop bound)
 from toppra.constraint.linear_constraint import canlinear_colloc_to_interpolate
-from toppra.interpolator import AbstractGeometricPath
 
 from mrnea.errors import RetimeError
 from mrnea.retime.path import PathCoefficients
@@ -48,62 +47,33 @@ REVERSAL_CYCLES = 1  # Coulomb friction both ways this many cycles before a chan
 STALL = 1e-6  # an interior grid point with x = sd^2 below this fraction of the largest stalls ...
 STALL_HEIGHT = 1e-3  # ... if its controllable set reaches above this fraction (_solve) ...
 STALL_COST = 1e-3  # ... and the stall costs more than this fraction of the profile's duration
+START = 1e-5  # the rest at the start must be in the first controllable set to this (toppra's)
 STALL_REPAIRS = 20  # re-solves with capped x to repair stalls, at most (a stall near a via
 #                    point can move one grid point back per repair: 2-3 re-solves measured)
 
 
-class _Grid(AbstractGeometricPath):
-    """What toppra's algorithm reads from a path when the constraints bring their own arrays."""
-
-    def __init__(self, s: NDArray, n: int) -> None:
-        self._s, self._n = s, n
-
-    @property
-    def path_interval(self) -> NDArray:
-        return np.array([self._s[0], self._s[-1]])
-
-    @property
-    def dof(self) -> int:
-        return self._n
-
-    @property
-    def duration(self) -> float:
-        return float(self._s[-1] - self._s[0])
-
-    def get_duration(self) -> float:
-        return self.duration
-
-
-class _Rows(LinearConstraint):
-    """``A u + B x + C <= 0`` per grid point as toppra's canonical linear constraint (F = I,
-    g = 0, the same for every point), ``0 <= x <= xmax``, and optional rows already per stage
-    (interval), which the interpolation scheme must not pair up again."""
-
-    def __init__(self, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
-                 stage: tuple[NDArray, NDArray, NDArray] | None) -> None:
-        super().__init__()
-        self.rows, self.xmax, self.stage = rows, xmax, stage
-        self.dof = rows[0].shape[1]
-        self.identical = True
-        self.set_discretization_type(1)  # interpolation
-
-    def compute_constraint_params(self, path: Any, gridpoints: NDArray, *_: Any) -> tuple:
-        m = self.rows[0].shape[1]
-        F, g = np.eye(m), np.zeros(m)
-        A, B, C, F, g, _, _ = canlinear_colloc_to_interpolate(
-            *self.rows, F, g, None, None, gridpoints, identical=True)
-        if self.stage is not None:
-            A, B, C = (np.concatenate([X, Y], axis=1) for X, Y in zip((A, B, C), self.stage,
-                                                                     strict=True))
-        # unit normals: seidel bounds each 1-D subproblem by +-1e10 in the line's parameter,
-        # so a row with a short (a, b) loses its box bounds and the warm-started solver fails
-        norm = np.hypot(A, B)
-        tiny = norm < 1e-12
-        norm = np.where(tiny, 1.0, norm)
-        A, B = np.where(tiny, 0.0, A / norm), np.where(tiny, 0.0, B / norm)
-        C = np.where(tiny, np.where(C <= 0, -1.0, 1.0), C / norm)
-        xb = np.stack([np.zeros_like(self.xmax), self.xmax], axis=1)
-        return A, B, C, np.eye(A.shape[1]), np.zeros(A.shape[1]), None, xb
+def _stage_rows(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
+                stage: tuple[NDArray, NDArray, NDArray] | None) -> tuple:
+    """``A u + B x + C <= 0`` per grid point in toppra's interpolation form (each stage i holds
+    point i's rows and point i + 1's in terms of (u, x_i): toppra's
+    ``canlinear_colloc_to_interpolate``), optional rows already per stage (which must not be
+    paired up again), every row scaled to a unit normal in (u, x), and the bounds ``[0, xmax]``
+    on x: (A, B, C, xb)."""
+    m = rows[0].shape[1]
+    A, B, C, *_ = canlinear_colloc_to_interpolate(*rows, np.eye(m), np.zeros(m), None, None,
+                                                   s, identical=True)
+    if stage is not None:
+        A, B, C = (np.concatenate([X, Y], axis=1) for X, Y in zip((A, B, C), stage,
+                                                                 strict=True))
+    # unit normals: toppra's seidel bounded each 1-D subproblem by +-1e10 in the line's
+    # parameter, so a row with a short (a, b) lost its box bounds; the compiled passes keep the
+    # scaling, which also keeps their tolerances relative
+    norm = np.hypot(A, B)
+    tiny = norm < 1e-12
+    norm = np.where(tiny, 1.0, norm)
+    A, B = np.where(tiny, 0.0, A / norm), np.where(tiny, 0.0, B / norm)
+    C = np.where(tiny, np.where(C <= 0, -1.0, 1.0), C / norm)
+    return A, B, C, np.stack([np.zeros_like(xmax), xmax], axis=1)
 
 
 def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
@@ -128,15 +98,11 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
     reachable x_i is a concave function of x_i-1 (the maximum over a slice of a polygon), so
     below the cap it never falls as x_i-1 rises: there the greedy choice is optimal again.
     """
-    n, repaired, attempts = rows[0].shape[1], 0, 0
+    repaired, attempts = 0, 0
     while True:
-        con = _Rows(rows, xmax, stage)
-        algo = TOPPRA([con], _Grid(s, n), gridpoints=s, solver_wrapper="seidel")
-        _, sd, _, K = algo.compute_parameterization(0.0, 0.0, return_data=True)
-        if sd is None or not np.all(np.isfinite(sd)):
-            raise RetimeError("TOPP-RA found no parameterisation of the path from rest to "
-                              "rest within the limits")
-        x = sd ** 2
+        A, B, C, xb = _stage_rows(s, rows, xmax, stage)
+        x, K = topp_ra(s, A, B, C, xb)
+        sd = np.sqrt(x)
         i = 1 + np.flatnonzero((x[1:-1] <= STALL * x.max())
                                & (K[1:-1, 1] > STALL_HEIGHT * x.max()))
         # what each costs: its two intervals' time now and at the top of its controllable set
@@ -150,19 +116,43 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
         if stalls.size == 0 or attempts == STALL_REPAIRS:
             return sd, repaired
         attempts, repaired = attempts + 1, repaired + stalls.size
-        A, B, C = con.compute_constraint_params(None, s)[:3]
         xmax = xmax.copy()
         for i in stalls:
             xmax[i - 1] = min(xmax[i - 1], _unstall(A[i - 1], B[i - 1], C[i - 1],
                                                     s[i] - s[i - 1], K[i - 1], K[i]))
 
 
+def topp_ra(s: NDArray, A: NDArray, B: NDArray, C: NDArray, xb: NDArray
+            ) -> tuple[NDArray, NDArray]:
+    """TOPP-RA from rest to rest on the grid s (N + 1,) for stage rows ``A u + B x + C <= 0``
+    (N + 1, m) in the interpolation form and bounds ``xb`` (N + 1, 2) on x = sd^2: (x (N + 1,),
+    the controllable sets K (N + 1, 2)), by the compiled passes of :mod:`mrnea.kernels.topp`
+    (the same algorithm as toppra's ``TOPPRA`` with its ``seidel`` solver, each stage's LP in
+    closed form: tests/test_retime_margin.py checks them against each other).
+
+    Raises
+    ------
+    RetimeError
+        The path is not controllable from rest to rest, or the forward pass fails.
+    """
+    from mrnea.kernels.topp import controllable_sets, forward_pass
+
+    A, B, C = (np.ascontiguousarray(X, dtype=float) for X in (A, B, C))
+    d = np.ascontiguousarray(np.diff(s), dtype=float)
+    K = np.empty((s.size, 2))
+    xs = np.empty(s.size)
+    lo, hi = (np.ascontiguousarray(xb[:, c], dtype=float) for c in (0, 1))
+    if (controllable_sets(A, B, C, lo, hi, d, K) >= 0 or K[0, 0] > START
+            or forward_pass(A, B, C, d, K, xs) >= 0):
+        raise RetimeError("TOPP-RA found no parameterisation of the path from rest to "
+                          "rest within the limits")
+    return xs, K
+
+
 def _unstall(A: NDArray, B: NDArray, C: NDArray, ds: float, Kj: NDArray, Ki: NDArray
              ) -> float:
     """The largest x_j in Kj from which stage j (rows ``A u + B x_j + C <= 0``, u = (x_i -
     x_j) / (2 ds)) reaches the highest x_i in Ki it can: two LPs in (x_j, x_i)."""
-    from scipy.optimize import linprog
-
     G = np.stack([B - A / (2 * ds), A / (2 * ds)], axis=1)  # G (x_j, x_i) <= -C
     bounds = [(Kj[0], Kj[1]), (Ki[0], Ki[1])]
     top = linprog([0.0, -1.0], A_ub=G, b_ub=-C, bounds=bounds)
@@ -209,7 +199,8 @@ def duration_of(s: NDArray, sd: NDArray) -> float:
         return float(np.sum(2 * np.diff(s) / (sd[1:] + sd[:-1])))
 
 
-def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
+def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0,
+                   checkpoint: Callable[[], None] | None = None
                    ) -> tuple[NDArray, dict[str, Any]]:
     """The time-optimal path speed sd (N + 1,) of a piece under the full actuator model.
 
@@ -230,6 +221,7 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
     profile [s]), ``relaxed`` (the relaxation's), ``solver_time`` [s] (TOPP-RA alone),
     ``solver_failures`` (rounds seidel failed; the last good profile is kept),
     ``stalls_repaired`` (grid points where TOPP-RA's forward pass stalled, :func:`_solve`).
+    ``checkpoint`` is called before each solve (:func:`mrnea.retime`).
     """
     vcap = velocity_cap(pc, lim)
     stage = acceleration_rows(pc, lim)
@@ -237,6 +229,8 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
                            "stalls_repaired": 0}
 
     def solve(rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray) -> NDArray:
+        if checkpoint is not None:
+            checkpoint()
         t0 = time.perf_counter()
         try:
             sd, repaired = _solve(pc.s, rows, xmax, stage)
@@ -274,7 +268,8 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0
             break
         t = duration_of(pc.s, sd)
         log["safe"].append(t)
-        consistent = dt == 0 or utilisation(pc, lim, sd, dt).max() <= lim.margin * LAG_TOL
+        consistent = dt == 0 or bool(np.all(utilisation(pc, lim, sd, dt)
+                                            <= np.ravel(lim.margin) * LAG_TOL))
         if t < t_best and consistent:
             best, t_best = sd, t
         if abs(t - t_lin) < TOL * t and consistent:

@@ -8,8 +8,9 @@ from its parameter columns and ``mrnea.sweep.time_scaled(program, factor)`` its 
 Since ``mrnea.sweep`` is the function, the function carries ``variant``, ``time_scaled`` and
 ``check_grid`` as attributes; import this package's modules as ``from mrnea.sweep import
 engine``. Modules: :mod:`~mrnea.sweep.variants` (the parameters and their rules, the grid
-check), :mod:`~mrnea.sweep.rows` (one run as a row), :mod:`~mrnea.sweep.engine` (the Dask
-engine and :func:`sweep`). pandas and distributed are imported on the first sweep, not with
+check), :mod:`~mrnea.sweep.rows` (one run as a row), :mod:`~mrnea.sweep.cluster` (the Dask
+cluster, a scheduler address checked), :mod:`~mrnea.sweep.engine` (the engine and
+:func:`sweep`). pandas and distributed are imported on the first sweep, not with
 mrnea.
 """
 

@@ -5,7 +5,8 @@
 
 * ``client=None`` starts a ``distributed.LocalCluster`` of one single-threaded worker process
   per usable core and closes it afterwards; a ``distributed.Client``, or a scheduler address
-  (``"tcp://host:8786"``), runs the same sweep on an existing cluster. Processes, not threads:
+  (``"tcp://host:8786"``, checked first: :func:`~mrnea.sweep.cluster.check_scheduler`), runs
+  the same sweep on an existing cluster. Processes, not threads:
   a run holds the GIL for about half its time (docs/sweeps.md), so threads of one process
   would give at most 2x however many cores.
 * The robot and every (program, time scale) are sent to each worker once; a task is a batch
@@ -13,11 +14,13 @@
   returns summary rows, never per-cycle arrays.
 * Before the runs, each worker loads the compiled kernels (:func:`~mrnea.sweep.rows.warm`)
   and reports the code it runs: a worker with other code is an error (its rows would differ).
-* Ctrl-C (or a ``progress`` callback raising KeyboardInterrupt) cancels what is left and
-  returns the rows done; ``df.attrs["completed"]`` is then False.
+* Ctrl-C (or a ``progress`` callback raising KeyboardInterrupt; the command line turns
+  SIGTERM into the same) cancels what is left and returns the rows done, never a row for a
+  run not done; ``df.attrs["completed"]`` is then False.
 * Nothing but the progress bar reaches the terminal: distributed's logs and warnings are
-  silenced during the sweep, the dashboard is off, workers ignore SIGINT (the terminal sends
-  it to the whole process group; this process alone acts on it).
+  silenced during the sweep, the dashboard is off, the local cluster's workers ignore SIGINT
+  and SIGTERM (a terminal, a container stop or a batch scheduler sends them to the whole
+  process group; this process alone acts on them: :func:`~mrnea.sweep.cluster.spawning`).
 
 The LocalCluster starts its workers with ``spawn``: a script that calls :func:`sweep` without a
 client needs the ``if __name__ == "__main__":`` guard (a notebook does not).
@@ -27,24 +30,22 @@ from __future__ import annotations
 
 import builtins
 import contextlib
-import logging
 import math
 import os
 import queue
-import signal
 import sys
-import threading
 import time
-import warnings
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from mrnea import validate
+from mrnea.cartesian import solve
 from mrnea.errors import MrneaError, SweepError, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
 from mrnea.model import Robot
 from mrnea.robots.sdt_profile import training_program
+from mrnea.sweep import cluster
 from mrnea.sweep.rows import (
     FIRST_COLUMNS,
     RETIME_COLUMNS,
@@ -64,11 +65,8 @@ __all__ = ["DEMO_PROGRAM", "TARGET_CYCLES", "batch_size", "load_programs", "swee
 TARGET_CYCLES = 250_000
 #: Tasks per worker thread at least, for load balance and a progress bar that moves.
 TASKS_PER_THREAD = 4
-#: glibc settings of the LocalCluster's workers (:func:`_spawning`): trim at 128 MB, arrays of
-#: up to 32 MB from the heap.
-WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 134217728, "MALLOC_MMAP_THRESHOLD_": 33554432}
-#: Seconds to wait for a cluster's first worker, and for a scheduler to answer.
-WORKER_TIMEOUT, CONNECT_TIMEOUT = 60, 10
+#: Seconds to wait for a cluster's first worker.
+WORKER_TIMEOUT = 60
 #: Seconds between two calls of a progress callback while no task finishes.
 POLL = 0.25
 
@@ -106,7 +104,7 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
         if prog.n != robot.n:
             raise SweepError(f"program {quote(prog.name)} ({prog.source or 'object'}) commands "
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
-        out.append(prog)
+        out.append(solve(prog, robot))  # a Cartesian program's joint path (others: unchanged)
     return out
 
 
@@ -135,77 +133,6 @@ def _scaled(programs: Sequence[Program], cases: Sequence[Mapping[str, Any]]
 
 
 # --- the cluster ---------------------------------------------------------------------------
-
-
-@contextlib.contextmanager
-def _spawning() -> Iterator[None]:
-    """The settings under which this process starts its LocalCluster's worker processes.
-
-    * SIGINT ignored while they start, so they inherit it ignored: Ctrl-C in a terminal reaches
-      the whole process group, and only this process should act on it (cancel, keep the rows,
-      close the cluster), not every worker with a traceback of its own. A Ctrl-C during those
-      1-3 s is lost (blocking the signal instead did not keep it pending: a thread distributed
-      starts takes it).
-    * glibc's heap kept for the runs' arrays: distributed's ``MALLOC_TRIM_THRESHOLD_=65536``
-      also fixes glibc's mmap threshold at 128 kB, so each run's MB-sized arrays are mapped and
-      faulted in afresh (5x the page faults, +35 % CPU per run, measured); trim at 128 MB with
-      a 32 MB mmap threshold instead (:data:`WORKER_MALLOC`).
-    * ``os.environ`` restored afterwards: distributed's Nanny writes its worker variables
-      (``OMP_NUM_THREADS=1``...) into this process's environment.
-    """
-    import dask
-
-    environ = dict(os.environ)
-    main = threading.current_thread() is threading.main_thread()
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-    try:
-        key = "distributed.nanny.pre-spawn-environ"
-        with dask.config.set({key: {**dask.config.get(key), **WORKER_MALLOC}}):
-            yield
-    finally:
-        os.environ.clear()
-        os.environ.update(environ)
-        if main:
-            signal.signal(signal.SIGINT, old)
-
-
-@contextlib.contextmanager
-def _quiet() -> Iterator[None]:
-    """distributed's logs and warnings off (a failed task becomes its rows' error)."""
-    log = logging.getLogger("distributed")
-    level = log.level
-    log.setLevel(logging.CRITICAL)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            yield
-    finally:
-        log.setLevel(level)
-
-
-@contextlib.contextmanager
-def _client(client: Any, workers: int | None) -> Iterator[Any]:
-    """A ``distributed.Client``: the one given, one connected to a scheduler address, or one
-    of a new LocalCluster (closed on exit)."""
-    from distributed import Client, LocalCluster
-
-    if client is None:
-        n = workers or len(os.sched_getaffinity(0))
-        with _spawning():  # the dashboard off, and the scheduler's HTTP server on a free port:
-            cluster = LocalCluster(  # on 8787 it warns when another cluster holds that port
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                silence_logs=logging.CRITICAL, scheduler_kwargs={"dashboard_address": ":0"})
-        with cluster, Client(cluster) as c:
-            yield c
-    elif isinstance(client, str):
-        try:
-            c = Client(client, timeout=f"{CONNECT_TIMEOUT}s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise SweepError(f"scheduler {quote(client)}: cannot connect ({exc})") from None
-        with c:
-            yield c
-    else:
-        yield client
 
 
 def batch_size(jobs: int, cycles: float, threads: int) -> int:
@@ -317,7 +244,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
                          f"(str), got {type(client).__name__}")
     progs = load_programs(programs, robot)
     labels = _labels(progs)
-    keys, cases = check_grid(robot, grid, zip)
+    keys, cases = check_grid(robot, grid, zip, progs)
     scaled = _scaled(progs, cases)
     jobs = [(v * len(progs) + p, (p, float(case.get("time_scale", 1.0))), case)
             for v, case in enumerate(cases) for p in range(len(progs))]
@@ -328,7 +255,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
     report = bar or (progress if callable(progress) else None)
     completed = True
     try:
-        with _quiet(), _client(client, workers) as c:
+        with cluster.quiet(), cluster.client(client, workers) as c:
             clock["cluster"] = time.perf_counter() - t0 - clock["prepare"]
             _run(c, robot, scaled, jobs, retime, report, bar, rows, info, clock)
     except KeyboardInterrupt:  # rows holds what was done; the cluster is closed or left as given
@@ -336,6 +263,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
     finally:
         if bar is not None:
             bar.close()
+    completed = completed and len(rows) == len(jobs)  # a task cancelled by someone else
     df = _frame(keys, labels, jobs, rows, retime)
     clock["total"] = time.perf_counter() - t0
     df.attrs.update(completed=completed, cases=len(jobs), seconds=clock,
@@ -375,7 +303,8 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
     batches = [jobs[k:k + size] for k in range(0, len(jobs), size)]
     info["tasks"] = len(batches)
     r_fut, p_fut = c.scatter([robot, dict(scaled)], broadcast=True, hash=False)
-    futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime, pure=False)
+    futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime,
+                    client_pid=os.getpid(), pure=False)
     which = {f.key: b for f, b in builtins.zip(futures, batches, strict=True)}
     try:
         _collect(futures, which, rows, report, len(jobs))
@@ -399,9 +328,13 @@ def _check_workers(answers: Mapping[str, Mapping[str, Any]]) -> None:
 
 def _batch_rows(batch: Sequence[tuple[int, Any, Any]], result: Any, future: Any
                 ) -> list[tuple[int, dict[str, Any]]]:
-    """A finished task's rows, or for each of its runs a row with the task's error."""
+    """A finished task's rows; for each run of a task that failed, a row with the task's error;
+    none for a task cancelled (the sweep stopping: its runs are not done, not failed) or whose
+    result could not be fetched."""
     if future.status == "finished":
-        return result
+        return [] if result is None else result
+    if future.status != "error":
+        return []
     try:
         exc = future.exception(timeout=10)
     except Exception as err:  # cancelled, or the scheduler lost it
@@ -444,8 +377,20 @@ def _collect(futures: list, which: dict, rows: dict[int, dict[str, Any]],
 
 
 def _gather(futures: list) -> list:
-    """The results of finished futures, in one round trip."""
-    return futures[0].client.gather(futures) if futures else []
+    """The results of finished futures, in one round trip; None for one whose result is gone
+    (cancelled meanwhile: the sweep is stopping)."""
+    if not futures:
+        return []
+    try:
+        return futures[0].client.gather(futures)
+    except Exception:  # one of them cancelled or lost since it finished: each alone
+        out = []
+        for fut in futures:
+            try:
+                out.append(fut.result(timeout=5))
+            except Exception:
+                out.append(None)
+        return out
 
 
 def _done_rows(futures: list) -> dict[int, dict[str, Any]]:
@@ -478,6 +423,7 @@ def _frame(keys: Sequence[str], labels: Sequence[str],
             order.append(k)
     df = pd.DataFrame.from_records(records, columns=list(columns),
                                    index=pd.Index(order, name="case", dtype="int64"))
+    df.index.name = "case"  # from_records drops it when there is no record
     df["achievable"] = df["achievable"].astype("boolean")
     return df
 

@@ -85,9 +85,10 @@ _UNBOUNDED = ("effort_limit", "motor_torque_limit", "velocity_limit")  # inf: un
 _REPLACED = ("rotor_inertia", "viscous_friction", "coulomb_friction", "velocity_limit")
 #: Peak memory per row in the client [bytes], ROW_BYTES + ROW_BYTES_PER_JOINT n: the case's
 #: dict, the row's dict as it came back, and the DataFrame made of them (measured with
-#: tracemalloc, with the summary's 25 numbers per joint: 12.1 kB per row for n = 4, 14.4 kB
-#: for n = 6; tests/test_sweep_variants.py checks the bound).
-ROW_BYTES, ROW_BYTES_PER_JOINT = 3000, 3000
+#: tracemalloc: 12.1 kB per row for n = 4, 14.4 kB for n = 6 with the summary's 25 numbers
+#: per joint; 12.3 and 21.2 kB after the summary grew, 2026-11-27; tests/test_sweep_variants.py
+#: checks the bound).
+ROW_BYTES, ROW_BYTES_PER_JOINT = 3000, 4000
 
 
 # --- parameters ----------------------------------------------------------------------------
@@ -282,13 +283,10 @@ def time_scaled(program: Program, factor: float) -> Program:
     q, dt = np.asarray(program.q_cmd, dtype=float), program.dt
     K = q.shape[0]
     T = (K - 1) * dt
-    M = math.ceil(f * T / dt - 1e-9) + 1
+    M = _require_scaled_memory(program, f, StateError)
     if M < 2:
         raise StateError(f"factor: {f} leaves program {quote(program.name)} ({K} cycles) "
                          "less than two cycles")
-    require_memory(8.0 * M * (4 * q.shape[1] + 8), f"time-scaling program "
-                   f"{quote(program.name)} by {f:g} ({M:.3g} cycles)", "use a smaller "
-                   "time_scale or a coarser dt", StateError)
     s = np.minimum(np.arange(M) * dt / f, T)  # program-clock instants of the new rows
     w = np.diff(q, axis=0) / dt  # (K - 1, n): velocity at mid-cycle (k + 1/2) dt
     x = np.concatenate(([0.0], (np.arange(K - 1) + 0.5) * dt, [T]))  # velocity knots
@@ -314,15 +312,31 @@ def time_scaled(program: Program, factor: float) -> Program:
 # --- the grid ------------------------------------------------------------------------------
 
 
-def _values(key: str, values: Any) -> list[Any]:
-    """A grid entry's list of values (a list, tuple or 1-D array), not empty."""
+def _list(key: str, values: Any) -> Sequence[Any]:
+    """A grid entry's list of values (a list, tuple or 1-D array), not empty; not copied."""
     if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, (Sequence,
                                                                             np.ndarray)):
         raise SweepError(f"grid entry {quote(key)}: expected a list of values, got "
                          f"{type(values).__name__} {quote(values)}")
     if len(values) == 0:
         raise SweepError(f"grid entry {quote(key)}: the list of values is empty")
+    return values
+
+
+def _values(values: Sequence[Any]) -> list[Any]:
+    """A grid entry's values as Python objects (an array's rows as lists)."""
     return [v.tolist() if isinstance(v, np.ndarray) else v for v in values]
+
+
+def _require_scaled_memory(program: Program, factor: float, error: type[MrneaError]) -> int:
+    """The rows M of ``time_scaled(program, factor)``, once the memory it allocates (about
+    8 M (4 n + 8) bytes) is known to be there, else ``error``."""
+    K, n = program.q_cmd.shape
+    M = math.ceil(factor * (K - 1) * program.dt / program.dt - 1e-9) + 1
+    require_memory(8.0 * M * (4 * n + 8), f"time-scaling program {quote(program.name)} by "
+                   f"{factor:g} ({M:.3g} cycles)", "use a smaller time_scale or a coarser dt",
+                   error)
+    return M
 
 
 def _check_value(robot: Robot, key: str, value: Any) -> None:
@@ -336,13 +350,18 @@ def _check_value(robot: Robot, key: str, value: Any) -> None:
         variant(robot, **{key: value})
 
 
-def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False
+def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False,
+               programs: Sequence[Program] = ()
                ) -> tuple[tuple[str, ...], list[dict[str, Any]]]:
-    """Check a grid against ``robot`` and list its cases, before any simulation runs.
+    """Check a grid against ``robot`` (and ``programs``) and list its cases, before any
+    simulation runs.
 
-    Every value is tried alone on the robot (``variant(robot, **{key: value})``), so a value
-    the robot cannot take is reported with its grid entry and position; combinations that
-    fail later become rows with an error.
+    The grid's size is checked first (lengths only: a list of 10^7 values is refused by the
+    memory its rows would take in about a second, before any value is looked at); then every
+    value is tried alone on the robot (``variant(robot, **{key: value})``), so a value the
+    robot cannot take is reported with its grid entry and position; then the memory each
+    program needs at each ``time_scale``. Combinations that fail later become rows with an
+    error.
 
     Parameters
     ----------
@@ -351,6 +370,9 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False
         Parameter (module docstring) -> list of values.
     zip : bool
         Take the lists in step (all of one length) instead of their product.
+    programs : sequence of Program
+        The sweep's programs, for the memory each ``time_scale`` makes them take (none: not
+        checked).
 
     Returns
     -------
@@ -377,9 +399,17 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False
     keys = tuple(grid)
     for key in keys:
         _split(robot, key)
-    lists = {key: _values(key, grid[key]) for key in keys}
+    lengths = [len(_list(key, grid[key])) for key in keys]
+    if zip and len(set(lengths)) > 1:
+        raise SweepError("grid: zip needs lists of one length, got " + ", ".join(
+            f"{quote(k)}: {n}" for k, n in builtins.zip(keys, lengths, strict=True)))
+    count = lengths[0] if zip else math.prod(lengths)  # the size first, then the values
+    require_memory(float(count) * (ROW_BYTES + ROW_BYTES_PER_JOINT * robot.n),
+                   f"a sweep of {count:.3g} variants", "sweep fewer values at once, or split "
+                   "the grid into several sweeps", SweepError)
     if "payload_point" in keys and "payload" not in keys:
         raise SweepError("grid entry 'payload_point': needs 'payload' (the mass) too")
+    lists = {key: _values(grid[key]) for key in keys}
     for key, vals in lists.items():
         for k, value in enumerate(vals):
             try:
@@ -389,14 +419,13 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False
                                  f"{str(exc).removeprefix(f'grid entry {quote(key)}: ')}"
                                  ) from None
     _joint_values(robot, {key: lists[key][0] for key in keys})  # conflicting limit keys
-    lengths = [len(v) for v in lists.values()]
-    if zip and len(set(lengths)) > 1:
-        raise SweepError("grid: zip needs lists of one length, got " + ", ".join(
-            f"{quote(k)}: {len(v)}" for k, v in lists.items()))
-    count = lengths[0] if zip else math.prod(lengths)
-    require_memory(float(count) * (ROW_BYTES + ROW_BYTES_PER_JOINT * robot.n),
-                   f"a sweep of {count:.3g} variants", "sweep fewer values at once, or split "
-                   "the grid into several sweeps", SweepError)
+    for k, value in enumerate(lists.get("time_scale", ())):  # each program at each scale
+        for prog in programs:
+            try:
+                _require_scaled_memory(prog, float(value), SweepError)
+            except SweepError as exc:
+                raise SweepError(f"grid entry 'time_scale' value {k + 1} ({quote(value)}): "
+                                 f"{exc}") from None
     combos = builtins.zip(*lists.values(), strict=True) if zip else itertools.product(
         *lists.values())
     return keys, [dict(builtins.zip(keys, c, strict=True)) for c in combos]

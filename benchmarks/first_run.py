@@ -1,0 +1,88 @@
+"""A command's first run on a fresh install: Numba's on-disk cache empty (``NUMBA_CACHE_DIR`` set
+to a new temporary folder), the command run as a real process, its wall and CPU time measured,
+and every kernel Numba compiles listed with its signature and compile time (Numba's event API,
+``numba:compile``), heaviest first.
+
+Usage::
+
+    python benchmarks/first_run.py demo --out /tmp/x --quiet
+    python benchmarks/first_run.py --warm demo --out /tmp/y --quiet   # a second run, cache kept
+
+Prints one JSON object: the command, wall [s], CPU [s] (user + system of the process and its
+children), the compile total [s] and the kernels (name, signature, seconds). On a shared machine
+wall times are noisy; CPU times are the steadier figure. docs/performance.md quotes its numbers.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+CHILD = r"""
+import json, sys, time
+from numba.core import event
+
+events = []
+
+class Record(event.Listener):
+    def on_start(self, ev):
+        self.t0 = getattr(self, "t0", [])
+        self.t0.append(time.perf_counter())
+    def on_end(self, ev):
+        t = time.perf_counter() - self.t0.pop()
+        d = ev.data or {}
+        disp = d.get("dispatcher")
+        name = getattr(getattr(disp, "py_func", None), "__qualname__", str(disp))
+        mod = getattr(getattr(disp, "py_func", None), "__module__", "")
+        events.append({"kernel": f"{mod}.{name}", "signature": str(d.get("args")),
+                       "seconds": round(t, 3), "nested": len(self.t0)})
+
+event.register("numba:compile", Record())
+from mrnea.cli import main
+try:
+    main(sys.argv[1:], standalone_mode=True)
+except SystemExit:
+    pass  # the exit code is the process's
+finally:
+    sys.stderr.write("\nFIRST_RUN_EVENTS " + json.dumps(events) + "\n")
+"""
+
+
+def run(args: list[str], cache: str) -> dict:
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    res = subprocess.run([sys.executable, "-c", CHILD, *args], env=env, capture_output=True,
+                         text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    events: list = []
+    for line in res.stderr.splitlines():
+        if line.startswith("FIRST_RUN_EVENTS "):
+            events = json.loads(line[len("FIRST_RUN_EVENTS "):])
+    top = [e for e in events if e["nested"] == 0]  # nested compiles are inside their caller's
+    return {"command": "mrnea " + " ".join(args), "exit": res.returncode, "wall_s": round(wall, 2),
+            "cpu_s": round(cpu, 2), "compile_s": round(sum(e["seconds"] for e in top), 2),
+            "kernels_compiled": len(events),
+            "kernels": sorted(events, key=lambda e: -e["seconds"]),
+            "stderr_tail": res.stderr.splitlines()[-3:] if res.returncode not in (0, 1) else []}
+
+
+def main() -> None:
+    args = sys.argv[1:]
+    warm = bool(args) and args[0] == "--warm"
+    args = args[1:] if warm else args
+    with tempfile.TemporaryDirectory(prefix="mrnea-numba-cache-") as cache:
+        if warm:
+            run(args, cache)  # fills the cache
+        print(json.dumps(run(args, cache), indent=1))
+
+
+if __name__ == "__main__":
+    main()

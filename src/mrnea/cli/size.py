@@ -1,0 +1,117 @@
+"""``mrnea size [ROBOT] PROGRAM... --catalogue FILE --out DIR``: each joint's motor and gearbox
+from a catalogue, checked on the coupled robot (issue 27; docs/sizing.md).
+
+ROBOT is optional (a built-in name, a URDF or a ``.toml`` robot file); without it, the robot
+the first program names. PROGRAMs are program files (``demo``: the SDT demo's training
+profile); the duty cycle runs them in turn, then ``--dwell`` seconds at rest. Everything is
+read and checked before any work (the catalogue: one error naming the entry and the field); the
+output files are never replaced without ``--force``.
+
+Writes into DIR ``sizing.csv`` (one row per joint x combination), ``chosen_drives.toml`` (a
+sidecar actuator file), ``sized_robot.toml`` (the robot with the drives and their masses, a
+native robot file), ``summary.json`` and ``sizing.html``, and prints one line per joint and the
+verification. Exit 0 when every joint has a drive and every program is ACHIEVABLE on the sized
+robot, 1 when not (a verdict: nothing in the catalogue fits a joint), 2 on bad input.
+``--scheduler tcp://HOST:PORT`` judges the combinations on a Dask cluster (as for ``sweep``).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
+    compile_notice,
+    force_opt,
+    fresh_dir,
+    load_robot_arg,
+    main,
+    quiet_opt,
+    robot_options,
+)
+from mrnea.cli.sweep import _is_robot
+from mrnea.errors import SizingError
+from mrnea.io import RobotOptions, load_program
+from mrnea.io.gridfile import DEMO_PROGRAM
+from mrnea.io.writer import check_new, create, own_folder
+from mrnea.robots.sdt_profile import training_program
+
+FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json", "sizing.html")
+
+
+@main.command()
+@click.argument("args", nargs=-1, metavar="[ROBOT] PROGRAM...")
+@click.option("--catalogue", required=True, type=click.Path(dir_okay=False), metavar="FILE",
+              help="The catalogue: [[motor]], [[gearbox]] and [[drive]] entries "
+                   "(docs/sizing.md).")
+@click.option("--joints", default=None, metavar="NAMES",
+              help="The joints to size, comma-separated [default: all].")
+@click.option("--objective", type=click.Choice(["mass", "price", "margin"]), default="mass",
+              show_default=True, help="What the best drive minimises (margin: the worst ratio).")
+@click.option("--dwell", type=click.FloatRange(0.0), default=0.0, show_default=True,
+              metavar="SECONDS", help="Seconds at rest after the programs, in the duty cycle.")
+@click.option("--no-drive-mass", is_flag=True,
+              help="Leave the drives' masses off the parent links.")
+@click.option("--scheduler", default=None, metavar="ADDR",
+              help="A Dask scheduler, tcp://HOST:PORT, to judge the combinations on "
+                   "[default: here].")
+@click.option("--out", type=click.Path(file_okay=False), default=None,
+              help="Output folder [default: a fresh ./mrnea-size].")
+@robot_options
+@force_opt
+@quiet_opt
+def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: str,
+         dwell: float, no_drive_mass: bool, scheduler: str | None, out: str | None,
+         robot_options: RobotOptions,
+         force: bool, quiet: bool) -> None:
+    """Choose each joint's motor and gearbox from a catalogue for the PROGRAMs.
+
+    Every motor x gearbox combination is judged on the duty cycle from the programs' own
+    requirement (motor peak and torque-speed curve, RMS, speeds, gearbox peak and cubic mean);
+    the best by the objective is verified by simulating the sized robot.
+    """
+    from mrnea.sizing import load_catalogue, size_drives
+    from mrnea.sizing.html import sizing_html
+    from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
+
+    robot_arg = args[0] if args and _is_robot(args[0]) else None
+    names = list(args[1:] if robot_arg is not None else args)
+    if not names:
+        raise click.UsageError("Missing argument 'PROGRAM...'.")
+    programs = [training_program() if n == DEMO_PROGRAM else load_program(n) for n in names]
+    if robot_arg is not None:
+        robot = load_robot_arg(robot_arg, robot_options)
+    elif programs[0].robot is not None:
+        robot = programs[0].load_robot(options=robot_options)
+    else:
+        raise SizingError(f"no robot: give ROBOT, or name one in program "
+                          f"{programs[0].name!r}")
+    for p in programs:
+        p.check_path(robot)
+    cat = load_catalogue(catalogue)
+    wanted = None if joints is None else [j.strip() for j in joints.split(",")]
+    with own_folder(Path(out) if out else fresh_dir("mrnea-size")) as folder:
+        check_new([folder / f for f in FILES], force)
+        with compile_notice(quiet):
+            res = size_drives(robot, programs, cat, joints=wanted, objective=objective,
+                              dwell=dwell, drive_mass=not no_drive_mass, scheduler=scheduler)
+        with create(folder / "sizing.csv", force) as fh:
+            sizing_table(res).to_csv(fh, index=False)
+        if res.sized is not None:
+            with create(folder / "chosen_drives.toml", force) as fh:
+                fh.write(chosen_toml(res))
+            res.sized.to_toml(folder / "sized_robot.toml", overwrite=force)
+        with create(folder / "summary.json", force) as fh:
+            json.dump(sizing_summary(res), fh, indent=2, allow_nan=False)
+            fh.write("\n")
+        sizing_html(res, folder / "sizing.html", overwrite=force)
+    if not quiet:
+        for line in res.lines():
+            click.echo(line)
+        click.echo(f"Wrote {folder}: " + ", ".join(f for f in FILES if (folder / f).exists()))
+    sys.exit(EXIT_ACHIEVABLE if res.verified else EXIT_NOT_ACHIEVABLE)

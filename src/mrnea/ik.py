@@ -1,0 +1,138 @@
+"""Inverse kinematics of a tool frame, the public API: ``mrnea.inverse_kinematics``.
+
+Usage: ``q = inverse_kinematics(robot, T, q0, tool=None)`` for one pose T (4, 4), or a path
+(K, 4, 4) followed continuously, each cycle warm-started at the previous cycle's solution (the
+first at ``q0``): the branch through ``q0``, never a jump to another configuration.
+:func:`solve_path` returns what is left of the error besides q, for callers that judge a path
+(:mod:`mrnea.cartesian`) rather than fail on it.
+
+The solver is damped least squares (Levenberg-Marquardt) on the tool point's geometric Jacobian
+(:func:`mrnea.jacobian`), compiled with Numba (``mrnea/kernels/ik.py``, where the iteration is
+written out); it stops at ``TOL_POSITION`` [m] and ``TOL_ORIENTATION`` [rad] (the position error
+of the tool frame's origin and the angle of the rotation left). Redundant arms (n > 6) take the
+minimum-norm joint step of each iteration: the solution moves least from the previous cycle.
+Arms with n < 6 reach a pose only where it lies on their reachable set; elsewhere the least-squares
+residual is what :func:`solve_path` reports. Joint limits are not enforced (a limit crossed is a
+verdict of :mod:`mrnea.cartesian`, not something to hide).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mrnea import compiled, validate
+from mrnea.errors import StateError
+from mrnea.kernels.ik import ik_path
+from mrnea.model import Robot
+from mrnea.tool import Tool, tool_transform
+
+__all__ = ["MAX_ITERATIONS", "TOL_ORIENTATION", "TOL_POSITION", "IKPath", "inverse_kinematics",
+           "solve_path"]
+
+TOL_POSITION = 1e-10  # [m]: the tool frame's origin at most this far from the target
+TOL_ORIENTATION = 1e-10  # [rad]: the rotation left between the tool's axes and the target's
+MAX_ITERATIONS = 200  # per pose (a warm-started cycle of a smooth path takes one to three)
+
+
+class IKPath(NamedTuple):
+    """What :func:`solve_path` returns: q (K, n) [rad | m]; position_error (K,) [m] and
+    orientation_error (K,) [rad] left at each pose; iterations (K,)."""
+
+    q: NDArray[np.float64]
+    position_error: NDArray[np.float64]
+    orientation_error: NDArray[np.float64]
+    iterations: NDArray[np.int64]
+
+    @property
+    def converged(self) -> NDArray[np.bool_]:
+        """(K,): whether each pose was reached within the tolerances."""
+        return (self.position_error <= TOL_POSITION) & (self.orientation_error <= TOL_ORIENTATION)
+
+
+def _poses(poses: ArrayLike) -> tuple[NDArray[np.float64], bool]:
+    try:
+        P = np.asarray(poses, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise StateError(f"poses: not a numeric array: {poses!r}") from None
+    if P.ndim not in (2, 3) or P.shape[-2:] != (4, 4) or (P.ndim == 3 and P.shape[0] == 0):
+        raise StateError(f"poses: expected a (4, 4) pose or (K, 4, 4) poses, got shape {P.shape}")
+    if not np.isfinite(P).all():
+        raise StateError("poses: contain NaN or inf")
+    P3 = np.ascontiguousarray(P.reshape(-1, 4, 4))
+    R = P3[:, :3, :3]
+    bad = np.flatnonzero((np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2)) > 1e-9)
+                         | (np.linalg.det(R) < 0) | (np.abs(P3[:, 3] - (0, 0, 0, 1)).max(axis=1)
+                                                     > 0))
+    if bad.size:
+        raise StateError(f"poses: pose {int(bad[0])} is not a rigid transform (a rotation "
+                         f"orthonormal to 1e-9 and a last row 0, 0, 0, 1)")
+    return P3, P.ndim == 3
+
+
+def solve_path(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None) -> IKPath:
+    """Joint positions for the tool poses (K, 4, 4) in turn from q0, and the error left.
+
+    Parameters
+    ----------
+    robot : Robot (a serial chain).
+    poses : (K, 4, 4) or (4, 4) target poses of the tool frame, base frame [m].
+    q0 : (n,) the joint positions the first solve starts from [rad | m].
+    tool : the tool frame (:mod:`mrnea.tool`); None: the last link's frame.
+
+    Returns
+    -------
+    IKPath
+        q (K, n), position_error (K,) [m], orientation_error (K,) [rad], iterations (K,).
+    """
+    validate.require_robot(robot)
+    P, _ = _poses(poses)
+    q0 = validate.array(q0, "q0", robot.n)
+    if q0.ndim != 1:
+        raise StateError(f"q0: expected shape ({robot.n},), got {q0.shape}")
+    Tt = tool_transform(robot, tool)
+    m = compiled.of(robot)[0]
+    Q, ERR = np.empty((P.shape[0], robot.n)), np.empty((P.shape[0], 3))
+    ik_path(m, P, np.ascontiguousarray(Tt[:3, 3]), np.ascontiguousarray(Tt[:3, :3]), q0, Q, ERR,
+            TOL_POSITION, TOL_ORIENTATION, MAX_ITERATIONS)
+    return IKPath(Q, ERR[:, 0].copy(), ERR[:, 1].copy(), ERR[:, 2].astype(np.int64))
+
+
+def inverse_kinematics(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None
+                       ) -> NDArray[np.float64]:
+    """Joint positions whose tool frame is at the given pose(s), on the branch through q0.
+
+    Parameters
+    ----------
+    robot : Robot (a serial chain of any length: 5, 6, 7 joints...).
+    poses : (4, 4) one target pose of the tool frame, or (K, 4, 4) a path of them, in base
+        coordinates [m]; a path is followed continuously, each pose's solve starting at the
+        previous pose's solution.
+    q0 : (n,) where the (first) solve starts [rad | m]: it picks the branch (elbow, wrist).
+    tool : the tool frame (:mod:`mrnea.tool`): None (the last link's frame), a frame's name,
+        ``{"xyz": ..., "rpy": ...}`` in the last link's frame, or a (4, 4) transform.
+
+    Returns
+    -------
+    q : (n,) for one pose, (K, n) for a path [rad | m]; forward_kinematics(robot, q, tool)[-1]
+        is within 1e-10 m and 1e-10 rad of each pose.
+
+    Raises
+    ------
+    StateError
+        Malformed arguments, or a pose not reached within the tolerances (out of reach, or a
+        singularity where the solve stalls): the message names the first such pose and the
+        error left. :func:`solve_path` returns the errors instead.
+    """
+    res = solve_path(robot, poses, q0, tool)
+    bad = np.flatnonzero(~res.converged)
+    if bad.size:
+        k = int(bad[0])
+        raise StateError(
+            f"inverse_kinematics: pose {k} is not reached: position error "
+            f"{res.position_error[k]:.3g} m, orientation error {res.orientation_error[k]:.3g} "
+            f"rad after {res.iterations[k]} iterations (out of reach, or a singularity); "
+            f"{bad.size} of {res.q.shape[0]} poses not reached")
+    return res.q if np.ndim(poses) == 3 else res.q[0]

@@ -1,0 +1,183 @@
+"""The moves of a Cartesian program file: ``[program] tool``, ``q0`` and the ``[[move]]`` tables.
+
+:func:`read_moves` checks them and returns :class:`Moves`, plain data: the joint program is made
+from them with the robot, by inverse kinematics (:func:`mrnea.cartesian.solve`). Format and
+examples: ``docs/programs.md`` ("Cartesian moves") and ``docs/cartesian.md``. Every problem is a
+:class:`mrnea.errors.ProgramFileError` naming the file, the move (1-based, with its type) and
+the key at fault.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mrnea.io.tomlcheck import TomlCheck, did_you_mean
+from mrnea.rigid import rotation_from_rpy
+
+__all__ = ["MOVE_TYPES", "Move", "Moves", "read_moves"]
+
+MOVE_TYPES = ("joint", "linear", "circular")
+JOINT_PROFILES = ("trapezoidal", "quintic", "scurve")
+_COMMON = ("type", "dwell", "blend")
+_KEYS = {
+    "joint": (*_COMMON, "target", "profile", "velocity_limit", "acceleration_limit",
+              "jerk_limit"),
+    "linear": (*_COMMON, "xyz", "rpy", "quat", "speed", "acceleration", "angular_speed",
+               "angular_acceleration", "jerk", "angular_jerk"),
+}
+_KEYS["circular"] = (*_KEYS["linear"], "via")
+
+
+@dataclass(frozen=True, eq=False)
+class Move:
+    """One ``[[move]]`` of a program file (1-based ``index``, as in messages).
+
+    Joint moves: ``target`` (n,) [rad | m], ``profile`` and per-joint ``limits`` (velocity,
+    acceleration[, jerk]) as (n,) arrays. Linear and circular moves: ``xyz`` (3,) [m] and
+    ``R`` (3, 3) the target tool pose in the base frame (``R`` None: keep the orientation the
+    move starts with), ``via`` (3,) [m] the circle's intermediate point (circular only), and
+    ``limits`` the tool's (speed [m/s], acceleration [m/s^2], jerk [m/s^3], angular speed
+    [rad/s], angular acceleration [rad/s^2], angular jerk [rad/s^3]), ``inf`` where not given
+    (a jerk: no jerk limit, the trapezoid). ``dwell`` [s] is the hold at the move's end;
+    ``blend`` [m] the radius of the corner into the next move (0: stop there).
+    """
+
+    index: int
+    type: str
+    dwell: float
+    blend: float
+    target: NDArray[np.float64] | None = None
+    profile: str = "trapezoidal"
+    limits: tuple[NDArray[np.float64] | float, ...] = ()
+    xyz: NDArray[np.float64] | None = None
+    R: NDArray[np.float64] | None = None
+    via: NDArray[np.float64] | None = None
+
+    @property
+    def label(self) -> str:
+        """``move 3 (linear)``: how messages name it."""
+        return f"move {self.index} ({self.type})"
+
+
+@dataclass(frozen=True, eq=False)
+class Moves:
+    """A Cartesian program's moves: the tool (a frame name, ``{"xyz", "rpy"}`` or None: the
+    last link's frame; :mod:`mrnea.tool`), the start ``q0`` (n,) [rad | m] and the moves."""
+
+    tool: str | dict[str, list[float]] | None
+    q0: NDArray[np.float64]
+    moves: tuple[Move, ...]
+
+    @property
+    def n(self) -> int:
+        return int(self.q0.size)
+
+
+def _tool(check: TomlCheck, value: Any) -> str | dict[str, list[float]]:
+    where = "[program]"
+    if isinstance(value, str):
+        return check.string(value, where, "tool")
+    if not isinstance(value, dict):
+        raise check.error(where, f"'tool' must be a frame's name or a table with xyz [m] and "
+                                 f"rpy [rad], got {value!r}")
+    check.check_keys(value, ("xyz", "rpy"), f"{where} tool")
+    return {k: check.vector(value[k], where, f"tool.{k}", 3).tolist() for k in value}
+
+
+def _positive(check: TomlCheck, table: Mapping[str, Any], key: str, where: str,
+              required: bool) -> float:
+    if key not in table:
+        if required:
+            raise check.error(where, f"missing required key '{key}'")
+        return float("inf")
+    v = check.number(table[key], where, key)
+    if not v > 0:
+        raise check.error(where, f"'{key}' must be > 0, got {v}")
+    return v
+
+
+def _per_joint(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArray:
+    a = (check.vector(value, where, key, n, allow_inf=True) if isinstance(value, list)
+         else np.full(n, check.number(value, where, key, allow_inf=True)))
+    if not (a > 0).all():
+        raise check.error(where, f"'{key}' must be > 0 for every joint (inf = unlimited), got "
+                                 f"{a.tolist()}")
+    return a
+
+
+def _orientation(check: TomlCheck, table: Mapping[str, Any], where: str) -> NDArray | None:
+    if "rpy" in table and "quat" in table:
+        raise check.error(where, "give the orientation once: 'rpy' or 'quat', not both")
+    if "rpy" in table:
+        return rotation_from_rpy(check.vector(table["rpy"], where, "rpy", 3))
+    if "quat" in table:
+        w, x, y, z = check.vector(table["quat"], where, "quat", 4)
+        norm = float(np.sqrt(w * w + x * x + y * y + z * z))
+        if abs(norm - 1.0) > 1e-6:
+            raise check.error(where, f"'quat' [w, x, y, z] must be a unit quaternion, its norm "
+                                     f"is {norm:.9g}")
+        w, x, y, z = w / norm, x / norm, y / norm, z / norm
+        return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return None
+
+
+def _move(check: TomlCheck, index: int, table: Any, n: int) -> Move:
+    where = f"[[move]] {index}"
+    table = check.table(table, "", f"move {index}")
+    kind = check.string(check.require(table, "type", where), where, "type")
+    if kind not in MOVE_TYPES:
+        raise check.error(where, f"unknown type {kind!r}{did_you_mean(kind, MOVE_TYPES)}; "
+                                 f"expected one of {', '.join(map(repr, MOVE_TYPES))}")
+    where = f"[[move]] {index} ({kind})"
+    check.check_keys(table, _KEYS[kind], where)
+    dwell = check.number(table.get("dwell", 0.0), where, "dwell")
+    blend = check.number(table.get("blend", 0.0), where, "blend")
+    if dwell < 0 or blend < 0:
+        raise check.error(where, f"'{'dwell' if dwell < 0 else 'blend'}' must be >= 0, got "
+                                 f"{min(dwell, blend)}")
+    if blend > 0:
+        raise check.error(where, "'blend' > 0 (a rounded corner) is not supported yet; every "
+                                 "move stops at its target (blend = 0)")
+    if kind == "joint":
+        target = check.vector(check.require(table, "target", where), where, "target", n)
+        profile = table.get("profile", "trapezoidal")
+        if profile not in JOINT_PROFILES:
+            raise check.error(where, f"unknown profile {profile!r}; expected one of "
+                                     f"{', '.join(map(repr, JOINT_PROFILES))}")
+        limits = [_per_joint(check, check.require(table, k, where), where, k, n)
+                  for k in ("velocity_limit", "acceleration_limit")]
+        if profile == "scurve":
+            limits.append(_per_joint(check, check.require(table, "jerk_limit", where), where,
+                                     "jerk_limit", n))
+        elif "jerk_limit" in table:
+            raise check.error(where, f"'jerk_limit' applies to profile = \"scurve\" only, not "
+                                     f"{profile!r}")
+        return Move(index, kind, dwell, blend, target=target, profile=profile,
+                    limits=tuple(limits))
+    xyz = check.vector(check.require(table, "xyz", where), where, "xyz", 3)
+    R = _orientation(check, table, where)
+    limits = tuple(_positive(check, table, k, where, k in ("speed", "acceleration"))
+                   for k in ("speed", "acceleration", "jerk", "angular_speed",
+                             "angular_acceleration", "angular_jerk"))
+    via = (check.vector(check.require(table, "via", where), where, "via", 3)
+           if kind == "circular" else None)
+    return Move(index, kind, dwell, blend, xyz=xyz, R=R, via=via, limits=limits)
+
+
+def read_moves(check: TomlCheck, prog: Mapping[str, Any], moves: Any) -> Moves:
+    """The :class:`Moves` of a program whose ``[program]`` table is ``prog`` and whose
+    ``[[move]]`` array is ``moves``."""
+    if not isinstance(moves, list) or not moves:
+        raise check.error("", "'move' must be an array of tables ([[move]]), at least one")
+    q0 = check.vector(check.require(prog, "q0", "[program]"), "[program]", "q0")
+    tool = _tool(check, prog["tool"]) if "tool" in prog else None
+    out = tuple(_move(check, k, m, q0.size) for k, m in enumerate(moves, start=1))
+    q0.setflags(write=False)
+    return Moves(tool, q0, out)

@@ -1,0 +1,233 @@
+"""Motor and gearbox catalogues for drive sizing (issue 27; the format: docs/sizing.md).
+
+``load_catalogue(path) -> Catalogue`` reads a TOML file of ``[[motor]]``, ``[[gearbox]]`` and
+``[[drive]]`` entries (a drive: a motor and a gearbox sold as one unit), checked by the
+project's TOML checker (:class:`mrnea.io.tomlcheck.TomlCheck`): an error names the file, the
+entry (``motor 'M-120'`` or ``motor #3`` without a usable name) and the field.
+:meth:`Catalogue.combinations` gives every drive train to judge: each motor with each gearbox,
+and each drive unit.
+
+Units, SI: torques [N m], speeds [rad/s], inertias [kg m^2], masses [kg]; a motor's figures at
+its shaft, a gearbox's ratings at its output and its inertia and speed limit at its input.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mrnea.errors import SizingError, quote
+from mrnea.io.tomlcheck import TomlCheck, read_text
+from mrnea.model import GEAR_RANGE
+
+__all__ = ["Catalogue", "Gearbox", "Motor", "Train", "load_catalogue", "loads_catalogue"]
+
+
+@dataclass(frozen=True)
+class Motor:
+    """A motor: ``rated_torque`` (continuous, thermal) and ``peak_torque`` [N m], ``max_speed``
+    [rad/s], ``rotor_inertia`` [kg m^2], all at its shaft; ``torque_speed`` (peak, corner_speed,
+    no_load_speed) or None (the peak up to ``max_speed``); ``mass`` [kg], ``price`` (None: not
+    given)."""
+
+    name: str
+    rated_torque: float
+    peak_torque: float
+    max_speed: float
+    rotor_inertia: float
+    torque_speed: tuple[float, float, float] | None = None
+    mass: float = 0.0
+    price: float | None = None
+
+
+@dataclass(frozen=True)
+class Gearbox:
+    """A gearbox: ``ratio`` G (input turns per output turn), ``efficiency`` (driving,
+    back-driven), ``inertia`` [kg m^2] at the input, ``rated_torque`` (compared with the
+    cubic mean) and ``peak_torque`` [N m] at the output (inf: not rated), ``max_input_speed``
+    [rad/s] (inf: not rated), ``mass`` [kg], ``price`` (None: not given)."""
+
+    name: str
+    ratio: float
+    efficiency: tuple[float, float] = (1.0, 1.0)
+    inertia: float = 0.0
+    rated_torque: float = float("inf")
+    peak_torque: float = float("inf")
+    max_input_speed: float = float("inf")
+    mass: float = 0.0
+    price: float | None = None
+
+
+@dataclass(frozen=True)
+class Train:
+    """One drive train to judge: a motor and a gearbox (``unit``: sold as one ``[[drive]]``,
+    whose mass and price are the motor's, the gearbox's being 0 and None)."""
+
+    motor: Motor
+    gearbox: Gearbox
+    unit: bool = False
+
+    @property
+    def name(self) -> str:
+        return self.motor.name if self.unit else f"{self.motor.name} + {self.gearbox.name}"
+
+    @property
+    def mass(self) -> float:
+        return self.motor.mass + self.gearbox.mass
+
+    @property
+    def price(self) -> float | None:
+        """The motor's and the gearbox's price (a unit's: its own); None if one is not given."""
+        if self.unit:
+            return self.motor.price
+        if self.motor.price is None or self.gearbox.price is None:
+            return None
+        return self.motor.price + self.gearbox.price
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    """What one catalogue file offers: motors, gearboxes and drive units (each a Train)."""
+
+    motors: tuple[Motor, ...]
+    gearboxes: tuple[Gearbox, ...]
+    drives: tuple[Train, ...]
+    source: str = "catalogue"
+
+    def combinations(self) -> list[Train]:
+        """Every motor with every gearbox, then every drive unit."""
+        return ([Train(m, g) for m in self.motors for g in self.gearboxes]
+                + list(self.drives))
+
+
+_MOTOR_KEYS = ("name", "rated_torque", "peak_torque", "max_speed", "rotor_inertia",
+               "torque_speed", "mass", "price")
+_GEARBOX_KEYS = ("name", "ratio", "efficiency", "inertia", "rated_torque", "peak_torque",
+                 "max_input_speed", "mass", "price")
+#: a drive unit: the motor's keys, the gearbox's ratio, efficiency, inertia and input speed,
+#: and its output ratings under their own names (the motor's ratings keep theirs)
+_DRIVE_KEYS = (*_MOTOR_KEYS, "ratio", "efficiency", "inertia", "max_input_speed",
+               "output_rated_torque", "output_peak_torque")
+
+
+def loads_catalogue(text: str, source: str = "catalogue") -> Catalogue:
+    """A catalogue from TOML text (:func:`load_catalogue`); ``source`` names it in errors."""
+    check = TomlCheck(source, SizingError)
+    doc = check.parse(text)
+    check.check_keys(doc, ("motor", "gearbox", "drive"), "")
+    entries: dict[str, list[Mapping[str, Any]]] = {}
+    for kind in ("motor", "gearbox", "drive"):
+        value = doc.get(kind, [])
+        if not isinstance(value, list) or not all(isinstance(e, dict) for e in value):
+            raise check.error("", f"'{kind}' must be an array of tables, [[{kind}]]")
+        entries[kind] = value
+    if not any(entries.values()):
+        raise check.error("", "no [[motor]], [[gearbox]] or [[drive]] entry")
+    names: set[str] = set()
+    motors = tuple(_motor(check, e, f"motor #{k}", names)
+                   for k, e in enumerate(entries["motor"], start=1))
+    gearboxes = tuple(_gearbox(check, e, f"gearbox #{k}", names)
+                      for k, e in enumerate(entries["gearbox"], start=1))
+    drives = tuple(_drive(check, e, f"drive #{k}", names)
+                   for k, e in enumerate(entries["drive"], start=1))
+    if not drives and not (motors and gearboxes):
+        raise check.error("", "nothing to combine: give [[motor]] and [[gearbox]] entries, or "
+                              "[[drive]] units")
+    return Catalogue(motors, gearboxes, drives, source)
+
+
+def load_catalogue(path: str | Path) -> Catalogue:
+    """Read a catalogue file (docs/sizing.md). Raises :class:`SizingError` naming the file,
+    the entry and the field at fault."""
+    return loads_catalogue(read_text(path, "catalogue", SizingError), str(path))
+
+
+def _name(check: TomlCheck, e: Mapping[str, Any], where: str, names: set[str]) -> str:
+    name = check.string(check.require(e, "name", where), where, "name")
+    if name in names:
+        raise check.error(where, f"duplicate name {quote(name)}")
+    names.add(name)
+    return name
+
+
+def _positive(check: TomlCheck, e: Mapping[str, Any], key: str, where: str,
+              default: float | None = None, *, zero: bool = False, inf: bool = False) -> float:
+    """``e[key]`` > 0 (>= 0 with ``zero``; inf allowed with ``inf``); ``default`` if absent
+    (None: required)."""
+    if key not in e and default is not None:
+        return default
+    v = check.number(check.require(e, key, where), where, key, allow_inf=inf)
+    if v < 0 or (v == 0 and not zero):
+        raise check.error(where, f"'{key}' must be {'>= 0' if zero else '> 0'}, got {v}")
+    return v
+
+
+def _price(check: TomlCheck, e: Mapping[str, Any], where: str) -> float | None:
+    return _positive(check, e, "price", where, zero=True) if "price" in e else None
+
+
+def _motor(check: TomlCheck, e: Mapping[str, Any], where: str, names: set[str],
+           keys: tuple[str, ...] = _MOTOR_KEYS) -> Motor:
+    where = f"{where.split(' ')[0]} {quote(_name(check, e, where, names))}"
+    check.check_keys(e, keys, where)
+    rated = _positive(check, e, "rated_torque", where)
+    peak = _positive(check, e, "peak_torque", where)
+    if rated > peak:
+        raise check.error(where, f"'rated_torque' {rated} is above 'peak_torque' {peak}")
+    vmax = _positive(check, e, "max_speed", where)
+    curve = None
+    if "torque_speed" in e:
+        c = check.vector(e["torque_speed"], where, "torque_speed", 3, allow_inf=True)
+        if not (c[0] == peak and 0 < c[1] <= c[2]) or c[1] == float("inf"):
+            raise check.error(where, f"'torque_speed' must be [peak_torque, corner_speed, "
+                                     f"no_load_speed] with peak {peak} and 0 < corner_speed <= "
+                                     f"no_load_speed, corner finite; got {c.tolist()}")
+        curve = (float(c[0]), float(c[1]), float(c[2]))
+    return Motor(e["name"], rated, peak, vmax,
+                 _positive(check, e, "rotor_inertia", where, zero=True), curve,
+                 _positive(check, e, "mass", where, 0.0, zero=True), _price(check, e, where))
+
+
+def _efficiency(check: TomlCheck, e: Mapping[str, Any], where: str) -> tuple[float, float]:
+    if "efficiency" not in e:
+        return (1.0, 1.0)
+    v = e["efficiency"]
+    pair = (check.vector(v, where, "efficiency", 2).tolist() if isinstance(v, list)
+            else [check.number(v, where, "efficiency")] * 2)
+    if not all(0.0 < x <= 1.0 for x in pair):
+        raise check.error(where, f"'efficiency' must be in (0, 1] (one value, or [driving, "
+                                 f"back-driven]), got {quote(v)}")
+    return (float(pair[0]), float(pair[1]))
+
+
+def _ratio(check: TomlCheck, e: Mapping[str, Any], where: str) -> float:
+    g = _positive(check, e, "ratio", where)
+    if not GEAR_RANGE[0] <= g <= GEAR_RANGE[1]:
+        raise check.error(where, f"'ratio' {g} is outside {list(GEAR_RANGE)}")
+    return g
+
+
+def _gearbox(check: TomlCheck, e: Mapping[str, Any], where: str, names: set[str]) -> Gearbox:
+    where = f"gearbox {quote(_name(check, e, where, names))}"
+    check.check_keys(e, _GEARBOX_KEYS, where)
+    inf = float("inf")
+    return Gearbox(e["name"], _ratio(check, e, where), _efficiency(check, e, where),
+                   _positive(check, e, "inertia", where, 0.0, zero=True),
+                   _positive(check, e, "rated_torque", where, inf, inf=True),
+                   _positive(check, e, "peak_torque", where, inf, inf=True),
+                   _positive(check, e, "max_input_speed", where, inf, inf=True),
+                   _positive(check, e, "mass", where, 0.0, zero=True), _price(check, e, where))
+
+
+def _drive(check: TomlCheck, e: Mapping[str, Any], where: str, names: set[str]) -> Train:
+    motor = _motor(check, e, where, names, _DRIVE_KEYS)
+    where = f"drive {quote(motor.name)}"
+    inf = float("inf")
+    box = Gearbox(motor.name, _ratio(check, e, where), _efficiency(check, e, where),
+                  _positive(check, e, "inertia", where, 0.0, zero=True),
+                  _positive(check, e, "output_rated_torque", where, inf, inf=True),
+                  _positive(check, e, "output_peak_torque", where, inf, inf=True),
+                  _positive(check, e, "max_input_speed", where, inf, inf=True))
+    return Train(motor, box, unit=True)

@@ -1,0 +1,134 @@
+"""Tree robots of example-robot-data, loaded whole (or their subtree of several tips) with a
+fixed base, against Pinocchio's model of the same URDF (``conftest.pin_from_urdf``: the joints
+mrnea leaves out locked at q = 0, as mrnea lumps them): RNEA, H, u', every forward-dynamics
+method, the joint reactions, every link's frame and Jacobian, to ``rel_err <= 1e-10`` at random
+states within the joint limits. Also: the loading order (depth first, children in file order)
+and the refusal of a kept ``<mimic>`` joint.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import PinChain, erd_path, pin_from_urdf, rel_err
+
+import mrnea
+from mrnea.compiled import of
+from mrnea.errors import RobotFileError
+from mrnea.kernels.kinematics import link_jacobian_ws
+from mrnea.kernels.status import OK
+
+TOL = 1e-10
+B = 12
+FD_METHODS = ("mrnea", "walker_orin", "crba", "aba")
+
+TREES = {  # name: (file, tips or None for the whole tree, joints)
+    # Baxter: head, two 7-joint arms, one finger per gripper (the other is a <mimic>)
+    "baxter": ("baxter_description/urdf/baxter.urdf",
+               ("head", "right_wrist", "left_wrist", "r_gripper_l_finger", "l_gripper_l_finger"),
+               17),
+    "allegro": ("allegro_hand_description/urdf/allegro_right_hand.urdf", None, 16),
+    "talos-upper": ("talos_data/robots/talos_reduced.urdf", None, 32),
+    "icub": ("icub_description/robots/icub_reduced.urdf", None, 29),
+    # PR2: torso lift, head, laser tilt, both arms and one finger each (the rest are <mimic>s;
+    # the casters and wheels are lumped at 0)
+    "pr2": ("pr2_description/urdf/pr2.urdf",
+            ("head_tilt_link", "laser_tilt_mount_link", "r_gripper_l_finger_link",
+             "l_gripper_l_finger_link"), 20),
+}
+
+
+@pytest.fixture(scope="module", params=list(TREES))
+def case(request):
+    rel, tips, n = TREES[request.param]
+    path = erd_path(rel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # visuals left out of the 3D view
+        robot = mrnea.load_urdf(path, tip=tips)
+    assert robot.n == n and not robot.is_serial
+    pc = PinChain(robot, pin_from_urdf(path, robot))
+    rng = np.random.default_rng(3)
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    s = {"q": rng.uniform(lo, hi, size=(B, n)), "qd": rng.normal(0, 1, (B, n)),
+         "qdd": rng.normal(0, 2, (B, n)), "tau": rng.normal(0, 5, (B, n)),
+         "f_ext": rng.normal(0, 10, (B, 6)), "f_ext_point": rng.normal(0, 0.1, (B, 3))}
+    return robot, pc, s
+
+
+def test_dynamics_equal_pinocchio(case) -> None:
+    robot, pc, s = case
+    for b in range(B):
+        q, qd, qdd, tau = s["q"][b], s["qd"][b], s["qdd"][b], s["tau"][b]
+        for w in ((None, None), (s["f_ext"][b], s["f_ext_point"][b])):
+            assert rel_err(mrnea.inverse_dynamics(robot, q, qd, qdd, *w),
+                           pc.rnea(q, qd, qdd, *w)) <= TOL
+            H_ref, u_ref = pc.mass_matrix(q), pc.bias(q, qd, *w)
+            for method in ("mrnea", "walker_orin"):
+                H, u = mrnea.mass_matrix_and_bias(robot, q, qd, *w, method=method)
+                assert rel_err(H, H_ref) <= TOL and rel_err(u, u_ref) <= TOL, method
+            qdd_ref = pc.aba(q, qd, tau, *w)
+            for method in FD_METHODS:
+                assert rel_err(mrnea.forward_dynamics(robot, q, qd, tau, *w, method=method),
+                               qdd_ref) <= TOL, method
+            assert rel_err(mrnea.joint_reactions(robot, q, qd, qdd, *w),
+                           pc.reactions(q, qd, qdd, *w)) <= TOL
+    qdd = mrnea.forward_dynamics(robot, s["q"], s["qd"], s["tau"])  # a batch
+    for b in range(B):
+        assert rel_err(qdd[b], pc.aba(s["q"][b], s["qd"][b], s["tau"][b])) <= TOL
+
+
+def test_frames_and_jacobians_equal_pinocchio(case) -> None:
+    robot, pc, s = case
+    pin = pc.pin
+    m, _, ws, _ = of(robot)
+    J = np.empty((6, robot.n))
+    for b in range(3):
+        q, pe = s["q"][b], s["f_ext_point"][b]
+        pin.computeJointJacobians(pc.model, pc.data, pc.config(q))
+        T = mrnea.forward_kinematics(robot, q)
+        for t in range(robot.n):
+            oMi = pc.data.oMi[pc.ids[t]]
+            assert rel_err(T[t + 1], oMi.homogeneous) <= TOL
+            Jp = np.array(pin.getJointJacobian(pc.model, pc.data, pc.ids[t],
+                                               pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
+            Jp[:3] += np.cross(Jp[3:].T, oMi.rotation @ pe).T
+            assert link_jacobian_ws(m, q, t, pe, J, ws) == OK
+            assert rel_err(J, Jp) <= TOL
+
+
+def test_whole_tree_order_is_depth_first_in_file_order() -> None:
+    robot = mrnea.load_urdf(erd_path("allegro_hand_description/urdf/allegro_right_hand.urdf"))
+    # four fingers of four joints, each hanging from the palm (the base), in the file's order
+    assert robot.parents == (-1, 0, 1, 2) * 1 + (-1, 4, 5, 6) + (-1, 8, 9, 10) + (-1, 12, 13, 14)
+    assert robot.joint_names == tuple(f"joint_{k}.0" for k in range(16))
+
+
+def test_a_kept_mimic_joint_is_refused_naming_it() -> None:
+    path = erd_path("baxter_description/urdf/baxter.urdf")
+    with pytest.raises(RobotFileError, match=r"joint '[lr]_gripper_r_finger_joint': <mimic> "
+                                             r"joints.*tip=<link name> \(command line: --tip"):
+        mrnea.load_urdf(path)
+    # one tip: the chain to it, as before trees
+    arm = mrnea.load_urdf(path, tip="left_wrist")
+    assert arm.n == 7 and arm.is_serial
+
+
+def test_a_program_keeps_several_tips(tmp_path) -> None:
+    """A program's ``tip`` may list links (the subtree holding them), as --tip repeated."""
+    from mrnea.io import RobotOptions, load_robot_spec
+    from mrnea.io.program import _options
+    from mrnea.io.tomlcheck import TomlCheck
+
+    check = TomlCheck(str(tmp_path / "p.toml"), RobotFileError)
+    opts = _options(check, {"tip": ["head", "left_wrist"]}, tmp_path)
+    assert opts.tip == ("head", "left_wrist")
+    path = erd_path("baxter_description/urdf/baxter.urdf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = load_robot_spec(str(path), options=RobotOptions(tip=opts.tip))
+    assert robot.n == 8 and robot.parents == (-1, -1, 1, 2, 3, 4, 5, 6)
+    with pytest.raises(RobotFileError, match="'tip' must be a non-empty string"):
+        _options(check, {"tip": ["head", 3]}, tmp_path)
