@@ -168,3 +168,53 @@ def test_bad_logs_are_refused() -> None:
         identify(robot, Log(t, q, tau), cutoff_hz=60.0)
     with pytest.raises(mrnea.StateError, match="holdout"):
         identify(robot, Log(t, q, tau), holdout=1.0)
+
+
+# --- the log file -------------------------------------------------------------------------------
+def _write_log(path, robot, rows, currents=False):
+    from mrnea.identify.log import log_columns
+    lines = [",".join(log_columns(robot, currents))]
+    lines += [",".join(repr(float(x)) for x in row) for row in rows]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_read_log_reads_back_and_names_the_bad_row(tmp_path):
+    """A log written with its documented header reads back exactly (columns in any order);
+    currents become tau = G k_t i; a missing column, NaN or a time that does not increase is
+    one LogFileError naming the row."""
+    from mrnea.errors import LogFileError
+    from mrnea.identify import read_log
+    robot = mrnea.robots.puma560()
+    n, K = robot.n, 40
+    rng = np.random.default_rng(3)
+    t = np.arange(K) * 0.01
+    q, tau = rng.normal(size=(K, n)), rng.normal(size=(K, n))
+    rows = np.column_stack([t, q, tau])
+    _write_log(tmp_path / "a.csv", robot, rows)
+    log = read_log(tmp_path / "a.csv", robot)
+    assert np.array_equal(log.time, t) and np.array_equal(log.q, q)
+    assert np.array_equal(log.tau, tau) and log.qd is None
+    # columns in another order: the reverse
+    text = (tmp_path / "a.csv").read_text().splitlines()
+    rev = [",".join(line.split(",")[::-1]) for line in text]
+    (tmp_path / "r.csv").write_text("\n".join(rev) + "\n")
+    assert np.array_equal(read_log(tmp_path / "r.csv", robot).tau, tau)
+    # currents [A] with k_t [N m/A, motor side]: tau = G k_t i, by hand
+    _write_log(tmp_path / "i.csv", robot, rows, currents=True)
+    kt = 0.5
+    got = read_log(tmp_path / "i.csv", robot, torque_constant=kt).tau
+    assert np.allclose(got, tau * kt * np.asarray(robot.gear_ratio), rtol=1e-15, atol=0)
+    # bad files
+    (tmp_path / "m.csv").write_text("\n".join(line.rsplit(",", 1)[0] for line in text) + "\n")
+    with pytest.raises(LogFileError, match=r"row 1: missing column 'tau_"):
+        read_log(tmp_path / "m.csv", robot)
+    bad = rows.copy()
+    bad[7, 2] = np.nan
+    _write_log(tmp_path / "n.csv", robot, bad)
+    with pytest.raises(LogFileError, match=r"row 9: column .* is NaN"):
+        read_log(tmp_path / "n.csv", robot)
+    bad = rows.copy()
+    bad[12, 0] = bad[11, 0]
+    _write_log(tmp_path / "t.csv", robot, bad)
+    with pytest.raises(LogFileError, match=r"row 14: time .* does not increase"):
+        read_log(tmp_path / "t.csv", robot)

@@ -126,7 +126,8 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
                            f"joint positions and {effort}<joint> for joints {', '.join(names)})")
     optional = [p + j for p in ("qd_", "qdd_") for j in names]
     has_rates = all(c in header for c in optional)
-    cols = [header.index(c) for c in need + (optional if has_rates else [])]
+    used = need + (optional if has_rates else [])
+    cols = [header.index(c) for c in used]
     data = np.empty((len(rows) - 1, len(cols)))
     for r, row in enumerate(rows[1:]):
         try:
@@ -136,7 +137,7 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
                                f"{len(rows[0])} columns") from None
         bad = np.flatnonzero(~np.isfinite(data[r]))
         if bad.size:
-            raise LogFileError(f"{path}: row {r + 2}: column {need[bad[0]]!r} is NaN or inf")
+            raise LogFileError(f"{path}: row {r + 2}: column {used[bad[0]]!r} is NaN or inf")
         if r and not data[r, 0] > data[r - 1, 0]:
             raise LogFileError(f"{path}: row {r + 2}: time {data[r, 0]:g} s does not increase "
                                f"(row {r + 1}: {data[r - 1, 0]:g} s)")
