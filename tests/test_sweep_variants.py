@@ -322,3 +322,15 @@ def test_bad_grid_file(tmp_path, text, words):
 def test_a_missing_grid_file(tmp_path):
     with pytest.raises(SweepError, match=r"nothing\.toml"):
         load_grid_file(tmp_path / "nothing.toml")
+
+
+def test_efficiency_sets_both_sides_of_the_gear(robot):
+    """``efficiency`` (rule 4) replaces the gear's eta, driving and back-driven alike; a joint's
+    key overrides the all-joints value; a value outside (0, 1] is refused naming the key."""
+    v = variant(robot, efficiency=0.8, **{"efficiency.cab_yaw": 0.5})
+    assert v.efficiency.tolist() == [[0.8, 0.8], [0.5, 0.5], [0.8, 0.8], [0.8, 0.8]]
+    assert [j.gear_ratio for j in v.joints] == [j.gear_ratio for j in robot.joints]
+    assert variant(robot, efficiency=1.0) is robot  # the default: nothing changes
+    with pytest.raises((ModelError, SweepError), match="efficiency") as err:
+        check_grid(robot, {"efficiency.cab_roll": [0.9, 1.5]})
+    assert "cab_roll" in str(err.value) and "1.5" in str(err.value)

@@ -128,6 +128,12 @@ class SweepError(MrneaError):
     the grid entry, file or program at fault; it is raised before any simulation runs."""
 
 
+class LogFileError(MrneaError):
+    """A measurement log cannot be used for identification (:mod:`mrnea.identify`): a missing
+    column, a bad number, NaN, time that does not increase. The message names the file and the
+    row."""
+
+
 class SizingError(MrneaError):
     """Drive sizing cannot start: its catalogue file (the message names the entry and field at
     fault), a joint it was asked to size, an objective or an option."""

@@ -2,6 +2,8 @@
 the joint torque regressor, base parameters, friction and rotor inertia, physically consistent
 estimates, excitation trajectories. docs/identification.md."""
 
+from mrnea.identify.estimate import IdentificationResult, identify
+from mrnea.identify.log import Log, derivatives, read_log
 from mrnea.identify.regressor import (
     actuator_parameters,
     actuator_regressor,
@@ -11,9 +13,14 @@ from mrnea.identify.regressor import (
 )
 
 __all__ = [
+    "IdentificationResult",
+    "Log",
     "actuator_parameters",
     "actuator_regressor",
+    "derivatives",
+    "identify",
     "inertial_parameters",
+    "read_log",
     "regressor",
     "with_inertial_parameters",
 ]

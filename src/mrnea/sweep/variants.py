@@ -17,6 +17,8 @@ Parameters (a grid key is ``param`` for every joint or ``param.<joint>`` for one
 ``viscous_friction``   joint   F_v [N m s/rad | N s/m], joint side
 ``coulomb_friction``   joint   F_s [N m | N], joint side
 ``velocity_limit``     joint   the joint's speed limit [rad/s | m/s]
+``efficiency``         joint   the gear's efficiency eta in (0, 1], driving and back-driven
+                               alike (a [driving, back-driven] pair: the robot's own file)
 ``time_scale``         program the program's duration x this factor (2: twice as slow)
 ====================== ======= ==========================================================
 
@@ -37,8 +39,8 @@ Rules, per joint, in this order:
    the peak.
 3. ``motor_torque_limit`` sets the peak to the motor limit x the variant's G. It and
    ``effort_limit`` on the same joint is an error.
-4. ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction`` and ``velocity_limit``
-   replace the joint's value.
+4. ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``, ``velocity_limit`` and
+   ``efficiency`` replace the joint's value.
 5. ``payload``: the last link's mass, centre of mass and inertia become those of the link and
    the payload together (:meth:`mrnea.Robot.with_payload`, a point mass). A robot that carries
    a payload already (the command line's ``--payload``) carries both.
@@ -71,7 +73,7 @@ from mrnea.resources import require_memory
 __all__ = ["JOINT_PARAMETERS", "PARAMETERS", "check_grid", "time_scaled", "units", "variant"]
 
 JOINT_PARAMETERS = ("gear_ratio", "effort_limit", "motor_torque_limit", "rotor_inertia",
-                    "viscous_friction", "coulomb_friction", "velocity_limit")
+                    "viscous_friction", "coulomb_friction", "velocity_limit", "efficiency")
 ROBOT_PARAMETERS = ("payload", "payload_point")
 PROGRAM_PARAMETERS = ("time_scale",)
 PARAMETERS = (*ROBOT_PARAMETERS, *JOINT_PARAMETERS, *PROGRAM_PARAMETERS)
@@ -80,9 +82,10 @@ UNITS = {"payload": ("kg", "kg"), "payload_point": ("m", "m"), "gear_ratio": (""
          "effort_limit": ("N m", "N"), "motor_torque_limit": ("N m", "N m"),
          "rotor_inertia": ("kg m^2", "kg m^2"), "viscous_friction": ("N m s/rad", "N s/m"),
          "coulomb_friction": ("N m", "N"), "velocity_limit": ("rad/s", "m/s"),
-         "time_scale": ("", "")}
+         "efficiency": ("", ""), "time_scale": ("", "")}
 _UNBOUNDED = ("effort_limit", "motor_torque_limit", "velocity_limit")  # inf: unlimited
-_REPLACED = ("rotor_inertia", "viscous_friction", "coulomb_friction", "velocity_limit")
+_REPLACED = ("rotor_inertia", "viscous_friction", "coulomb_friction", "velocity_limit",
+             "efficiency")
 #: Peak memory per row in the client [bytes], ROW_BYTES + ROW_BYTES_PER_JOINT n: the case's
 #: dict, the row's dict as it came back, and the DataFrame made of them (measured with
 #: tracemalloc: 12.1 kB per row for n = 4, 14.4 kB for n = 6 with the summary's 25 numbers
