@@ -177,3 +177,24 @@ mass = 1.0
     with pytest.raises(RobotFileError, match="origin is not a rigid transform"):
         loads_native(doc.format(extra="").replace("[1.0, 0.0, 0.0], [0.0", "[2.0, 0.0, 0.0], "
                                                                             "[0.0"))
+
+
+def test_link_frames_round_trip_and_name_a_tool(tmp_path):
+    """A URDF's fixed-joint frames (UR5: ee_link, tool0) are written as the link's ``frame``
+    array and read back equal, bit for bit; the tool they name has the pose Pinocchio gives
+    the URDF frame."""
+    import pinocchio as pin
+
+    path = erd_path("ur_description/urdf/ur5_robot.urdf")
+    robot = mrnea.load_urdf(path)
+    assert [f.name for f in robot.links[-1].frames] == ["ee_link", "tool0"]
+    back = mrnea.load_robot(robot.to_toml(tmp_path / "ur5.toml"))
+    assert back == robot
+    for a, b in zip(robot.links[-1].frames, back.links[-1].frames, strict=True):
+        assert a.name == b.name and np.asarray(a.origin).tobytes() == np.asarray(b.origin).tobytes()
+    model = pin.buildModelFromUrdf(str(path))
+    data = model.createData()
+    q = np.random.default_rng(0).uniform(-2, 2, robot.n)
+    pin.framesForwardKinematics(model, data, q)
+    T = mrnea.forward_kinematics(back, q, tool="tool0")[-1]
+    assert np.allclose(T, data.oMf[model.getFrameId("tool0")].homogeneous, atol=1e-12)

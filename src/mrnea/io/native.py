@@ -53,7 +53,7 @@ from mrnea.io.sidecar import apply_actuator_file, joint_fields
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck
 from mrnea.io.writer import write_file
-from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Joint, Link, Robot
+from mrnea.model import DEFAULT_GRAVITY, JOINT_TYPES, Frame, Joint, Link, Robot
 from mrnea.rigid import rotation_from_rpy, rpy_from_rotation, transform
 from mrnea.visual import VISUAL_KINDS, Visual
 
@@ -65,7 +65,8 @@ _COMMON_JOINT_KEYS = ("name", "type", "link", *JOINT_FIELDS)
 _ORIGIN_JOINT_KEYS = ("origin", "axis", "parent")
 _DH_JOINT_KEYS = ("a", "alpha", "d", "theta")
 _ORIGIN_KEYS = ("xyz", "rpy", "rotation")
-_LINK_KEYS = ("name", "mass", "com", "inertia", "visual")
+_LINK_KEYS = ("name", "mass", "com", "inertia", "visual", "frame")
+_FRAME_KEYS = ("name", *_ORIGIN_KEYS)
 _VISUAL_KEYS = (*VISUAL_KINDS, *_ORIGIN_KEYS, "scale", "color")
 _INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 
@@ -128,6 +129,25 @@ def _visuals(check: TomlCheck, value: Any, where: str) -> tuple[Visual, ...]:
     return tuple(out)
 
 
+def _frames(check: TomlCheck, value: Any, where: str) -> tuple[Frame, ...]:
+    """A ``frame`` array of tables (docs/robot-format.md): named frames fixed to the link, each
+    its pose in the link's frame (a tool frame such as a URDF's ``tool0``)."""
+    if not isinstance(value, list):
+        raise check.error(where, "'frame' must be an array of tables: write frame = [{ name = "
+                                 "..., xyz = [...], rpy = [...] }]")
+    out = []
+    for k, entry in enumerate(value, start=1):
+        what = f"{where}: frame #{k}"
+        check.table(entry, where, f"frame #{k}")
+        check.check_keys(entry, _FRAME_KEYS, what)
+        name = check.string(check.require(entry, "name", what), what, "name")
+        try:
+            out.append(Frame(name, _pose(check, entry, what, what)))
+        except ModelError as exc:
+            raise check.error(what, str(exc)) from None
+    return tuple(out)
+
+
 def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) -> dict[str, Any]:
     where = f"joint {quote(jname)}"
     table = check.table(check.require(joint, "link", where), where, "link")
@@ -140,7 +160,9 @@ def _link(check: TomlCheck, joint: Mapping[str, Any], jname: str, index: int) ->
     inertia = (_inertia(check, table["inertia"], lwhere) if "inertia" in table
                else np.zeros((3, 3)))
     visuals = _visuals(check, table.get("visual", []), lwhere)
-    return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia, "visuals": visuals}
+    frames = _frames(check, table.get("frame", []), lwhere)
+    return {"link_name": lname, "mass": mass, "com": com, "inertia": inertia, "visuals": visuals,
+            "frames": frames}
 
 
 def _origin(check: TomlCheck, table: Mapping[str, Any], joint: str) -> np.ndarray:
@@ -199,6 +221,9 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         link = _link(check, entry, jname, i)
         fields = joint_fields(check, entry, where)
         if dh:
+            if link.pop("frames"):
+                raise check.error(where, "link frames ('frame') are for the origin/axis form; "
+                                         "with a DH table, give the tool as a program's tool")
             params = {k: check.number(check.require(entry, k, where), where, k)
                       for k in ("a", "alpha", "d")}
             params["theta"] = check.number(entry.get("theta", 0.0), where, "theta")
@@ -392,6 +417,15 @@ def _visual_lines(key: str, visuals: tuple[Visual, ...]) -> list[str]:
     return [*out, "]"]
 
 
+def _frame_lines(frames: tuple[Frame, ...]) -> list[str]:
+    """``frame = [...]``: one inline table per named frame of a link (none: no line)."""
+    if not frames:
+        return []
+    return ["frame = [", *("    { " + ", ".join([f"name = {_string(f.name)}",
+                                                  *_origin_lines(np.asarray(f.origin))]) + " },"
+                          for f in frames), "]"]
+
+
 def dumps_native(robot: Robot) -> str:
     """The native TOML text of ``robot`` (format: ``docs/robot-format.md``): ``[robot]``, then
     per joint a ``[[joint]]`` table with its limit and actuator fields (those that differ from
@@ -413,7 +447,7 @@ def dumps_native(robot: Robot) -> str:
                   "[joint.origin]", *_origin_lines(j.origin),
                   "[joint.link]", f"name = {_string(lk.name)}", f"mass = {_number(lk.mass)}",
                   f"com = {_numbers(lk.com)}", f"inertia = {_inertia_value(lk.inertia)}",
-                  *_visual_lines("visual", lk.visuals)]
+                  *_visual_lines("visual", lk.visuals), *_frame_lines(lk.frames)]
     return "\n".join(lines) + "\n"
 
 
