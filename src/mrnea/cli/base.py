@@ -223,8 +223,8 @@ EXIT_CODES = {
     "sweep": "Exit code: 0 done (each row holds its own verdict), 2 bad input, 130 interrupted "
              "(the rows done written).",
     "size": "Exit code: 0 every joint sized and the sized robot verified achievable, 1 no "
-            "drive in the catalogue fits a joint (the files are written), 2 bad input, 130 "
-            "interrupted.",
+            "drive in the catalogue fits a joint or the sized robot is not achievable (the "
+            "files are written), 2 bad input, 130 interrupted.",
 }
 EXIT_DONE = "Exit code: 0 done, 2 bad input, 130 interrupted."
 
