@@ -68,7 +68,11 @@ def spawning() -> Iterator[None]:
       a 32 MB mmap threshold instead (:data:`WORKER_MALLOC`); Numba's thread pool of one
       thread (:data:`WORKER_ENVIRON`).
     * ``os.environ`` restored afterwards: distributed's Nanny writes its worker variables
-      (``OMP_NUM_THREADS=1``...) into this process's environment.
+      (``OMP_NUM_THREADS=1``...) into this process's environment. Meanwhile the variables of
+      :data:`WORKER_ENVIRON` are taken out of it: the Nanny lets a variable of this process's
+      environment override its config, and an earlier cluster of this process (a user's,
+      started without these settings) leaves distributed's ``MALLOC_TRIM_THRESHOLD_=65536``
+      there.
     """
     import dask
 
@@ -77,6 +81,8 @@ def spawning() -> Iterator[None]:
     old = {s: signal.signal(s, signal.SIG_IGN) for s in WORKER_IGNORES} if main else {}
     try:
         key = "distributed.nanny.pre-spawn-environ"
+        for name in WORKER_ENVIRON:
+            os.environ.pop(name, None)
         with dask.config.set({key: {**dask.config.get(key), **WORKER_ENVIRON}}):
             yield
     finally:
