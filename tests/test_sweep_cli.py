@@ -134,23 +134,9 @@ def test_ctrl_c_writes_the_rows_done_and_exits_130(tmp_path):
     """SIGINT to the whole process group, as a terminal's Ctrl-C, in the middle of a sweep of
     5000 runs: the command writes the rows done, says so and exits 130; no worker prints a
     traceback, and no process of the group is left."""
-    grid = tmp_path / "g.toml"
-    grid.write_text('[sweep]\nrobot = "sdt"\nprograms = ["demo"]\n[grid]\n'
-                    f"payload = {[float(x) for x in range(5000)]}\n")
-    err_path = tmp_path / "stderr.txt"
-    with open(err_path, "w") as err:
-        p = subprocess.Popen([sys.executable, "-m", "mrnea", "sweep", "--grid", str(grid),
-                              "--out", "o", "--workers", "2"], cwd=tmp_path, env=environment(),
-                             stdout=subprocess.PIPE, stderr=err, text=True,
-                             start_new_session=True)
-        deadline = time.monotonic() + 300
-        while "5000 runs" not in err_path.read_text() and time.monotonic() < deadline:
-            assert p.poll() is None, err_path.read_text()
-            time.sleep(0.1)
-        time.sleep(25.0)  # some rows done: tasks of 29 runs take 1-15 s on the 2-core machine
-        os.killpg(p.pid, signal.SIGINT)
-        out, _ = p.communicate(timeout=300)
-    stderr = err_path.read_text()
+    # some rows done: tasks of 29 runs take 1-15 s on the 2-core machine
+    p, out, stderr = signalled_sweep(tmp_path, [float(x) for x in range(5000)], 25.0,
+                                     signal.SIGINT)
     assert p.returncode == 130, stderr
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
     assert "mrnea: interrupted after" in stderr and out.startswith("INTERRUPTED: ")
@@ -163,6 +149,31 @@ def test_ctrl_c_writes_the_rows_done_and_exits_130(tmp_path):
     while session(p.pid) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert not session(p.pid)  # the workers went with the cluster
+
+
+def signalled_sweep(tmp_path: Path, payloads: list[float], after: float, sig: int
+                    ) -> tuple[subprocess.Popen, str, str]:
+    """``mrnea sweep`` of the demo over ``payloads`` on 2 local workers, as a real process in
+    its own session; ``after`` [s] past its "N runs" line, ``sig`` to the whole process group.
+    Returns the process (ended), its stdout and its stderr."""
+    grid = tmp_path / "g.toml"
+    grid.write_text('[sweep]\nrobot = "sdt"\nprograms = ["demo"]\n[grid]\n'
+                    f"payload = {payloads}\n")
+    err_path = tmp_path / "stderr.txt"
+    with open(err_path, "w") as err:
+        p = subprocess.Popen([sys.executable, "-m", "mrnea", "sweep", "--grid", str(grid),
+                              "--out", "o", "--workers", "2"], cwd=tmp_path, env=environment(),
+                             stdout=subprocess.PIPE, stderr=err, text=True,
+                             start_new_session=True)
+        deadline = time.monotonic() + 300
+        while f"{len(payloads)} runs" not in err_path.read_text() and \
+                time.monotonic() < deadline:
+            assert p.poll() is None, err_path.read_text()
+            time.sleep(0.05)
+        time.sleep(after)
+        os.killpg(p.pid, sig)
+        out, _ = p.communicate(timeout=300)
+    return p, out, err_path.read_text()
 
 
 def session(sid: int) -> list[int]:

@@ -13,8 +13,6 @@ import http.server
 import os
 import signal
 import socket
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -22,9 +20,9 @@ from collections.abc import Iterator
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import environment, mrnea_cli, one_error_line, random_chain
+from conftest import mrnea_cli, one_error_line, random_chain
 from test_cli import run as run_in_process
-from test_sweep_cli import session
+from test_sweep_cli import session, signalled_sweep
 
 import mrnea
 from mrnea.errors import SweepError
@@ -132,23 +130,8 @@ def test_sigterm_to_the_process_group_is_ctrl_c(tmp_path, after):
     three moments of a local-cluster sweep of 5000 runs: exit 130, the rows done written, each
     one a real row (no error: no invented 'task failed' row), no internal error, no process
     of the group left."""
-    grid = tmp_path / "g.toml"
-    grid.write_text('[sweep]\nrobot = "sdt"\nprograms = ["demo"]\n[grid]\n'
-                    f"payload = {[x / 10 for x in range(5000)]}\n")
-    err_path = tmp_path / "stderr.txt"
-    with open(err_path, "w") as err:
-        p = subprocess.Popen([sys.executable, "-m", "mrnea", "sweep", "--grid", str(grid),
-                              "--out", "o", "--workers", "2"], cwd=tmp_path, env=environment(),
-                             stdout=subprocess.PIPE, stderr=err, text=True,
-                             start_new_session=True)
-        deadline = time.monotonic() + 300
-        while "5000 runs" not in err_path.read_text() and time.monotonic() < deadline:
-            assert p.poll() is None, err_path.read_text()
-            time.sleep(0.05)
-        time.sleep(after)
-        os.killpg(p.pid, signal.SIGTERM)
-        out, _ = p.communicate(timeout=300)
-    stderr = err_path.read_text()
+    p, out, stderr = signalled_sweep(tmp_path, [x / 10 for x in range(5000)], after,
+                                     signal.SIGTERM)
     assert p.returncode == 130, stderr
     for bad in ("Traceback", "internal error", "Cancelled", "task failed"):
         assert bad not in stderr, (bad, stderr)
