@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import StateError
+from mrnea.kernels import bearing
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -55,25 +56,17 @@ class BearingLoads(NamedTuple):
     bending_moment: NDArray
 
 
-def _along_across(vec: NDArray, axes: NDArray) -> tuple[NDArray, NDArray]:
-    """|Component| of (K, n, 3) ``vec`` along each joint's unit axis (n, 3), |component| across."""
-    along = np.einsum("kij,ij->ki", vec, axes)
-    across = np.linalg.norm(vec - along[:, :, None] * axes[None], axis=2)
-    return np.abs(along), across
-
-
 def bearing_loads(res: SimulationResult) -> BearingLoads:
     """The reaction loads of every cycle of ``res`` split along and across each joint's axis
-    (:meth:`mrnea.simulate.SimulationResult.bearing_loads`); StateError without reactions."""
+    (:meth:`mrnea.simulate.SimulationResult.bearing_loads`; kernels/bearing.py); StateError
+    without reactions."""
     if res.reaction is None:
         raise StateError("bearing_loads: this run did not compute the joint reactions "
                          "(simulate(..., reactions=False)); simulate again with reactions")
     axes = np.array([j.axis for j in res.robot.joints])  # unit axes, joint frames
-    f, m = res.reaction[:, :, :3], res.reaction[:, :, 3:]
-    f_axial, f_radial = _along_across(f, axes)
-    m_axial, m_bending = _along_across(m, axes)
-    return BearingLoads(np.linalg.norm(f, axis=2), f_axial, f_radial,
-                        np.linalg.norm(m, axis=2), m_axial, m_bending)
+    out = np.empty((6, res.K, res.robot.n))
+    bearing.bearing_loads(res.reaction, axes, out)
+    return BearingLoads(*out)
 
 
 def program_qdd(res: SimulationResult, rows: slice) -> NDArray:

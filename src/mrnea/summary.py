@@ -21,9 +21,10 @@ from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-from mrnea.kernels.drive import LIMIT_RTOL, beyond
+from mrnea import compiled
+from mrnea.kernels import bearing, peaks
+from mrnea.kernels.drive import beyond
 
 _beyond = beyond.py_func  # the kernels' limit comparison, run as Python (nothing to compile)
 
@@ -34,10 +35,11 @@ EFFORT_UNIT = {False: "N m", True: "N"}  # by is_prismatic
 TIMES = "\u00d7"  # the multiplication sign of "1.62 × its limit"
 POSITION_UNIT = {False: "rad", True: "m"}
 # summary keys of the per-joint peak reaction loads (null for a run without reactions), and the
-# BearingLoads field of each
-PEAK_LOADS = (("peak_reaction_force", "force"), ("peak_axial_force", "axial_force"),
-              ("peak_radial_force", "radial_force"), ("peak_reaction_moment", "moment"),
-              ("peak_bending_moment", "bending_moment"))
+# bearing load of each (kernels/bearing.py, BearingLoads' fields in mrnea/cycles.py)
+PEAK_LOADS = (("peak_reaction_force", bearing.FORCE), ("peak_axial_force", bearing.AXIAL_FORCE),
+              ("peak_radial_force", bearing.RADIAL_FORCE),
+              ("peak_reaction_moment", bearing.MOMENT),
+              ("peak_bending_moment", bearing.BENDING_MOMENT))
 
 
 def schema_path() -> Any:
@@ -75,51 +77,47 @@ def start_violations(r: SimulationResult) -> list[dict[str, Any]]:
     return out
 
 
-def _program(r: SimulationResult, i: int) -> dict[str, Any]:
+def _drive(j: Any) -> str:
+    """A joint's drive: ``"unpowered"`` (effort limit 0), ``"unlimited"`` or ``"limited"``."""
+    return ("unpowered" if j.effort_limit == 0 else
+            "unlimited" if math.isinf(j.effort_limit) else "limited")
+
+
+def _program(r: SimulationResult, i: int, idx: np.ndarray, val: np.ndarray) -> dict[str, Any]:
     """Joint i's program requirement (module docstring): peak, RMS, motor side, and the peak
-    ratio to the limit at the program's speed."""
+    ratio to the limit at the program's speed; ``idx``, ``val``: the run's summary numbers
+    (kernels/peaks.py ``run_peaks``)."""
     j = r.robot.joints[i]
-    req, lim, t = np.abs(r.program_effort[:, i]), r.program_limit[:, i], r.t
-    k = int(np.argmax(req))
-    rms = float(np.sqrt(np.mean(r.program_effort[:, i] ** 2)))
-    # the motor side, with the gear's efficiency (kernels/drive.py motor_side): x 1 / eta_d
-    # driving, x eta_b back-driven, then / G (an ideal gear: exactly today's tau / G)
-    eta_d, eta_b = j.efficiency_pair
-    back = r.program_effort[:, i] * r.qd_cmd[:, i] < 0.0
-    motor = np.abs(r.program_effort[:, i]) * np.where(back, eta_b, 1.0 / eta_d)
-    out: dict[str, Any] = {
-        "program_peak_effort": float(req[k]), "program_peak_time": float(t[k]),
-        "program_rms_effort": rms,
-        "program_peak_motor_torque": float(motor.max()) / j.gear_ratio,
-        "program_rms_motor_torque": float(np.sqrt(np.mean(motor ** 2))) / j.gear_ratio,
-    }
-    drive = ("unpowered" if j.effort_limit == 0 else
-             "unlimited" if math.isinf(j.effort_limit) else "limited")
-    ratio: NDArray = np.zeros_like(req)
-    if drive == "limited":
-        with np.errstate(divide="ignore", invalid="ignore"):  # a zero limit: inf (or 0 / 0)
-            ratio = np.where(req > 0.0, req / lim, 0.0)
-    kr = int(np.argmax(ratio))
-    over = np.flatnonzero(req > lim + LIMIT_RTOL * (lim + req))  # as the kernels compare
+    k, kr, ko = (int(x) for x in idx[i, [peaks.K_REQ, peaks.K_RATIO, peaks.K_OVER]])
+    drive = _drive(j)
+    limited = drive == "limited"
+    lim = float(r.program_limit[kr, i])  # the limit at the ratio's instant
+    ratio = float(val[i, peaks.RATIO_PEAK])
     # where the limit at the ratio's instant comes from: the constant effort limit, or the
     # torque-speed curve at the program's speed there (below the peak effort limit)
-    curve = drive == "limited" and bool(lim[kr] < j.effort_limit)
-    out.update({
+    curve = limited and lim < j.effort_limit
+    return {
+        "program_peak_effort": abs(float(r.program_effort[k, i])),
+        "program_peak_time": float(r.t[k]),
+        "program_rms_effort": float(val[i, peaks.REQ_RMS]),
+        # the motor side, with the gear's efficiency (kernels/drive.py motor_side): x 1 / eta_d
+        # driving, x eta_b back-driven, then / G (an ideal gear: exactly today's tau / G)
+        "program_peak_motor_torque": float(val[i, peaks.MOTOR_REQ_PEAK]) / j.gear_ratio,
+        "program_rms_motor_torque": float(val[i, peaks.MOTOR_REQ_RMS]) / j.gear_ratio,
         "drive": drive,
         # peak of |required| / limit at the program's speed; null: no limit to compare with
         # (unpowered, unlimited), or a zero limit (commanded beyond the no-load speed)
-        "program_effort_ratio": finite_or_none(ratio[kr]) if drive == "limited" else None,
-        "program_ratio_time": float(t[kr]) if drive == "limited" else None,
-        "program_effort_at_ratio": float(req[kr]) if drive == "limited" else None,
-        "program_limit_at_ratio": float(lim[kr]) if drive == "limited" else None,
-        "program_speed_at_ratio": (float(abs(r.qd_cmd[kr, i])) if drive == "limited"
-                                   else None),
-        "program_limit_source": (None if drive != "limited" else
+        "program_effort_ratio": finite_or_none(ratio) if limited else None,
+        "program_ratio_time": float(r.t[kr]) if limited else None,
+        "program_effort_at_ratio": abs(float(r.program_effort[kr, i])) if limited else None,
+        "program_limit_at_ratio": lim if limited else None,
+        "program_speed_at_ratio": abs(float(r.qd_cmd[kr, i])) if limited else None,
+        "program_limit_source": (None if not limited else
                                  "torque-speed curve" if curve else "effort limit"),
-        "program_beyond_no_load_speed": bool(drive == "limited" and math.isinf(ratio[kr])),
-        "program_first_over_time": float(t[over[0]]) if over.size else None,
-    })
-    return out
+        "program_beyond_no_load_speed": limited and math.isinf(ratio),
+        # first over the limit by more than rounding, as the kernels compare
+        "program_first_over_time": float(r.t[ko]) if ko >= 0 else None,
+    }
 
 
 def _first_infeasible(r: SimulationResult) -> dict[str, Any] | None:
@@ -156,28 +154,27 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
         return {**head, "first_infeasible": None, "start_infeasible": [],
                 "max_tracking_error": 0.0, "worst_joint": None, "worst_effort_ratio": None,
                 "joints": []}
-    loads = None if r.reaction is None else r.bearing_loads()  # simulate(reactions=False)
-    err = np.abs(r.tracking_error)
+    idx, val = _numbers(r)
     joints = []
     for i, j in enumerate(r.robot.joints):
-        ke = int(np.argmax(err[:, i]))
+        ke = int(idx[i, peaks.K_ERR])
         joints.append({
             "joint": j.name,
             "effort_unit": EFFORT_UNIT[j.is_prismatic],
             "position_unit": POSITION_UNIT[j.is_prismatic],
             "velocity_unit": f"{POSITION_UNIT[j.is_prismatic]}/s",
             "effort_limit": finite_or_none(j.effort_limit),
-            **_program(r, i),
+            **_program(r, i, idx, val),
             # the simulated response
-            "time_saturated": float(r.saturated[:, i].sum() * r.dt),
-            "time_stuck": float(r.stuck[:, i].sum() * r.dt),
-            "peak_motor_torque": float(np.abs(r.tau_motor[:, i]).max()),
-            "rms_motor_torque": float(np.sqrt(np.mean(r.tau_motor[:, i] ** 2))),
-            "peak_effort": float(np.abs(r.tau[:, i]).max()),
-            "peak_speed": float(np.abs(r.qd[:, i]).max()),
-            **{key: None if loads is None else float(getattr(loads, part)[:, i].max())
-               for key, part in PEAK_LOADS},
-            "max_tracking_error": float(err[ke, i]),
+            "time_saturated": int(idx[i, peaks.N_SATURATED]) * r.dt,
+            "time_stuck": int(idx[i, peaks.N_STUCK]) * r.dt,
+            "peak_motor_torque": float(val[i, peaks.TAU_MOTOR_PEAK]),
+            "rms_motor_torque": float(val[i, peaks.TAU_MOTOR_RMS]),
+            "peak_effort": float(val[i, peaks.TAU_PEAK]),
+            "peak_speed": float(val[i, peaks.QD_PEAK]),
+            **{key: None if r.reaction is None else float(val[i, peaks.FORCE_PEAK + c])
+               for key, c in PEAK_LOADS},
+            "max_tracking_error": abs(float(r.tracking_error[ke, i])),
             "max_tracking_error_time": float(r.t[ke]),
             "final_position_error": float(r.tracking_error[-1, i]),
         })
@@ -190,10 +187,24 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             tool |= {key: float(e[k]), f"{key}_time": float(r.t[k])}
     return {**head, "first_infeasible": _first_infeasible(r),
             "start_infeasible": start_violations(r),
-            "max_tracking_error": float(err.max()) if err.size else 0.0,
+            "max_tracking_error": max((jd["max_tracking_error"] for jd in joints), default=0.0),
             "worst_joint": None if worst is None else worst["joint"],
             "worst_effort_ratio": None if worst is None else worst["program_effort_ratio"],
             **tool, "joints": joints}
+
+
+def _numbers(r: SimulationResult) -> tuple[np.ndarray, np.ndarray]:
+    """The run's summary numbers per joint, ``(idx, val)`` (kernels/peaks.py ``run_peaks``:
+    one compiled pass over the run's arrays, the same bits as NumPy's reductions gave)."""
+    rob = r.robot
+    idx, val = np.empty((rob.n, peaks.NIDX), dtype=np.int64), np.empty((rob.n, peaks.NVAL))
+    wrench = np.empty((0, rob.n, 6)) if r.reaction is None else r.reaction
+    limited = np.array([_drive(j) == "limited" for j in rob.joints])
+    axes = np.array([j.axis for j in rob.joints])  # unit axes, joint frames
+    peaks.run_peaks((r.tau, r.tau_motor, r.qd, r.tracking_error, r.saturated, r.stuck, wrench),
+                    (r.program_effort, r.program_limit, r.qd_cmd),
+                    (compiled.of(rob)[3], limited, axes), idx, val)
+    return idx, val
 
 
 def _worst(joints: list[dict[str, Any]]) -> dict[str, Any] | None:
