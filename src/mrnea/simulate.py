@@ -34,8 +34,8 @@ from mrnea.cartesian import CartesianPath
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
-from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
-from mrnea.kernels.drive import actuator_terms, motor_torques
+from mrnea.kernels.derived import derived
+from mrnea.kernels.drive import actuator_terms
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import POSE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
@@ -243,16 +243,13 @@ class SimulationResult:
 
     def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
         """Fill the derived per-cycle arrays of the rows the kernel has just computed
-        (``resolution``: (n,) the tracking errors that are rounding, see :attr:`tracking_error`)."""
-        # the motor side of each cycle's effort at its starting speed (kernels/drive.py
-        # motor_side, as mrnea.actuators.motor_torque without its argument checks)
-        motor_torques(compiled.of(self.robot)[3], self.qd[rows], self.tau[rows],
-                      self.tau_motor[rows])
-        self.margin[rows] = self.limit[rows] - np.abs(self.tau[rows])
-        err = self.q_cmd[rows] - self.q[rows]
-        self.tracking_error[rows] = np.where(np.abs(err) <= resolution, 0.0, err)
-        self.position_clamped[rows] = (clamp[rows] & CLAMP_POSITION) != 0
-        self.velocity_clamped[rows] = (clamp[rows] & CLAMP_VELOCITY) != 0
+        (kernels/derived.py: the motor side of each cycle's effort at its starting speed, the
+        margin, the tracking error, the clamp flags; ``resolution``: (n,) the tracking errors
+        that are rounding, see :attr:`tracking_error`)."""
+        derived(compiled.of(self.robot)[3],
+                (self.q_cmd, self.q, self.qd, self.tau, self.limit, clamp),
+                (self.tau_motor, self.margin, self.tracking_error, self.position_clamped,
+                 self.velocity_clamped), resolution, rows.start, rows.stop)
 
     def _first(self, k: int) -> SimulationResult:
         """The first k cycles (an interrupted run), as views."""
