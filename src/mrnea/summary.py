@@ -166,8 +166,8 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
             "effort_limit": finite_or_none(j.effort_limit),
             **_program(r, i, idx, val),
             # the simulated response
-            "time_saturated": int(idx[i, peaks.N_SATURATED]) * r.dt,
-            "time_stuck": int(idx[i, peaks.N_STUCK]) * r.dt,
+            "time_saturated": float(int(idx[i, peaks.N_SATURATED]) * r.dt),
+            "time_stuck": float(int(idx[i, peaks.N_STUCK]) * r.dt),
             "peak_motor_torque": float(val[i, peaks.TAU_MOTOR_PEAK]),
             "rms_motor_torque": float(val[i, peaks.TAU_MOTOR_RMS]),
             "peak_effort": float(val[i, peaks.TAU_PEAK]),
