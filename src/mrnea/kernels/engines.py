@@ -46,7 +46,7 @@ def fd_engine(model, q, qd, tau, fext, pe, qdd, engine, ws):
         return SIZE
     H, L, u, rhs = solve_buffers(ws, q.shape[0])
     status = mass_matrix_bias(model, q, qd, fext, pe, engine, H, u, ws)
-    return solve_forward(status, H, u, tau, L, rhs, qdd)
+    return solve_forward(model, status, H, u, tau, L, rhs, qdd)
 
 
 @nb.njit(**ENTRY_ALLOC)
