@@ -2,13 +2,17 @@
 per gripper) and the Allegro hand (16: four fingers of 4 on the palm) of example-robot-data,
 loaded with a fixed base, against ``pinocchio.aba`` from Python.
 
-Per call (ns, best of 9 rounds of timeit's autorange, one state): ``mrnea.forward_dynamics``
-by the mRNEA (one pass and the tree's sparse L^T L solve, kernels/solve.py ``ltl_solve``) and
-by mrnea's ABA, and ``pinocchio.aba``. Per state in a batch of B = 1000 (ns): mrnea's batch
-call against a Python loop of ``pinocchio.aba``. The factorisation alone (ns, a compiled loop of
-1000 solves of the same H, thread CPU time, best of 9): the dense Cholesky against the sparse
-LTL. Each mrnea result is checked against Pinocchio's (max relative error printed). Printed as
-JSON; run it with::
+* Per call (ns of thread CPU time, best of 9 rounds of timeit's autorange, one state):
+  ``mrnea.forward_dynamics`` by the mRNEA (one pass and the tree's sparse L^T L solve,
+  kernels/solve.py ``ltl_solve``) and by mrnea's ABA, and ``pinocchio.aba``.
+* Per state in a batch of B = 1000 (ns of wall-clock time: mrnea's batch runs on Numba's
+  threads, whose CPU time counts their spin-waits too): mrnea's batch call against a Python
+  loop of ``pinocchio.aba``. On a loaded machine these two are only indicative.
+* The factorisation alone (ns of thread CPU time, a compiled loop of 1000 solves of the same H,
+  best of 9): the dense Cholesky against the sparse LTL.
+
+CPU time keeps the other figures meaningful on a loaded machine (preemption is not counted). Each
+mrnea result is checked against Pinocchio's (max relative error printed). Printed as JSON::
 
     PYTHONPATH=$PWD/src python benchmarks/tree_fd.py
 
@@ -70,9 +74,11 @@ def to_pin(model, robot: mrnea.Robot, q, v, tau):
     return qp, vp, tp
 
 
-def per_call(f) -> float:
+def per_call(f, timer=time.thread_time) -> float:
+    """ns per call of f: best of 9 rounds of timeit's autorange, in CPU time (a loaded
+    machine's preemption is not counted)."""
     f()
-    t = timeit.Timer(f)
+    t = timeit.Timer(f, timer=timer)
     num, _ = t.autorange()
     return min(t.repeat(9, num)) / num * 1e9
 
@@ -135,8 +141,9 @@ def measure(rel: str, tips: tuple[str, ...] | None, rng: np.random.Generator) ->
          "call_mrnea_aba": per_call(lambda: mrnea.forward_dynamics(robot, q, v, tau,
                                                                    method="aba")),
          "call_pinocchio_aba": per_call(lambda: pin.aba(model, data, qp, vp, tp)),
-         "batch_mrnea": per_call(lambda: mrnea.forward_dynamics(robot, Q, V, T)) / B,
-         "batch_pinocchio_loop": per_call(pin_batch) / B,
+         "batch_mrnea": per_call(lambda: mrnea.forward_dynamics(robot, Q, V, T),
+                                 time.perf_counter) / B,
+         "batch_pinocchio_loop": per_call(pin_batch, time.perf_counter) / B,
          "factor_solve_dense_cholesky": loop_ns(lambda: _chol_loop(H, rhs, L, x, 1000)),
          "factor_solve_sparse_ltl": loop_ns(lambda: _ltl_loop(m, H, rhs, L, x, 1000))}
     return {**{k: round(val, 1) for k, val in r.items()}, "max_rel_err_vs_pinocchio": err}
