@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.cartesian.blend import chain_poses
 from mrnea.cartesian.path import move_poses
 from mrnea.cartesian.verdict import Finding, findings
 from mrnea.dynamics import forward_kinematics
@@ -90,6 +91,18 @@ def _hold(q: NDArray, count: int) -> NDArray:
     return np.repeat(q[None], count, axis=0)
 
 
+def _chains(moves: tuple[Move, ...]) -> list[tuple[Move, ...]]:
+    """The moves in runs that are timed as one: linear moves joined by their blends, every
+    other move alone."""
+    out, run = [], []
+    for mv in moves:
+        run.append(mv)
+        if mv.blend == 0:
+            out.append(tuple(run))
+            run = []
+    return out  # the last move has no blend (io.moves)
+
+
 def solve(program: Program, robot: Robot) -> Program:
     """``program`` with ``t``, ``q_cmd`` and ``cartesian`` made by inverse kinematics on ``robot``
     (module docstring); a joint program unchanged.
@@ -114,9 +127,18 @@ def solve(program: Program, robot: Robot) -> Program:
     rows, poses, owner, is_cart, errs = [q[None]], [T[None]], [np.ones(1, np.int64)], \
         [np.zeros(1, bool)], [np.zeros((1, 2))]
     targets = []
-    for mv in spec.moves:
+    for chain in _chains(spec.moves):
+        mv = chain[-1]
         try:
-            if mv.type == "joint":
+            if len(chain) > 1:
+                Ts, own, ends = chain_poses(chain, T, dt)
+                Ts, own = Ts[1:], own[1:]
+                res = solve_path(robot, Ts, q, Tt)
+                qs = res.q
+                e = np.column_stack([res.position_error, res.orientation_error])
+                cart = True
+                targets += [(m.index, end) for m, end in zip(chain, ends, strict=True)]
+            elif mv.type == "joint":
                 prof = _JOINT_PROFILES[mv.profile]
                 _, qs = prof(np.array([q, mv.target]), dt, *mv.limits)
                 qs = qs[1:]
@@ -133,13 +155,15 @@ def solve(program: Program, robot: Robot) -> Program:
                 cart = True
                 targets.append((mv.index, Ts[-1] if len(Ts) else T))
         except StateError as exc:
-            raise ProgramFileError(f"{where}: [[move]] {mv.index} ({mv.type}): {exc}") from None
+            raise ProgramFileError(f"{where}: [[move]] {chain[0].index} ({chain[0].type}): "
+                                   f"{exc}") from None
         if len(qs):
             q, T = qs[-1], Ts[-1]
         hold = int(cycles(mv.dwell, dt))
         rows += [qs, _hold(q, hold)]
         poses += [Ts, _hold(T, hold)]
-        owner.append(np.full(len(qs) + hold, mv.index, np.int64))
+        owner += [own if len(chain) > 1 else np.full(len(qs), mv.index, np.int64),
+                  np.full(hold, mv.index, np.int64)]
         is_cart += [np.full(len(qs), cart), np.zeros(hold, bool)]
         errs += [e, np.zeros((hold, 2))]
     q_cmd, pose = np.concatenate(rows), np.concatenate(poses)

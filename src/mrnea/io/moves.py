@@ -142,9 +142,12 @@ def _move(check: TomlCheck, index: int, table: Any, n: int) -> Move:
     if dwell < 0 or blend < 0:
         raise check.error(where, f"'{'dwell' if dwell < 0 else 'blend'}' must be >= 0, got "
                                  f"{min(dwell, blend)}")
-    if blend > 0:
-        raise check.error(where, "'blend' > 0 (a rounded corner) is not supported yet; every "
-                                 "move stops at its target (blend = 0)")
+    if blend > 0 and kind != "linear":
+        raise check.error(where, "'blend' > 0 (a rounded corner) joins two linear moves; a "
+                                 f"{kind} move stops at its target (blend = 0)")
+    if blend > 0 and dwell > 0:
+        raise check.error(where, "'blend' > 0 passes the corner without stopping, 'dwell' "
+                                 "stops there: give one of them")
     if kind == "joint":
         target = check.vector(check.require(table, "target", where), where, "target", n)
         profile = table.get("profile", "trapezoidal")
@@ -171,6 +174,20 @@ def _move(check: TomlCheck, index: int, table: Any, n: int) -> Move:
     return Move(index, kind, dwell, blend, xyz=xyz, R=R, via=via, limits=limits)
 
 
+def _check_blend(check: TomlCheck, mv: Move, nxt: Move | None) -> None:
+    """A blend joins a linear move to the next, also linear, neither jerk-limited."""
+    where = f"[[move]] {mv.index} ({mv.type})"
+    if nxt is None or nxt.type != "linear":
+        raise check.error(where, "'blend' > 0 rounds the corner into the next move, which must "
+                                 "be linear" + (f"; move {nxt.index} is {nxt.type}" if nxt
+                                                else "; this is the last move"))
+    for m in (mv, nxt):
+        if np.isfinite(m.limits[2]) or np.isfinite(m.limits[5]):
+            raise check.error(f"[[move]] {m.index} ({m.type})",
+                              "'jerk' and 'angular_jerk' do not apply to moves joined by a "
+                              "'blend' (their timing is the trapezoid, docs/cartesian.md)")
+
+
 def read_moves(check: TomlCheck, prog: Mapping[str, Any], moves: Any) -> Moves:
     """The :class:`Moves` of a program whose ``[program]`` table is ``prog`` and whose
     ``[[move]]`` array is ``moves``."""
@@ -179,5 +196,8 @@ def read_moves(check: TomlCheck, prog: Mapping[str, Any], moves: Any) -> Moves:
     q0 = check.vector(check.require(prog, "q0", "[program]"), "[program]", "q0")
     tool = _tool(check, prog["tool"]) if "tool" in prog else None
     out = tuple(_move(check, k, m, q0.size) for k, m in enumerate(moves, start=1))
+    for mv, nxt in zip(out, (*out[1:], None), strict=True):
+        if mv.blend > 0:
+            _check_blend(check, mv, nxt)
     q0.setflags(write=False)
     return Moves(tool, q0, out)
