@@ -376,7 +376,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
             raise check.error("", f"a program of [[move]] tables cannot have a "
                                   f"[{'path' if 'path' in doc else 'wrench'}] table (its path is "
                                   f"its moves; a wrench with moves is not supported yet)")
-        moves = read_moves(check, prog, doc["move"])
+        moves = read_moves(check, prog, doc["move"], dt, base)
         return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=None,
                        mode=mode, name=name, source=source, options=options, moves=moves)
     for key in _MOVE_KEYS:
