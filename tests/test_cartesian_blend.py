@@ -1,4 +1,5 @@
-"""Blended corners between linear moves (``blend`` [m]): the tool path, through Pinocchio.
+"""Blended corners between linear moves (``blend`` [m]), and a wrench during moves, through
+Pinocchio.
 
 Oracles: Pinocchio's forward kinematics of the UR5's ``tool0`` frame (``data.oMf``) for every
 commanded q; the corner's inscribed circle from closed-form plane geometry (its centre on the
@@ -180,3 +181,30 @@ def test_blend_only_joins_linear_moves(tmp_path, moves, words):
     f = tmp_path / "prog.toml"
     f.write_text(_program(erd_path(UR5), moves))
     one_error_line(mrnea_cli("check", f), "prog.toml", *words)
+
+
+def test_a_wrench_with_moves_acts_at_the_tcp(tmp_path, blended):
+    """A [wrench] in a Cartesian program: on the program's clock, at the tool point. The
+    joint efforts it adds are Pinocchio's J^T f of the tool0 frame (at the frame's origin, base
+    axes); a wrench the wrist cannot hold makes the program NOT ACHIEVABLE (exit 1)."""
+    path, robot, _, _ = blended
+    ref = PinTool(robot, pin_from_urdf(path, robot), "tool0")
+    times, values = [0.5, 1.5], [[0, 0, -40.0, 0, 0, 0], [0, 0, -40.0, 2.0, 0, 1.0]]
+    wrench = f"[wrench]\ntimes = {times}\nvalues = {values}\n"
+    prog = solve(loads_program(_program(path, MOVES + wrench)), robot)
+    assert prog.f_ext.shape == (prog.K, 6)
+    k = int(np.argmin(np.abs(prog.t - 1.0)))  # halfway between the breakpoints
+    f = np.array(values[0]) + (prog.t[k] - 0.5) / 1.0 * (np.array(values[1]) - values[0])
+    np.testing.assert_allclose(prog.f_ext[k], f, atol=1e-12)
+    np.testing.assert_array_equal(prog.f_ext[0], values[0])  # held before the first time
+    q = prog.q_cmd[k]
+    pc = ref.pc
+    g = pc.ours(pin.computeGeneralizedGravity(pc.model, pc.data, pc.config(q)))
+    expected = g + ref.jacobian(q).T @ f
+    tau = mrnea.inverse_dynamics(robot, q, np.zeros(6), np.zeros(6), f_ext=prog.f_ext[k],
+                                 f_ext_point=prog.f_ext_point)
+    np.testing.assert_allclose(tau, expected, rtol=1e-10, atol=1e-9)
+    heavy = tmp_path / "heavy.toml"
+    heavy.write_text(_program(path, MOVES + wrench.replace("40.0", "4000.0")))
+    res = mrnea_cli("check", heavy)
+    assert res.returncode == 1 and res.stdout.startswith("NOT ACHIEVABLE"), res.stdout

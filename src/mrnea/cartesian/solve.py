@@ -21,6 +21,9 @@ unless a ``blend`` joins linear moves:
   (``JOIN_POSITION``, ``JOIN_ORIENTATION``);
 * ``dwell``: the last cycle held, rounded up to whole cycles.
 
+A ``[wrench]`` (``program.wrench``) becomes ``f_ext`` at the cycle times (t = 0 at q0) and acts
+at the tool point (the tool frame's origin) unless its ``point`` says otherwise.
+
 The verdict on the Cartesian path (reach, singularities, joint limits, configuration changes)
 is :mod:`mrnea.cartesian.verdict`'s, in ``CartesianPath.findings``.
 """
@@ -41,7 +44,7 @@ from mrnea.dynamics import forward_kinematics
 from mrnea.errors import ProgramFileError, StateError
 from mrnea.ik import solve_path
 from mrnea.io.moves import Move
-from mrnea.io.program import Program
+from mrnea.io.program import Program, wrench_at
 from mrnea.model import Robot
 from mrnea.tool import tool_transform
 from mrnea.trajectory import cycles, quintic, scurve, trapezoidal
@@ -206,4 +209,11 @@ def solve(program: Program, robot: Robot) -> Program:
                          targets=tuple(targets), findings=tuple(found), moves=spec.moves)
     for a in (t, q_cmd, pose, move, cart, path.position_error, path.orientation_error):
         a.setflags(write=False)
-    return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path)
+    f_ext, point = None, program.f_ext_point
+    if program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
+        f_ext = wrench_at(*program.wrench, t)
+        point = Tt[:3, 3].copy() if point is None else point
+        for a in (f_ext, point):
+            a.setflags(write=False)
+    return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path, f_ext=f_ext,
+                               f_ext_point=point)

@@ -39,7 +39,7 @@ from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
 
 __all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
-           "save_program"]
+           "save_program", "wrench_at"]
 
 #: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
 #: and ``[path] units``.
@@ -84,6 +84,9 @@ class Program:
     cartesian : the solved Cartesian path (:class:`mrnea.cartesian.CartesianPath`: the programmed
         tool pose of every cycle, the move it belongs to, the inverse kinematics' errors and the
         verdict), kept alongside q_cmd; None for a joint path or before solving.
+    wrench : a Cartesian program's ``[wrench]`` breakpoints (times (W,) [s] from its first
+        cycle, values (W, 6) [N, N m]), made into ``f_ext`` (and ``f_ext_point`` defaulted to the
+        tool point) when it is solved; None otherwise.
 
     The arrays are read-only.
     """
@@ -103,6 +106,7 @@ class Program:
     csv_rows: NDArray[np.float64] | None = None
     moves: Moves | None = None
     cartesian: Any = None
+    wrench: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @property
     def K(self) -> int:
@@ -299,8 +303,18 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         raise check.error(where, str(exc)) from None
 
 
-def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray, robot: str
-            ) -> tuple[NDArray, NDArray | None]:
+def wrench_at(times: NDArray, values: NDArray, t: NDArray) -> NDArray[np.float64]:
+    """(K, 6) the wrench of a ``[wrench]`` table's breakpoints (times (W,) [s], values (W, 6)
+    [N, N m]) at the cycle times t (K,) [s]: linear between them, held before and after."""
+    f_ext = np.empty((t.size, 6))
+    for c in range(6):
+        f_ext[:, c] = np.interp(t, times, values[:, c])
+    return f_ext
+
+
+def _wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None
+            ) -> tuple[NDArray, NDArray, NDArray | None]:
+    """(times, values, point) of a [wrench] table."""
     where = "[wrench]"
     check.check_keys(table, _WRENCH_KEYS, where)
     times = check.vector(check.require(table, "times", where), where, "times")
@@ -310,9 +324,6 @@ def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray, robot: str
                                  f"{times[k]} follows {times[k - 1]}")
     values = check.matrix(check.require(table, "values", where), where, "values", width=6,
                           rows=times.size)
-    f_ext = np.empty((t.size, 6))
-    for c in range(6):
-        f_ext[:, c] = np.interp(t, times, values[:, c])
     point = None
     if "point" in table:
         point = check.vector(table["point"], where, "point", 3)
@@ -327,7 +338,10 @@ def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray, robot: str
                                      f"(dh = \"standard\" or \"modified\"); {robot} is not")
         p = np.zeros(3) if point is None else point
         point = B[:3, :3] @ p + B[:3, 3]
-    return f_ext, point
+    for a in (times, values, point):
+        if a is not None:
+            a.setflags(write=False)
+    return times, values, point
 
 
 def loads_program(text: str, source: str = "<string>", base_dir: str | Path | None = None
@@ -372,13 +386,17 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
                                        f"got {quote(mode)}")
     if "move" in doc:
-        if "path" in doc or "wrench" in doc:
-            raise check.error("", f"a program of [[move]] tables cannot have a "
-                                  f"[{'path' if 'path' in doc else 'wrench'}] table (its path is "
-                                  f"its moves; a wrench with moves is not supported yet)")
+        if "path" in doc:
+            raise check.error("", "a program of [[move]] tables cannot have a [path] table (its "
+                                  "path is its moves)")
         moves = read_moves(check, prog, doc["move"], dt, base)
-        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=None,
-                       mode=mode, name=name, source=source, options=options, moves=moves)
+        wrench = point = None
+        if "wrench" in doc:
+            *wrench, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                     robot)
+        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=point,
+                       mode=mode, name=name, source=source, options=options, moves=moves,
+                       wrench=None if wrench is None else tuple(wrench))
     for key in _MOVE_KEYS:
         if key in prog:
             raise check.error("[program]", f"'{key}' belongs to a program of [[move]] tables "
@@ -390,7 +408,9 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
-        f_ext, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"), t, robot)
+        times, values, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                       robot)
+        f_ext = wrench_at(times, values, t)
     for a in (t, q, f_ext, point, rows):
         if a is not None:
             a.setflags(write=False)
