@@ -21,19 +21,19 @@ from mrnea.io.posecsv import POSE_INTERPOLATIONS, read_poses, resample_poses
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.rigid import rotation_from_rpy
 
-__all__ = ["MOVE_TYPES", "Move", "Moves", "read_moves"]
+__all__ = ["MOVE_KEYS", "MOVE_TYPES", "Move", "Moves", "read_moves"]
 
 MOVE_TYPES = ("joint", "linear", "circular", "poses")
 JOINT_PROFILES = ("trapezoidal", "quintic", "scurve")
 _COMMON = ("type", "dwell", "blend")
-_KEYS = {
+MOVE_KEYS = {
     "joint": (*_COMMON, "target", "profile", "velocity_limit", "acceleration_limit",
               "jerk_limit"),
     "linear": (*_COMMON, "xyz", "rpy", "quat", "speed", "acceleration", "angular_speed",
                "angular_acceleration", "jerk", "angular_jerk"),
 }
-_KEYS["circular"] = (*_KEYS["linear"], "via")
-_KEYS["poses"] = (*_COMMON, "csv", "interpolation")
+MOVE_KEYS["circular"] = (*MOVE_KEYS["linear"], "via")
+MOVE_KEYS["poses"] = (*_COMMON, "csv", "interpolation")
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,7 +161,7 @@ def _move(check: TomlCheck, index: int, table: Any, n: int, dt: float, base_dir:
         raise check.error(where, f"unknown type {kind!r}{did_you_mean(kind, MOVE_TYPES)}; "
                                  f"expected one of {', '.join(map(repr, MOVE_TYPES))}")
     where = f"[[move]] {index} ({kind})"
-    check.check_keys(table, _KEYS[kind], where)
+    check.check_keys(table, MOVE_KEYS[kind], where)
     dwell = check.number(table.get("dwell", 0.0), where, "dwell")
     blend = check.number(table.get("blend", 0.0), where, "blend")
     if dwell < 0 or blend < 0:

@@ -21,6 +21,7 @@ between rows); the first and last cycles are the first and last rows exactly. Ev
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -30,9 +31,10 @@ from scipy.spatial.transform import Rotation, RotationSpline, Slerp
 
 from mrnea.errors import ProgramFileError, StateError, quote
 from mrnea.io.pathcsv import data_lines, read_table, resample
+from mrnea.io.writer import create
 
 __all__ = ["POSE_INTERPOLATIONS", "QUATERNION", "ROTATION_VECTOR", "read_poses",
-           "resample_poses"]
+           "resample_poses", "save_poses"]
 
 #: The columns of a pose CSV with either orientation, and each column's unit ("" for none).
 QUATERNION = {"t": "s", "x": "m", "y": "m", "z": "m", "qw": "", "qx": "", "qy": "", "qz": ""}
@@ -109,3 +111,17 @@ def resample_poses(time: NDArray, poses: NDArray, dt: float, interpolation: str 
     out[:, :3, :3], out[:, :3, 3], out[:, 3, 3] = R, xyz, 1.0
     out[0], out[-1] = poses[0], poses[-1]
     return t, out
+
+
+def save_poses(path: str | os.PathLike[str], t: NDArray, poses: NDArray,
+               overwrite: bool = False) -> Path:
+    """Write a pose CSV (:func:`read_poses` reads it): the header ``t [s], x [m], y [m], z [m],
+    qw, qx, qy, qz``, then one row per pose (t (K,) [s], poses (K, 4, 4) base frame), every
+    number as Python's shortest repr. Through :func:`mrnea.io.writer.create`: whole or not at
+    all, an existing file replaced only with ``overwrite``."""
+    quat = Rotation.from_matrix(np.asarray(poses)[:, :3, :3]).as_quat(scalar_first=True)
+    rows = np.column_stack([t, np.asarray(poses)[:, :3, 3], quat]).tolist()
+    with create(path, overwrite) as fh:
+        fh.write("t [s], x [m], y [m], z [m], qw, qx, qy, qz\n")
+        fh.writelines(",".join(map(repr, r)) + "\n" for r in rows)
+    return Path(path)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -29,7 +29,7 @@ from mrnea.io.dispatch import (
     resolve_robot,
     same_robot,
 )
-from mrnea.io.moves import Moves, read_moves
+from mrnea.io.moves import MOVE_KEYS, Moves, read_moves
 from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
 from mrnea.io.payload import parse_payload
 from mrnea.io.source import as_path, read_text
@@ -447,8 +447,8 @@ def load_program(path: str | Path) -> Program:
 
 
 def _toml_value(v: Any) -> str:
-    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit) or
-    a (nested) list of them."""
+    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit), a
+    (nested) list of them or an inline table."""
     if isinstance(v, np.ndarray):
         v = v.tolist()
     if isinstance(v, str):
@@ -462,21 +462,31 @@ def _toml_value(v: Any) -> str:
         return repr(x) if math.isfinite(x) else ("nan" if x != x else "inf" if x > 0 else "-inf")
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):  # an inline table (a tool's xyz and rpy)
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}"
+                               for k, x in v.items()) + "}"
     raise TypeError(f"cannot write {type(v).__name__} to a program file")
 
 
-def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
-                  wrench: Mapping[str, Any] | None = None, comment: str = "") -> str:
+def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any] | None,
+                  wrench: Mapping[str, Any] | None = None, comment: str = "",
+                  moves: Sequence[Mapping[str, Any]] = ()) -> str:
     """The text of a program file (the format :func:`loads_program` reads) from the keys of its
-    ``[program]``, ``[path]`` and optional ``[wrench]`` tables; ``comment``: lines put first as
-    TOML comments. Numbers are written as their shortest repr, so they read back bit for bit.
-    A list of rows (the wrench's values) gets one row per line. A key the table does not know
+    ``[program]``, ``[path]`` (None for a Cartesian program) and optional ``[wrench]`` tables,
+    and a Cartesian program's ``[[move]]`` tables (``moves``, each with its ``type``);
+    ``comment``: lines put first as TOML comments. Numbers are written as their shortest
+    repr, so they read back bit for bit. A list of rows (the wrench's values) gets one row per
+    line. A key the table does not know
     is a StateError (the file would not load)."""
     lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
     allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": _WRENCH_KEYS}
-    for table, keys in (("program", program), ("path", path), ("wrench", wrench)):
+    tables = [("program", program), ("path", path), ("wrench", wrench),
+              *(("[move]", m) for m in moves)]
+    for table, keys in tables:
         if keys is None:
             continue
+        if table == "[move]":
+            allowed[table] = MOVE_KEYS.get(keys.get("type"), ("type",))
         unknown = [k for k in keys if k not in allowed[table]]
         if unknown:
             raise StateError(f"{table}: unknown key {quote(unknown[0])} for a program file's "
@@ -492,13 +502,14 @@ def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
 
 
 def save_program(path: str | os.PathLike[str], program: Mapping[str, Any],
-                 path_table: Mapping[str, Any], wrench: Mapping[str, Any] | None = None,
-                 comment: str = "", overwrite: bool = False) -> Path:
+                 path_table: Mapping[str, Any] | None, wrench: Mapping[str, Any] | None = None,
+                 comment: str = "", overwrite: bool = False,
+                 moves: Sequence[Mapping[str, Any]] = ()) -> Path:
     """Write :func:`dumps_program`'s text to ``path`` through :func:`mrnea.io.writer.create`
     (whole or not at all, never through a link, an existing file replaced only with
     ``overwrite``)."""
     with create(path, overwrite) as fh:
-        fh.write(dumps_program(program, path_table, wrench, comment))
+        fh.write(dumps_program(program, path_table, wrench, comment, moves))
     return Path(path)
 
 
