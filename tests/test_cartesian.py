@@ -358,6 +358,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 @pytest.mark.parametrize("example, urdf", [
     ("ur5_cartesian_pick.toml", UR5),
+    ("ur5_blended_square.toml", UR5),
     ("panda_cartesian_hand.toml", "panda_description/urdf/panda.urdf"),
 ])
 def test_examples_are_achievable(example, urdf):

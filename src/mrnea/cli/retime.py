@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -166,19 +167,13 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
-def _write_cartesian(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any,
-                     force: bool) -> None:
-    """A Cartesian program's retimed timing: the tool poses of the retimed rows (forward
-    kinematics of the tool frame) as a pose CSV, and a program of one ``poses`` move running
-    them from the first row, with the joint program's [program] keys and [wrench]."""
+def _cartesian_program(res: Any, paths: dict[str, Path], tool: Any, force: bool) -> None:
+    """A program of one ``poses`` move running :data:`POSES` from the first retimed row, with
+    the joint program's [program] keys and [wrench] (read back from its file)."""
     import tomllib
 
-    from mrnea.dynamics import forward_kinematics
-    from mrnea.io.posecsv import save_poses
     from mrnea.io.program import save_program
 
-    poses = forward_kinematics(res.robot, res.q_cmd, tool=cartesian.tool)[:, -1]
-    save_poses(paths[POSES], res.t, poses, force)
     joint = tomllib.loads(paths[PROGRAM].read_text(encoding="utf-8"))
     program = {**joint["program"], "q0": res.q_cmd[0],
                **({"tool": tool} if tool is not None else {})}
@@ -187,6 +182,24 @@ def _write_cartesian(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any
                  f"({POSES}), solved by inverse kinematics from q0.\nRun: mrnea check "
                  f"{CARTESIAN}", force,
                  moves=[{"type": "poses", "csv": POSES, "interpolation": "linear"}])
+
+
+def _cartesian_steps(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any,
+                     force: bool) -> list[tuple[Path, Callable[[], Any]]]:
+    """The writes of a Cartesian program's retimed timing (none for a joint program): the
+    tool poses of the retimed rows (forward kinematics of the tool frame) as a pose CSV, and
+    :func:`_cartesian_program`."""
+    if cartesian is None:
+        return []
+    from mrnea.dynamics import forward_kinematics
+    from mrnea.io.posecsv import save_poses
+
+    def poses() -> None:
+        T = forward_kinematics(res.robot, res.q_cmd, tool=cartesian.tool)[:, -1]
+        save_poses(paths[POSES], res.t, T, force)
+
+    return [(paths[POSES], poses),
+            (paths[CARTESIAN], lambda: _cartesian_program(res, paths, tool, force))]
 
 
 def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
@@ -204,8 +217,7 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
         (paths[PROGRAM], lambda: res.save_program(
             paths[PROGRAM], spec, CSV, name=name,
             program_keys=_program_keys(options, folder, force), overwrite=force)),
-        *([(paths[CARTESIAN], lambda: _write_cartesian(res, paths, *cartesian, force))]
-          if cartesian[1] is not None else []),
+        *_cartesian_steps(res, paths, *cartesian, force),
         (paths[SUMMARY], lambda: res.save_summary(paths[SUMMARY], force)),
         (paths[REPORT], lambda: write_retime_report(res, paths[REPORT], force, files={
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
@@ -216,7 +228,7 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
         for path, write in steps:
             checkpoint()
             write()
-            written += [paths[POSES], path] if path.name == CARTESIAN else [path]
+            written.append(path)
             if path == paths[PROGRAM] and payload.exists() and not before:
                 written.append(payload)
         checkpoint()
