@@ -44,7 +44,8 @@ from mrnea.dynamics import forward_kinematics
 from mrnea.errors import ProgramFileError, StateError
 from mrnea.ik import solve_path
 from mrnea.io.moves import Move
-from mrnea.io.program import Program, wrench_at
+from mrnea.io.program import Program
+from mrnea.io.wrench import wrench_at
 from mrnea.model import Robot
 from mrnea.tool import tool_transform
 from mrnea.trajectory import cycles, quintic, scurve, trapezoidal

@@ -24,7 +24,6 @@ from mrnea.errors import MrneaError, ProgramFileError, StateError, quote, shorte
 from mrnea.io.dispatch import (
     BUILTIN_ROBOTS,
     RobotOptions,
-    flange_of,
     load_robot_spec,
     resolve_robot,
     same_robot,
@@ -34,12 +33,13 @@ from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resampl
 from mrnea.io.payload import parse_payload
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
+from mrnea.io.wrench import WRENCH_KEYS, read_wrench, wrench_at
 from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
 
 __all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
-           "save_program", "wrench_at"]
+           "save_program"]
 
 #: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
 #: and ``[path] units``.
@@ -186,10 +186,6 @@ _MOVE_KEYS = ("tool", "q0")  # [program] keys of a Cartesian program only
 _CSV_KEYS = ("csv", "units", "interpolation")
 _PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
               "dwell", "csv", "units", "interpolation")
-_WRENCH_KEYS = ("times", "values", "point", "point_frame")
-#: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
-#: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
-POINT_FRAMES = ("link", "flange")
 
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
@@ -303,47 +299,6 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         raise check.error(where, str(exc)) from None
 
 
-def wrench_at(times: NDArray, values: NDArray, t: NDArray) -> NDArray[np.float64]:
-    """(K, 6) the wrench of a ``[wrench]`` table's breakpoints (times (W,) [s], values (W, 6)
-    [N, N m]) at the cycle times t (K,) [s]: linear between them, held before and after."""
-    f_ext = np.empty((t.size, 6))
-    for c in range(6):
-        f_ext[:, c] = np.interp(t, times, values[:, c])
-    return f_ext
-
-
-def _wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None
-            ) -> tuple[NDArray, NDArray, NDArray | None]:
-    """(times, values, point) of a [wrench] table."""
-    where = "[wrench]"
-    check.check_keys(table, _WRENCH_KEYS, where)
-    times = check.vector(check.require(table, "times", where), where, "times")
-    if np.any(np.diff(times) <= 0):
-        k = int(np.argmax(np.diff(times) <= 0)) + 1
-        raise check.error(where, f"'times' must be strictly increasing: times[{k}] = "
-                                 f"{times[k]} follows {times[k - 1]}")
-    values = check.matrix(check.require(table, "values", where), where, "values", width=6,
-                          rows=times.size)
-    point = None
-    if "point" in table:
-        point = check.vector(table["point"], where, "point", 3)
-    frame = table.get("point_frame", "link")
-    if frame not in POINT_FRAMES:
-        raise check.error(where, f"'point_frame' must be one of "
-                                 f"{', '.join(map(repr, POINT_FRAMES))}, got {frame!r}")
-    if frame == "flange":  # DH frame n -> the last link's frame: p_link = B_n p_flange
-        B = flange_of(robot)
-        if B is None:
-            raise check.error(where, f"point_frame = 'flange' needs a robot given by a DH table "
-                                     f"(dh = \"standard\" or \"modified\"); {robot} is not")
-        p = np.zeros(3) if point is None else point
-        point = B[:3, :3] @ p + B[:3, 3]
-    for a in (times, values, point):
-        if a is not None:
-            a.setflags(write=False)
-    return times, values, point
-
-
 def loads_program(text: str, source: str = "<string>", base_dir: str | Path | None = None
                   ) -> Program:
     """Parse a program from a TOML string (format: ``docs/programs.md``).
@@ -392,7 +347,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         moves = read_moves(check, prog, doc["move"], dt, base)
         wrench = point = None
         if "wrench" in doc:
-            *wrench, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+            *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
                                      robot)
         return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=point,
                        mode=mode, name=name, source=source, options=options, moves=moves,
@@ -408,7 +363,7 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
-        times, values, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+        times, values, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
                                        robot)
         f_ext = wrench_at(times, values, t)
     for a in (t, q, f_ext, point, rows):
@@ -479,7 +434,7 @@ def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any] | None,
     line. A key the table does not know
     is a StateError (the file would not load)."""
     lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
-    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": _WRENCH_KEYS}
+    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": WRENCH_KEYS}
     tables = [("program", program), ("path", path), ("wrench", wrench),
               *(("[move]", m) for m in moves)]
     for table, keys in tables:
