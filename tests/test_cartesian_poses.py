@@ -155,3 +155,30 @@ def test_a_pose_file_that_does_not_continue_the_path_is_refused(tmp_path, ur5):
                                                r"'linear', got 'quintic'"):
         loads_program(_program(path, QA, '[[move]]\ntype = "poses"\ncsv = "p.csv"\n'
                                          'interpolation = "quintic"\n'), base_dir=tmp_path)
+
+
+def test_a_written_pose_program_reads_back(tmp_path, ur5):
+    """save_poses and dumps_program (what retime writes): a tool given by xyz/rpy (an inline
+    table) and a poses move read back to the same poses (positions bit for bit, rotations to
+    rounding) and tool."""
+    from mrnea.io.posecsv import read_poses, save_poses
+    from mrnea.io.program import dumps_program
+
+    path, _, ref = ur5
+    rows = _rows(ref, np.arange(0.0, 0.1 + 1e-9, 0.004), 1.0)
+    P = np.array([np.r_[np.c_[pin.Quaternion(*r[[4, 5, 6, 7]]).toRotationMatrix(), r[1:4]],
+                        [[0, 0, 0, 1]]] for r in rows])
+    save_poses(tmp_path / "p.csv", rows[:, 0], P)
+    t, back, _ = read_poses(tmp_path / "p.csv")
+    np.testing.assert_array_equal(t, rows[:, 0])
+    np.testing.assert_array_equal(back[:, :3, 3], P[:, :3, 3])
+    assert np.abs(back - P).max() <= 1e-15
+    tool = {"xyz": [0.0, 0.0, 0.1], "rpy": [0.1, 0.0, 0.0]}
+    text = dumps_program({"name": "w", "robot": str(path), "dt": 0.004, "tool": tool,
+                          "q0": QA}, None,
+                         moves=[{"type": "poses", "csv": "p.csv", "interpolation": "linear"}])
+    prog = loads_program(text, base_dir=tmp_path)
+    assert prog.moves.tool == tool and prog.moves.moves[0].type == "poses"
+    sampled = prog.moves.moves[0].poses  # the rows are the cycles: met to rounding
+    np.testing.assert_array_equal(sampled[:, :3, 3], back[:, :3, 3])
+    assert np.abs(sampled - back).max() <= 1e-15
