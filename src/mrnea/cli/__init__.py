@@ -24,7 +24,8 @@ command goes in a module
 of its own, imported below.
 """
 
-from mrnea.cli import info, paper, retime, run, size, sweep
+from mrnea.cli import identify, info, paper, retime, run, size, sweep
 from mrnea.cli.base import main
 
 __all__ = ["info", "main", "paper", "retime", "run", "size", "sweep"]
+__all__ += ["identify"]

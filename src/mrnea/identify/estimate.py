@@ -51,13 +51,15 @@ MAX_NFEV = 300  # evaluations of the consistent fit (step 3)
 
 @dataclass(frozen=True)
 class Prediction:
-    """Measured and predicted efforts (K, n) [N m | N] at ``time`` (K,) [s]; ``rms`` (n,) of
-    their difference, each joint over its rows that were used (moving)."""
+    """Measured and predicted efforts (K, n) [N m | N] at ``time`` (K,) [s]; ``used`` (K, n)
+    bool: the rows of the moving joints (faster than ``min_speed``); ``rms`` (n,) of their
+    difference, each joint over its used rows."""
 
     time: NDArray[np.float64]
     measured: NDArray[np.float64]
     predicted: NDArray[np.float64]
     rms: NDArray[np.float64]
+    used: NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
@@ -203,7 +205,7 @@ def _predict(W: NDArray, beta: NDArray, log: Log, used: NDArray) -> Prediction:
     pred = W @ beta
     rms = np.sqrt(np.where(used, (log.tau - pred) ** 2, 0.0).sum(axis=0)
                   / np.maximum(used.sum(axis=0), 1))
-    return Prediction(log.time, log.tau, pred, rms)
+    return Prediction(log.time, log.tau, pred, rms, used)
 
 
 def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: float = 0.2,
