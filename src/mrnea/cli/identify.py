@@ -133,8 +133,10 @@ def _lines(s: dict[str, Any]) -> list[str]:
     """What the command prints: the log and condition number, then one line per joint."""
     from mrnea.report.drawing import fmt_number as f
 
-    def pm(x: float, se: float | None) -> str:
-        return f"{f(x)} (prior's)" if se is None else f"{f(x)} ± {f(se, 2)}"
+    def pm(j: dict[str, Any], field: str) -> str:
+        se = j[f"{field}_se"]
+        return (f"{f(j[field])} (in {j['folded'][field]})" if se is None else
+                f"{f(j[field])} ± {f(se, 2)}")
 
     out = [f"{s['robot']} identified from {s['log']} ({s['samples']} samples): "
            f"{s['base_parameters']} base parameters, condition number {f(s['condition'])}"]
@@ -142,10 +144,8 @@ def _lines(s: dict[str, Any]) -> list[str]:
         u = j["effort_unit"]
         val = ("" if j["validation_rms"] is None else
                f", prediction RMS {f(j['validation_rms'], 3)} {u}")
-        rotor = pm(j["reflected_rotor_inertia"], j["reflected_rotor_inertia_se"])
-        viscous = pm(j["viscous_friction"], j["viscous_friction_se"])
-        out.append(f"{j['joint']}: G²Jm {rotor}, Fv {viscous}, "
-                   f"F+ {pm(j['coulomb_friction_pos'], j['coulomb_friction_pos_se'])} {u}, "
-                   f"F- {pm(j['coulomb_friction_neg'], j['coulomb_friction_neg_se'])} {u}; "
+        out.append(f"{j['joint']}: G²Jm {pm(j, 'reflected_rotor_inertia')}, "
+                   f"Fv {pm(j, 'viscous_friction')}, F+ {pm(j, 'coulomb_friction_pos')} {u}, "
+                   f"F- {pm(j, 'coulomb_friction_neg')} {u}; "
                    f"residual sigma {f(j['residual_std'], 3)} {u}{val}")
     return out

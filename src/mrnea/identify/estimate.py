@@ -73,7 +73,10 @@ class IdentificationResult:
     offsets); theta (15 n,): the consistent full parameters; sigma (n,) [N m | N]: each joint's
     residual standard deviation; condition: the condition number of the base regressor over the
     rows used (columns scaled to unit norm); fit, validation: efforts on the fitted rows and on
-    the held-out ones (or the validation log); offset (n,) [N m | N].
+    the held-out ones (or the validation log); offset (n,) [N m | N]; options: the options used
+    (``cutoff_hz``, ``min_speed``, ``prior_weight``, ``holdout``), ``validation`` (what
+    ``validation`` predicts: ``"log"``, ``"holdout"`` or None) and ``consistent`` (per link: a
+    rigid body, :func:`mrnea.identify.consistent.is_consistent`).
     """
 
     robot: Robot
@@ -249,5 +252,6 @@ def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: 
         ident, base, beta, np.sqrt(np.diag(cov)), beta_c, theta, sigma, cond,
         _predict(W[:K_fit], beta, fit_log, used[:K_fit]), val, offset,
         {"cutoff_hz": cutoff_hz, "min_speed": min_speed, "prior_weight": prior_weight,
-         "holdout": holdout, "consistent": [bool(is_consistent(theta[10 * i:10 * i + 10]))
-                                            for i in range(robot.n)]})
+         "holdout": holdout,
+         "validation": "log" if validation is not None else "holdout" if val is not None else None,
+         "consistent": [bool(is_consistent(theta[10 * i:10 * i + 10])) for i in range(robot.n)]})

@@ -36,9 +36,10 @@ margin:0 auto;padding:1em 2em;color:#222}h1{font-size:1.4em}h2{font-size:1.15em;
 border-bottom:1px solid #ccc;margin-top:1.6em}table{border-collapse:collapse;font-size:0.85em}
 td,th{border:1px solid #ccc;padding:2px 6px;text-align:right;white-space:nowrap}
 th{background:#f0f0f0}td.t{text-align:left}.note{color:#555;font-size:0.88em}
-.figs{display:flex;flex-wrap:wrap;gap:0.5em 1em}.figs figure{margin:0.3em 0;flex:0 1 700px;
-min-width:0}figure img{max-width:100%;height:auto;border:1px solid #ddd}.scroll{overflow-x:auto}
-tr.folded td{color:#666}@media (max-width:960px){body{padding:0.6em 0.8em}}"""
+.figs{display:flex;flex-wrap:wrap;gap:0.5em 1em}.figs figure{margin:0.3em 0;flex:1 1 560px;
+max-width:700px;min-width:0}figure img{max-width:100%;height:auto;border:1px solid #ddd}
+.scroll{overflow-x:auto}tr.folded td{color:#666}
+@media (max-width:960px){body{padding:0.6em 0.8em}}"""
 FIT, CHECK, MEASURED, REST = "tab:blue", "tab:orange", "0.55", "0.8"
 
 
@@ -50,21 +51,24 @@ def _series(ax: Axes, p: Prediction, j: int, values: Any, color: str) -> None:
     plot_line(ax, p.time, np.where(used, values[:, j], np.nan), color=color, lw=0.9)
 
 
-def efforts_figure(result: IdentificationResult, j: int, validation_log: bool) -> Figure:
-    """Joint j's measured and predicted efforts and residual: on the log (fitted rows, then the
-    held-out end, shaded) or, with ``validation_log``, on the validation log."""
+def efforts_figure(result: IdentificationResult, j: int, which: str) -> Figure:
+    """Joint j's measured and predicted efforts and residual, ``which``: ``"log"`` (the fitted
+    rows, then the held-out end of the log, if any, shaded) or ``"validation"`` (the validation
+    log given apart)."""
     jt = result.robot.joints[j]
     unit = jt.unit("tau")
+    validation_log = which == "validation"
+    held_out = not validation_log and result.options["validation"] == "holdout"
     parts = ([(result.validation, CHECK)] if validation_log else
-             [(result.fit, FIT)] + ([(result.validation, CHECK)] if result.validation else []))
-    fig = new_figure(7.0, 4.2)
-    top = fig.add_axes((0.11, 0.5, 0.86, 0.4))
-    bottom = fig.add_axes((0.11, 0.2, 0.86, 0.25), sharex=top)
+             [(result.fit, FIT)] + ([(result.validation, CHECK)] if held_out else []))
+    fig = new_figure(7.0, 4.4)
+    top = fig.add_axes((0.11, 0.52, 0.86, 0.39))
+    bottom = fig.add_axes((0.11, 0.245, 0.86, 0.24), sharex=top)
     for p, color in parts:
         plot_line(top, p.time, p.measured[:, j], color=MEASURED, lw=0.6)
         _series(top, p, j, p.predicted, color)
         _series(bottom, p, j, p.measured - p.predicted, color)
-    if not validation_log and result.validation is not None:
+    if held_out:
         for ax in (top, bottom):
             ax.axvspan(result.validation.time[0], result.validation.time[-1], color=CHECK,
                        alpha=0.08, lw=0)
@@ -87,7 +91,7 @@ def efforts_figure(result: IdentificationResult, j: int, validation_log: bool) -
     handles = [Patch(color=MEASURED, label="measured"),
                Patch(color=CHECK if validation_log else FIT,
                      label="predicted" if validation_log else "predicted, fitted rows")]
-    if not validation_log and result.validation is not None:
+    if held_out:
         handles.append(Patch(color=CHECK, label="predicted, held out"))
     handles += [Patch(color=REST, label="at rest (not fitted)"),
                 Patch(facecolor="white", edgecolor="black", ls="--",
@@ -103,9 +107,12 @@ def _cell(x: float | None, sig: int = 4) -> str:
     return f"<td>{fmt_number(x, sig)}</td>"
 
 
-def _plus_minus(x: float, se: float | None) -> str:
+def _plus_minus(j: dict[str, Any], field: str) -> str:
+    """Joint j's ``field`` with its standard error, or the base parameter that holds it."""
+    x, se = j[field], j[f"{field}_se"]
     if se is None:
-        return f"<td>{fmt_number(x)} <span class='note'>(prior's)</span></td>"
+        return (f"<td>{fmt_number(x)} <span class='note'>(in "
+                f"{html.escape(str(j['folded'][field]))})</span></td>")
     return f"<td>{fmt_number(x)} ± {fmt_number(se, 2)}</td>"
 
 
@@ -117,10 +124,10 @@ def _drives_table(summary: dict[str, Any]) -> str:
     for j in summary["joints"]:
         rows.append(
             f"<tr><td class='t'>{html.escape(j['joint'])}</td>"
-            + _plus_minus(j["reflected_rotor_inertia"], j["reflected_rotor_inertia_se"])
-            + _plus_minus(j["viscous_friction"], j["viscous_friction_se"])
-            + _plus_minus(j["coulomb_friction_pos"], j["coulomb_friction_pos_se"])
-            + _plus_minus(j["coulomb_friction_neg"], j["coulomb_friction_neg_se"])
+            + _plus_minus(j, "reflected_rotor_inertia")
+            + _plus_minus(j, "viscous_friction")
+            + _plus_minus(j, "coulomb_friction_pos")
+            + _plus_minus(j, "coulomb_friction_neg")
             + _cell(j["residual_std"], 3) + _cell(j["fit_rms"], 3)
             + _cell(j["validation_rms"], 3) + f"<td class='t'>{j['effort_unit']}</td></tr>")
     return "\n".join(rows) + "</table></div>"
@@ -158,12 +165,13 @@ def _links_table(summary: dict[str, Any]) -> str:
     return "\n".join(rows) + "</table></div>"
 
 
-def _figures(result: IdentificationResult, validation_log: bool) -> str:
+def _figures(result: IdentificationResult) -> str:
+    logs = ["log", "validation"] if result.options["validation"] == "log" else ["log"]
     out = ["<div class='figs'>"]
     for j, jt in enumerate(result.robot.joints):
-        for other in ([False, True] if validation_log else [False]):
-            uri = png_data_uri(efforts_figure(result, j, other))
-            what = "validation log" if other else "log"
+        for which in logs:
+            uri = png_data_uri(efforts_figure(result, j, which))
+            what = "validation log" if which == "validation" else "log"
             out.append(f"<figure><img alt='measured and predicted efforts of "
                        f"{html.escape(jt.name, quote=True)}, {what}' src='{uri}'></figure>")
     return "\n".join(out) + "</div>"
@@ -187,9 +195,9 @@ def identify_html(result: IdentificationResult, summary: dict[str, Any],
                  f"({s['validation_samples']:,} samples, held out of the fit, shaded)")
     else:
         check = "none (no held-out part, no validation log)"
-    consistent = ("every link is a rigid body (mass &gt; 0, inertia positive definite with the "
+    consistent = ("Every link is a rigid body (mass &gt; 0, inertia positive definite with the "
                   "triangle inequality)" if s["physically_consistent"] else
-                  "<b>a link is not a rigid body</b>")
+                  "<b>A link is not a rigid body</b>")
     kt = ("" if s["torque_constant"] is None else
           "; efforts from motor currents, τ = G k<sub>t</sub> i, k<sub>t</sub> = "
           + ", ".join(fmt_number(x) for x in s["torque_constant"]) + " N m/A")
@@ -206,13 +214,14 @@ def identify_html(result: IdentificationResult, summary: dict[str, Any],
         "<h2>Drives (joint side; ± one standard error)</h2>", _drives_table(s),
         "<p class='note'>G² J<sub>m</sub>: reflected rotor inertia [kg m² | kg]; F<sub>v</sub>: "
         "viscous friction [N m s/rad | N s/m]; F<sub>+</sub>, F<sub>&minus;</sub>: Coulomb "
-        "friction moving up and down [N m | N], an effort offset folded in. “(prior's)”: not a "
-        "base parameter of its own, the log cannot tell it apart.</p>",
+        "friction moving up and down [N m | N], an effort offset folded in. “(in X)”: not a "
+        "base parameter of its own; the log identifies it only within base parameter X, and "
+        "the identified robot's share follows the prior.</p>",
         "<h2>Measured and predicted efforts</h2>",
         "<p class='note'>Predicted by the least squares estimate on the fitted rows and by the "
         "identified (physically consistent) robot on the held-out rows or the validation log; "
         "residual = measured &minus; predicted.</p>",
-        _figures(result, s["validation"] == "log"),
+        _figures(result),
         "<h2>Base parameters</h2>",
         "<p class='note'>The identifiable combinations of the link and drive parameters "
         "(name: the column it is; “(+k)”: k others fold into it, in grey). Estimate and standard "

@@ -11,9 +11,10 @@ joint, joint side, the reflected rotor inertia G^2 J_m [kg m^2 | kg], viscous fr
 
 Standard errors of the drives. A drive parameter gets the standard error of its base parameter
 when that base parameter is the drive parameter itself (the Coulomb pair with the offset folded
-in, which is the pair the identified robot holds); a drive parameter that is not a base
-parameter of its own (joint 1's rotor inertia about a vertical axis folds into link 1's I_zz) has
-none (null): the log cannot tell it apart, and its value is the prior's pull.
+in, which is the pair the identified robot holds). A drive parameter that is not a base
+parameter of its own (joint 1's rotor inertia about a vertical axis folds into link 1's I_zz)
+has none (null, and ``folded`` names the base parameter that holds it): the log identifies only
+the combination, and how the identified robot splits it follows the prior.
 """
 
 from __future__ import annotations
@@ -61,23 +62,27 @@ def parameter_units(robot: Robot) -> list[str]:
     return link * robot.n + drive
 
 
-def drive_standard_errors(result: IdentificationResult) -> NDArray[np.float64]:
-    """(n, 4): the standard errors of each joint's ``G^2 J_m, F_v, F+, F-`` (module docstring),
-    NaN where the parameter is not a base parameter of its own."""
+def drive_standard_errors(result: IdentificationResult
+                          ) -> tuple[NDArray[np.float64], list[list[str | None]]]:
+    """(se (n, 4), within (n, 4)): the standard errors of each joint's ``G^2 J_m, F_v, F+, F-``
+    (module docstring), NaN where the parameter is not a base parameter of its own, and there
+    the name of the base parameter(s) whose combination holds it (else None)."""
     base, n = result.base, result.robot.n
-    out = np.full((n, 4), np.nan)
+    se = np.full((n, 4), np.nan)
+    within: list[list[str | None]] = [[None] * 4 for _ in range(n)]
     row_of = {int(c): k for k, c in enumerate(base.columns)}
     for j in range(n):
         offset = 10 * n + 5 * j + 4
         for p in range(4):
             c = 10 * n + 5 * j + p
             k = row_of.get(c)
-            if k is None:
-                continue
-            others = set(np.flatnonzero(np.abs(base.K[k]) > 1e-12).tolist()) - {c, offset}
-            if not others:
-                out[j, p] = result.beta_std[k]
-    return out
+            if k is not None and not (set(np.flatnonzero(np.abs(base.K[k]) > 1e-12).tolist())
+                                      - {c, offset}):
+                se[j, p] = result.beta_std[k]
+            else:
+                rows = np.flatnonzero(np.abs(base.K[:, c]) > 1e-12)
+                within[j][p] = " + ".join(base.names[base.columns[r]] for r in rows) or "none"
+    return se, within
 
 
 def _num(x: float) -> float | None:
@@ -109,7 +114,9 @@ def identify_summary(result: IdentificationResult, prior: Robot, log: Log, log_n
             "unit": units[col], "estimate": _num(result.beta[k]),
             "standard_error": _num(result.beta_std[k]),
             "identified": _num(result.beta_consistent[k]), "prior": _num(beta_prior[k])})
-    se = drive_standard_errors(result)
+    se, within = drive_standard_errors(result)
+    fields = ("reflected_rotor_inertia", "viscous_friction", "coulomb_friction_pos",
+              "coulomb_friction_neg")
     joints = []
     for j, jt in enumerate(robot.joints):
         G = float(jt.gear_ratio)
@@ -123,6 +130,7 @@ def identify_summary(result: IdentificationResult, prior: Robot, log: Log, log_n
             "viscous_friction_se": _num(se[j, 1]),
             "coulomb_friction_pos": fp, "coulomb_friction_pos_se": _num(se[j, 2]),
             "coulomb_friction_neg": fm, "coulomb_friction_neg_se": _num(se[j, 3]),
+            "folded": {f: w for f, w in zip(fields, within[j], strict=True) if w is not None},
             "residual_std": _num(result.sigma[j]), "fit_rms": _rms(result.fit, j),
             "validation_rms": _rms(result.validation, j)})
     links = [{"link": lk.name, "mass": float(lk.mass), "com": [float(x) for x in lk.com],
@@ -139,8 +147,7 @@ def identify_summary(result: IdentificationResult, prior: Robot, log: Log, log_n
         "torque_constant": None if torque_constant is None else
         [float(x) for x in np.broadcast_to(torque_constant, (robot.n,))],
         "fit_samples": int(result.fit.time.size),
-        "validation": ("log" if validation_log is not None else
-                       "holdout" if result.validation is not None else None),
+        "validation": opts["validation"],
         "validation_log": validation_log, "holdout": float(opts["holdout"]),
         "validation_samples": None if result.validation is None else
         int(result.validation.time.size),
@@ -155,13 +162,13 @@ def drives_toml(result: IdentificationResult, log_name: str) -> str:
     Coulomb friction (F+ and F-, the offset folded in), each commented with its standard error
     or why it has none (module docstring)."""
     robot = result.robot
-    se = drive_standard_errors(result)
+    se, within = drive_standard_errors(result)
     lines = [f"# The drives mrnea identify found from {log_name} (docs/identification.md): a "
              "sidecar actuator file.", "# Joint side; '+- x' is one standard error.", ""]
 
-    def note(s: float, unit: str) -> str:
-        return (f"  # +- {s:.3g} {unit}" if math.isfinite(s) else
-                "  # not identifiable from the log on its own: the prior's")
+    def note(s: float, unit: str, w: str | None) -> str:
+        return (f"  # +- {s:.3g} {unit}" if w is None else
+                f"  # not a base parameter of its own: identified only within {w}")
 
     for j, jt in enumerate(robot.joints):
         tau = jt.unit("tau")
@@ -170,12 +177,13 @@ def drives_toml(result: IdentificationResult, log_name: str) -> str:
         rotor_se = se[j, 0] / G ** 2 if math.isfinite(se[j, 0]) else math.nan
         lines += [f"[{_key(jt.name)}]", f"gear_ratio = {G!r}",
                   f"rotor_inertia = {float(robot.rotor_inertia[j])!r}"
-                  + note(rotor_se, "kg m^2 (motor side)"),
+                  + note(rotor_se, "kg m^2 (motor side)", within[j][0]),
                   f"viscous_friction = {float(robot.viscous_friction[j])!r}"
-                  + note(se[j, 1], _DRIVE_UNITS["viscous"][jt.is_prismatic]),
+                  + note(se[j, 1], _DRIVE_UNITS["viscous"][jt.is_prismatic], within[j][1]),
                   f"coulomb_friction = [{fp!r}, {fm!r}]"
                   + (f"  # +- [{se[j, 2]:.3g}, {se[j, 3]:.3g}] {tau}"
-                     if np.isfinite(se[j, 2:]).all() else note(math.nan, tau)), ""]
+                     if np.isfinite(se[j, 2:]).all() else
+                     note(math.nan, tau, within[j][2] or within[j][3])), ""]
     return "\n".join(lines)
 
 
