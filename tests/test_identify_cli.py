@@ -21,6 +21,10 @@ through Pinocchio within the noise of the truth's, and the script regenerating t
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
+import time
 import tomllib
 from pathlib import Path
 
@@ -29,7 +33,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from chromium_cdp import Browser, ChromiumUnavailable
-from conftest import PinChain, mrnea_cli, one_error_line, to_pinocchio
+from conftest import PinChain, environment, mrnea_cli, one_error_line, to_pinocchio
 
 import mrnea
 from mrnea.identify.output import schema_path
@@ -347,11 +351,6 @@ def test_the_example_predicts_the_truth_through_pinocchio(puma):
 
 @pytest.mark.slow
 def test_the_script_regenerates_the_example(tmp_path):
-    import subprocess
-    import sys
-
-    from conftest import environment
-
     res = subprocess.run([sys.executable, EXAMPLES / "puma_identify.py", "--out", tmp_path],
                          capture_output=True, text=True, env=environment(), timeout=600)
     assert res.returncode == 0, res.stderr
@@ -360,3 +359,22 @@ def test_the_script_regenerates_the_example(tmp_path):
         assert list(new.columns) == list(old.columns)
         np.testing.assert_allclose(new.to_numpy(), old.to_numpy(), rtol=1e-5, atol=1.01e-5)
         assert (EXAMPLES / name).stat().st_size < 500_000
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_identify_interrupted_exits_130_and_writes_nothing(tmp_path, sig):
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "mrnea", "identify", "puma560",
+                             EXAMPLES / "puma_identify_log.csv", "--out", out],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline:  # the progress label: the fit is starting
+        line = proc.stderr.readline()
+        if line.startswith("identifying") or not line:
+            break
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and "mrnea: interrupted" in stderr and stdout == ""
+    assert not out.exists() or list(out.iterdir()) == []  # a folder it made is removed

@@ -14,7 +14,8 @@ Writes into DIR (never replacing a file without ``--force``): ``identified_robot
 robot file: ``mrnea check identified_robot.toml PROGRAM``), ``identified_drives.toml`` (a sidecar
 actuator file: ``--actuators identified_drives.toml`` with the robot file given), ``summary.json``
 (strict JSON; every field and unit in ``identify.schema.json``) and ``identify.html``; prints one
-line per joint. Exit 0 done, 2 bad input, 130 interrupted (nothing written).
+line per joint (and, on stderr, an ``identifying ...`` label while it fits). Exit 0 done, 2 bad
+input, 130 interrupted (a stop is honoured once the fit returns, before the first file).
 """
 
 from __future__ import annotations
@@ -106,6 +107,8 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
     with own_folder(Path(out) if out else fresh_dir("mrnea-identify")) as folder:
         check_new([folder / f for f in FILES], force)
         checkpoint()
+        if not quiet:  # the progress label: the fit is one call, tens of seconds
+            click.echo(f"identifying {prior.name} from {log} ({data.K} samples)...", err=True)
         with compile_notice(quiet):
             try:
                 res = run_identify(prior, data, validation=check, holdout=holdout,
