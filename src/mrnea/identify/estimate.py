@@ -15,7 +15,10 @@ squares, then the physically consistent parameters nearest to them (docs/identif
    theta_prior) / s|^2``, the robot's own (URDF) values as the prior with scales ``s``: the mean
    link mass m, m l and m l^2 (l the mean joint offset, at least 0.1 m) for masses, first and
    second moments and the rotor inertia, 1 N m (s/rad) for friction and offset. Directions the
-   log cannot see stay where the prior put them.
+   log cannot see stay where the prior put them. It starts from the prior's links and, for a
+   drive parameter that is a base parameter of its own (a row of K on drive columns alone), from
+   the least squares estimate: started at a prior a hundred times off, Levenberg-Marquardt
+   stalled far from the data.
 """
 
 from __future__ import annotations
@@ -183,7 +186,11 @@ def _consistent(robot: Robot, base: BaseParameters, beta: NDArray, info: NDArray
             D[10 * i:10 * i + 10, 10 * i:10 * i + 10] = log_cholesky_jacobian(x[10 * i:10 * i + 10])
         return M @ D
 
-    start = np.where(drive, np.sqrt(np.maximum(prior[10 * n:], 1e-2 * s[10 * n:])), prior[10 * n:])
+    a0 = prior[10 * n:].copy()  # the drives start from the log's estimate where one is theirs
+    for k, c in enumerate(base.columns):
+        if c >= 10 * n and not np.any(base.K[k, :10 * n]):
+            a0[c - 10 * n] = beta[k]
+    start = np.where(drive, np.sqrt(np.maximum(a0, 1e-2 * s[10 * n:])), a0)
     x0 = np.concatenate([*(to_log_cholesky(prior[10 * i:10 * i + 10], floor) for i in range(n)),
                          start])
     sol = scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm",
