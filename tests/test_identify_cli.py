@@ -138,6 +138,24 @@ def summary_of(folder: Path) -> dict:
     return s
 
 
+def test_the_schema_documents_every_field_and_every_unit():
+    schema = json.loads(schema_path().read_text(encoding="utf-8"))
+    jsonschema.Draft202012Validator.check_schema(schema)
+
+    def fields(node: dict, where: str = ""):
+        for name, sub in node.get("properties", {}).items():
+            yield f"{where}.{name}", sub
+            yield from fields(sub.get("items", sub), f"{where}.{name}")
+
+    found = list(fields(schema))
+    assert len(found) == 50  # 21 top-level fields, 8 per parameter, 16 per joint, 5 per link
+    for path, sub in found:
+        assert sub.get("description"), path
+        types = sub.get("type", [])
+        if "number" in ([types] if isinstance(types, str) else types):
+            assert sub.get("unit"), f"{path}: a number without its unit"
+
+
 @pytest.fixture(scope="module")
 def work(tmp_path_factory):
     d = tmp_path_factory.mktemp("identify")
