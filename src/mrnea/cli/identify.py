@@ -101,6 +101,8 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
     from mrnea.identify.html import identify_html
     from mrnea.identify.output import drives_toml, identify_summary
 
+    if not holdout < 1:  # here, before the progress label, so that the error is stderr's one line
+        raise click.BadParameter(f"must be in [0, 1), got {holdout:g}", param_hint="'--holdout'")
     prior = load_robot_arg(robot, robot_options)
     data = read_log(log, prior, torque_constant)
     check = None if validation is None else read_log(validation, prior, torque_constant)
