@@ -163,8 +163,11 @@ def drives_toml(result: IdentificationResult, log_name: str) -> str:
     or why it has none (module docstring)."""
     robot = result.robot
     se, within = drive_standard_errors(result)
-    lines = [f"# The drives mrnea identify found from {log_name} (docs/identification.md): a "
-             "sidecar actuator file.", "# Joint side; '+- x' is one standard error.", ""]
+    name = re.sub(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]",
+                  lambda m: m.group().encode("unicode_escape").decode("ascii"), log_name)
+    lines = [f"# The drives mrnea identify found from {name} (docs/identification.md): a "
+             "sidecar actuator file.", "# Rotor inertia motor side, friction joint side; '+- x' "
+             "is one standard error.", ""]
 
     def note(s: float, unit: str, w: str | None) -> str:
         return (f"  # +- {s:.3g} {unit}" if w is None else
