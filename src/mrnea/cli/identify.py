@@ -27,7 +27,7 @@ from typing import Any
 import click
 import numpy as np
 
-from mrnea.cli.base import checkpoint, compile_notice, fresh_dir, main
+from mrnea.cli.base import checkpoint, compile_notice, fresh_dir, main, one_line
 from mrnea.cli.options import (
     NON_NEGATIVE,
     POSITIVE,
@@ -110,7 +110,8 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
         check_new([folder / f for f in FILES], force)
         checkpoint()
         if not quiet:  # the progress label: the fit is one call, tens of seconds
-            click.echo(f"identifying {prior.name} from {log} ({data.K} samples)...", err=True)
+            click.echo(f"identifying {one_line(prior.name)} from {one_line(log)} ({data.K} "
+                       "samples)...", err=True)
         with compile_notice(quiet):
             try:
                 res = run_identify(prior, data, validation=check, holdout=holdout,
@@ -143,13 +144,13 @@ def _lines(s: dict[str, Any]) -> list[str]:
         return (f"{f(j[field])} (in {j['folded'][field]})" if se is None else
                 f"{f(j[field])} ± {f(se, 2)}")
 
-    out = [f"{s['robot']} identified from {s['log']} ({s['samples']} samples): "
+    out = [f"{one_line(s['robot'])} identified from {one_line(s['log'])} ({s['samples']} samples): "
            f"{s['base_parameters']} base parameters, condition number {f(s['condition'])}"]
     for j in s["joints"]:
         u = j["effort_unit"]
         val = ("" if j["validation_rms"] is None else
                f", prediction RMS {f(j['validation_rms'], 3)} {u}")
-        out.append(f"{j['joint']}: G²Jm {pm(j, 'reflected_rotor_inertia')}, "
+        out.append(f"{one_line(j['joint'])}: G²Jm {pm(j, 'reflected_rotor_inertia')}, "
                    f"Fv {pm(j, 'viscous_friction')}, F+ {pm(j, 'coulomb_friction_pos')} {u}, "
                    f"F- {pm(j, 'coulomb_friction_neg')} {u}; "
                    f"residual sigma {f(j['residual_std'], 3)} {u}{val}")
