@@ -9,7 +9,7 @@ declarations, math-text names, huge and tiny numbers...), deleting or duplicatin
 truncating. The commands run in-process (click's test runner), in a fresh folder per example.
 
 Beyond the exit code: no "Traceback" and no "internal error" (the last-resort message for a
-bug), and stderr holds only the error line, ``mrnea: warning:`` lines, the progress label and the
+bug), and stderr holds only the error line, ``mrnea: warning:`` lines, the progress labels and the
 compile notice. The fast test (in the default run) fuzzes ``info`` and ``check``, which write
 nothing; the ``slow`` one (``-m slow``) all commands, ``simulate``, ``demo`` and ``fig3``
 included, with many more examples.
@@ -149,7 +149,8 @@ def _check(args: list[str], files: dict[str, str]) -> None:
     else:
         assert not errors, where
     for line in lines:
-        assert (line.startswith(("mrnea: error:", "mrnea: warning:", "simulating"))
+        assert (line.startswith(("mrnea: error:", "mrnea: warning:", "simulating",
+                                 "identifying"))
                 or line == COMPILE_NOTICE), where
 
 

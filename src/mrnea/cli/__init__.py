@@ -9,6 +9,8 @@ lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper'
 a grid, on Dask (docs/sweeps.md).
 ``mrnea size [ROBOT] PROGRAM... --catalogue FILE`` chooses each joint's motor and gearbox from a
 catalogue (docs/sizing.md).
+``mrnea identify ROBOT LOG --out DIR`` identifies the links, friction and rotor inertia from a log
+of the robot's own motion (:mod:`~mrnea.cli.identify`; docs/identification.md).
 
 ROBOT is a built-in name (sdt, puma560), a URDF or a native ``.toml`` robot file. PROGRAM is a
 program ``.toml`` file or a CSV of (time, q1..qn) (docs/programs.md). Bad input ends with one
@@ -24,7 +26,8 @@ command goes in a module
 of its own, imported below.
 """
 
-from mrnea.cli import info, paper, retime, run, size, sweep
+from mrnea.cli import identify, info, paper, retime, run, size, sweep
 from mrnea.cli.base import main
 
 __all__ = ["info", "main", "paper", "retime", "run", "size", "sweep"]
+__all__ += ["identify"]
