@@ -92,28 +92,35 @@ class _Problem:
         self.n, self.m = robot.n, 2 * harmonics - 1
         self.theta = np.concatenate([inertial_parameters(robot), actuator_parameters(robot)])
         self.B = basis(harmonics, base_frequency, np.arange(samples) / (samples * base_frequency))
-        self._at: tuple[bytes, NDArray, NDArray] | None = None  # x, W, dW of the last call
+        self._W: tuple[bytes, NDArray] | None = None  # x and W of the last call
+        self._dW: tuple[bytes, NDArray, NDArray] | None = None  # x, W and dW of the last call
         self.A, self.b = self._linear()
 
     def states(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         X = x.reshape(self.n, self.m)
         return self.B[0] @ X.T, self.B[1] @ X.T, self.B[2] @ X.T
 
-    def _derivatives(self, x: NDArray) -> tuple[NDArray, NDArray]:
-        if self._at is None or self._at[0] != x.tobytes():
-            self._at = (x.tobytes(), *criterion.derivatives(self.robot, *self.states(x)))
-        return self._at[1], self._at[2]
+    def regressor(self, x: NDArray) -> NDArray:
+        """W (K, n, 15 n) at the instants (cached for the last x)."""
+        if self._W is None or self._W[0] != x.tobytes():
+            self._W = (x.tobytes(), criterion.full_regressor(self.robot, *self.states(x)))
+        return self._W[1]
 
-    def objective(self, x: NDArray) -> tuple[float, NDArray]:
-        """log cond and its gradient (n m,)."""
-        W, dW = self._derivatives(x)
-        f, g = criterion.log_condition(W, self.base, dW)
-        return f, np.einsum("vkm,kvj->jm", self.B, g).ravel()
+    def derivatives(self, x: NDArray) -> tuple[NDArray, NDArray]:
+        """W and dW (K, 3, n, n, 15 n) at the instants (cached for the last x)."""
+        if self._dW is None or self._dW[0] != x.tobytes():
+            self._dW = (x.tobytes(), *criterion.derivatives(self.robot, *self.states(x)))
+        return self._dW[1], self._dW[2]
 
     def value(self, x: NDArray) -> float:
-        """log cond alone (no derivatives)."""
-        return criterion.log_condition(criterion.full_regressor(self.robot, *self.states(x)),
-                                       self.base)[0]
+        """The criterion, log cond (the line search's calls: no derivatives)."""
+        return criterion.log_condition(self.regressor(x), self.base)[0]
+
+    def gradient(self, x: NDArray) -> NDArray:
+        """d log cond / dx (n m,)."""
+        W, dW = self.derivatives(x)
+        g = criterion.log_condition(W, self.base, dW)[1]
+        return np.einsum("vkm,kvj->jm", self.B, g).ravel()
 
     def _linear(self) -> tuple[NDArray, NDArray]:
         """``A x >= b``: the position, velocity and acceleration limits at every instant."""
@@ -131,27 +138,32 @@ class _Problem:
                         rhs.append(np.full(K, bound))
         return np.vstack(rows), np.concatenate(rhs)
 
-    def efforts(self, x: NDArray) -> tuple[NDArray, NDArray]:
-        """``e - |tau| >= 0`` as two rows per finite limit, and its Jacobian."""
-        W, dW = self._derivatives(x)
+    def efforts(self, x: NDArray) -> NDArray:
+        """``e - tau >= 0`` and ``e + tau >= 0`` for every finite effort limit e at every
+        instant (tau = W theta)."""
         finite = np.isfinite(self.limits.effort)
-        tau = (W @ self.theta)[:, finite].ravel()  # (K n',)
-        J = np.einsum("vkm,kvji->kijm", self.B, dW @ self.theta)[:, finite]
-        J = J.reshape(tau.size, -1)
-        e = np.tile(self.limits.effort[finite], W.shape[0])
-        return np.concatenate([e - tau, e + tau]), np.vstack([-J, J])
+        tau = (self.regressor(x) @ self.theta)[:, finite]
+        e = self.limits.effort[finite]
+        return np.concatenate([(e - tau).ravel(), (e + tau).ravel()])
+
+    def efforts_jacobian(self, x: NDArray) -> NDArray:
+        """d :meth:`efforts` / dx."""
+        W, dW = self.derivatives(x)
+        J = np.einsum("vkm,kvji->kijm", self.B, dW @ self.theta)[:, np.isfinite(self.limits.effort)]
+        J = J.reshape(-1, self.n * self.m)
+        return np.vstack([-J, J])
 
     def solve(self, x0: NDArray, maxiter: int) -> NDArray:
         """SLSQP from x0; the free numbers it ends at."""
         constraints = [{"type": "ineq", "fun": lambda x: self.A @ x - self.b,
                         "jac": lambda x: self.A}]
         if np.any(np.isfinite(self.limits.effort)):
-            constraints.append({"type": "ineq", "fun": lambda x: self.efforts(x)[0],
-                                "jac": lambda x: self.efforts(x)[1]})
+            constraints.append({"type": "ineq", "fun": self.efforts,
+                                "jac": self.efforts_jacobian})
         bounds = [(lo, hi) if i == 0 else (None, None)
                   for lo, hi in zip(self.limits.lower, self.limits.upper, strict=True)
                   for i in range(self.m)]
-        res = scipy.optimize.minimize(self.objective, x0, jac=True, method="SLSQP",
+        res = scipy.optimize.minimize(self.value, x0, jac=self.gradient, method="SLSQP",
                                       bounds=bounds, constraints=constraints,
                                       options={"maxiter": maxiter})
         return res.x
@@ -268,6 +280,18 @@ def _limit(value: ArrayLike | None, default: ArrayLike, name: str, robot: Robot
     return v.copy()
 
 
+def limits_of(robot: Robot, velocity_limit: ArrayLike | None = None,
+              acceleration_limit: ArrayLike | None = None, effort_margin: float = 0.9) -> Limits:
+    """The :class:`Limits` of :func:`excitation` (see there) for these arguments."""
+    margin = validate.fraction(effort_margin, "effort_margin")
+    lower = np.where(np.isfinite(robot.lower), robot.lower, -UNLIMITED_SPAN)
+    upper = np.where(np.isfinite(robot.upper), robot.upper, UNLIMITED_SPAN)
+    return Limits(lower, upper,
+                  _limit(velocity_limit, robot.velocity_limit, "velocity_limit", robot),
+                  _limit(acceleration_limit, np.inf, "acceleration_limit", robot),
+                  margin * robot.effort_limit)
+
+
 def _count(value: object, name: str, least: int) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
             or value < least:
@@ -311,7 +335,7 @@ def _efforts_ok(robot: Robot, limits: Limits, q: NDArray, qd: NDArray, qdd: NDAr
     return bool(np.all(np.abs(actuator_efforts(robot, q, qd, qdd)) <= cap))
 
 
-def _into_limits(robot: Robot, limits: Limits, x: NDArray, harmonics: int, f: float, dt: float,
+def into_limits(robot: Robot, limits: Limits, x: NDArray, harmonics: int, f: float, dt: float,
                  t: NDArray) -> tuple[NDArray, NDArray, NDArray]:
     """(c, a, b) of the free numbers x, the oscillation scaled by the largest s that keeps every
     limit at the cycles t (module docstring)."""
@@ -329,7 +353,7 @@ def _into_limits(robot: Robot, limits: Limits, x: NDArray, harmonics: int, f: fl
     return c, s * a, s * b
 
 
-def _candidate(rng: np.random.Generator, limits: Limits, harmonics: int) -> NDArray:
+def random_free(rng: np.random.Generator, limits: Limits, harmonics: int) -> NDArray:
     """Random free numbers (n, m): c uniform over the middle half of each joint's range,
     amplitudes of harmonic l normal with standard deviation 1 / l (scaled into the limits
     later)."""
@@ -385,13 +409,7 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     if cycles < 10 * L:
         raise StateError(f"dt: {dt:g} s gives {cycles} cycles per period; {L} harmonics need at "
                          f"least {10 * L} (dt <= {period / (10 * L):g} s)")
-    margin = validate.fraction(effort_margin, "effort_margin")
-    lower = np.where(np.isfinite(robot.lower), robot.lower, -UNLIMITED_SPAN)
-    upper = np.where(np.isfinite(robot.upper), robot.upper, UNLIMITED_SPAN)
-    limits = Limits(lower, upper, _limit(velocity_limit, robot.velocity_limit, "velocity_limit",
-                                         robot),
-                    _limit(acceleration_limit, np.inf, "acceleration_limit", robot),
-                    margin * robot.effort_limit)
+    limits = limits_of(robot, velocity_limit, acceleration_limit, effort_margin)
     candidates = _count(candidates, "candidates", 1)
     starts = _count(starts, "starts", 0)
     if starts > candidates:
@@ -407,7 +425,7 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     t_opt = np.arange(samples) / (samples * f)
     pool = []
     for _ in range(candidates):
-        c, a, b = coefficients(_candidate(rng, limits, L), robot.n, L)
+        c, a, b = coefficients(random_free(rng, limits, L), robot.n, L)
         s = _bounds_ok(limits, c, a, b, f, 1.0 / (samples * f), t_opt)
         x = _free(c, s * a, s * b)
         pool.append((problem.value(x), x))
@@ -416,7 +434,7 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     results = [pool[0][1]] + [problem.solve(x, maxiter) for _, x in pool[:starts]]
     scored = []
     for x in results:
-        c, a, b = _into_limits(robot, limits, x, L, f, dt, t)
+        c, a, b = into_limits(robot, limits, x, L, f, dt, t)
         W = criterion.stacked(robot, base, *evaluate(c, a, b, f, t))
         scored.append((criterion.condition(W), c, a, b))
     best = min(scored, key=lambda s: s[0])
