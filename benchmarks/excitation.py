@@ -1,4 +1,4 @@
-"""Excitation trajectories: the optimised Fourier series of ``mrnea.identify.excitation`` against
+"""Excitation trajectories: the optimised Fourier series of ``mrnea.identify.excite`` against
 the best of N random ones (docs/identification.md, "Excitation").
 
 Both sides are the same kind of series (L harmonics of f, at rest at t = 0), scaled into the
@@ -24,17 +24,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-import mrnea  # noqa: E402
-from conftest import erd_path  # noqa: E402
-from mrnea.identify import criterion  # noqa: E402
-from mrnea.identify.base import base_parameters  # noqa: E402
-from mrnea.identify.excitation import (  # noqa: E402
-    excitation,
-    into_limits,
-    limits_of,
-    random_free,
-)
-from mrnea.identify.fourier import evaluate  # noqa: E402
+from conftest import erd_path
+
+import mrnea
+from mrnea.identify import criterion
+from mrnea.identify.base import base_parameters
+from mrnea.identify.excite import excitation, into_limits, limits_of, random_free
+from mrnea.identify.fourier import evaluate
 
 F, L, DT = 0.1, 5, 0.01  # base frequency [Hz], harmonics, cycle [s]
 V, A = 2.0, 10.0  # velocity [rad/s] and acceleration [rad/s^2] limits, every joint

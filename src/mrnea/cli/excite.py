@@ -1,5 +1,5 @@
 """``mrnea excite ROBOT --out DIR``: an optimised excitation trajectory for identifying ROBOT
-(issue 28; :func:`mrnea.identify.excitation.excitation`, docs/identification.md).
+(issue 28; :func:`mrnea.identify.excite.excitation`, docs/identification.md).
 
 Writes into DIR (its own for the run: :func:`mrnea.io.writer.own_folder`; existing files are
 refused without ``--force`` before any work): ``excitation.csv`` (time, q1..qn at dt, one
@@ -121,7 +121,7 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
     Writes excitation.csv, excitation.toml (run it: mrnea check DIR/excitation.toml) and
     summary.json into --out; exit 1 when mrnea's simulation finds it NOT ACHIEVABLE.
     """
-    from mrnea.identify.excitation import excitation
+    from mrnea.identify.excite import excitation
 
     rob = load_robot_arg(robot, robot_options)
     limits = {"velocity_limit": _limit(velocity_limit, "--velocity-limit", rob.n),

@@ -1,5 +1,5 @@
 """The excitation criterion: the condition number of the base regressor stacked over a time
-grid, and its gradient with respect to the joint states, for :mod:`mrnea.identify.excitation`.
+grid, and its gradient with respect to the joint states, for :mod:`mrnea.identify.excite`.
 
 Over K samples ``(q_k, qd_k, qdd_k)`` the base regressor ``W_b`` (K n, r) is the stack of
 ``W(q_k, qd_k, qdd_k)[:, columns]`` (:func:`mrnea.identify.base.full_regressor`, the base

@@ -148,8 +148,8 @@ class _Problem:
 
     def efforts_jacobian(self, x: NDArray) -> NDArray:
         """d :meth:`efforts` / dx."""
-        W, dW = self.derivatives(x)
-        J = np.einsum("vkm,kvji->kijm", self.B, dW @ self.theta)[:, np.isfinite(self.limits.effort)]
+        dtau = self.derivatives(x)[1] @ self.theta  # (K, 3, n, n): d tau_i / d(q, qd, qdd)_j
+        J = np.einsum("vkm,kvji->kijm", self.B, dtau)[:, np.isfinite(self.limits.effort)]
         J = J.reshape(-1, self.n * self.m)
         return np.vstack([-J, J])
 
