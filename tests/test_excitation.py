@@ -169,3 +169,24 @@ def test_cli_bad_input(tmp_path, extra, word) -> None:
     res = mrnea_cli("excite", "puma560", "--out", tmp_path / "o", *extra)
     one_error_line(res, word)
     assert not (tmp_path / "o" / "excitation.csv").exists()
+
+
+def test_gradients_equal_central_differences(puma) -> None:
+    """The criterion's analytic gradient and the efforts' Jacobian against central differences
+    of the criterion and the efforts themselves (step 1e-6 on the free numbers)."""
+    from mrnea.identify.base import base_parameters as bp
+    from mrnea.identify.excite import _Problem, limits_of, random_free
+
+    limits = limits_of(puma, V, A, MARGIN)
+    problem = _Problem(puma, bp(puma), limits, L, F, 40)
+    x = random_free(np.random.default_rng(3), limits, L).ravel() * 0.2
+    x[::2 * L - 1] = (puma.lower + puma.upper) / 2
+    g, J = problem.gradient(x), problem.efforts_jacobian(x)
+    h = 1e-6
+    for i in range(0, x.size, 4):
+        e = np.zeros_like(x)
+        e[i] = h
+        fd = (problem.value(x + e) - problem.value(x - e)) / (2 * h)
+        assert abs(g[i] - fd) <= 1e-6 * max(1.0, abs(fd)), (i, g[i], fd)
+        fd = (problem.efforts(x + e) - problem.efforts(x - e)) / (2 * h)
+        assert np.abs(J[:, i] - fd).max() <= 1e-6 * max(1.0, np.abs(fd).max()), i
