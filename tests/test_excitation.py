@@ -13,10 +13,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
-from conftest import PinChain, mrnea_cli, one_error_line, pin_from_urdf, random_chain
+from conftest import PinChain, environment, mrnea_cli, one_error_line, pin_from_urdf, random_chain
 
 import mrnea
 from mrnea.identify.base import base_parameters
@@ -190,3 +194,23 @@ def test_gradients_equal_central_differences(puma) -> None:
         assert abs(g[i] - fd) <= 1e-6 * max(1.0, abs(fd)), (i, g[i], fd)
         fd = (problem.efforts(x + e) - problem.efforts(x - e)) / (2 * h)
         assert np.abs(J[:, i] - fd).max() <= 1e-6 * max(1.0, np.abs(fd).max()), i
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_cli_stop_request_ends_soon_and_writes_nothing(tmp_path, sig) -> None:
+    out = tmp_path / "o"
+    p = subprocess.Popen([sys.executable, "-m", "mrnea", "excite", "puma560", "--out", str(out),
+                          "--velocity-limit", "2", "--quiet"], env=environment(),
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not out.exists() and time.monotonic() < deadline:  # the run owns its folder
+        assert p.poll() is None, p.communicate()
+        time.sleep(0.05)
+    time.sleep(3.0)  # into the candidates or the optimisation (about a minute in all)
+    sent = time.monotonic()
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert time.monotonic() - sent < 20, "the stop request waited for the end"
+    assert not out.exists() or not any(out.iterdir())  # the run's own empty folder goes too

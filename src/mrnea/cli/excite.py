@@ -8,6 +8,8 @@ robot, the CSV read as it is, dt, and the robot options used: ``mrnea check
 DIR/excitation.toml`` alone simulates it) and ``summary.json`` (the Fourier coefficients, the
 limits, the condition number and the best random start's, the verdict). Exit 0 when mrnea's
 simulation of the program is ACHIEVABLE, 1 when not (the files are written), 2 on bad input.
+A stop request (Ctrl-C, SIGTERM) ends the command within one SLSQP iteration
+(:func:`mrnea.cli.base.checkpoint`, called by the optimisation) and writes nothing: exit 130.
 """
 
 from __future__ import annotations
@@ -21,7 +23,14 @@ from typing import Any
 
 import click
 
-from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, compile_notice, fresh_dir, main
+from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
+    checkpoint,
+    compile_notice,
+    fresh_dir,
+    main,
+)
 from mrnea.cli.options import (
     FRACTION,
     POSITIVE,
@@ -136,10 +145,11 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
                 exc = excitation(rob, base_frequency=base_frequency, harmonics=harmonics,
                                  duration=duration, dt=dt, effort_margin=effort_margin,
                                  candidates=candidates, starts=min(starts, candidates),
-                                 seed=seed, **limits)
+                                 seed=seed, checkpoint=checkpoint, **limits)
             except StateError as err:  # an argument: say it as the command line spells it
                 name, _, rest = str(err).partition(":")
                 raise StateError(f"{OPTION.get(name, name)}:{rest}") from None
+        checkpoint()  # a stop request during the simulation: nothing written
         exc.save_csv(paths[CSV], force)
         exc.save_program(paths[PROGRAM], spec, CSV,
                          program_keys=_program_keys(robot_options, folder, force),

@@ -22,6 +22,8 @@ columns are constant where qd_j != 0.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -33,8 +35,10 @@ H_Q = 1e-6  # [rad | m] step of the central difference in q
 
 
 def condition(W: NDArray) -> float:
-    """cond of W (rows, r) with its columns scaled to unit norm (the module docstring)."""
-    return float(np.linalg.cond(W / np.linalg.norm(W, axis=0)))
+    """cond of W (rows, r) with its columns scaled to unit norm (the module docstring); inf
+    where a column is zero (a parameter the motion does not excite)."""
+    d = np.linalg.norm(W, axis=0)
+    return float(np.linalg.cond(W / d)) if np.all(d > 0) else math.inf
 
 
 def stacked(robot: Robot, base: BaseParameters, q: NDArray, qd: NDArray, qdd: NDArray
@@ -74,8 +78,10 @@ def log_condition(W: NDArray, base: BaseParameters, dW: NDArray | None = None
     K, n = W.shape[:2]
     Wb = base.reduce(W).reshape(K * n, base.r)
     d = np.linalg.norm(Wb, axis=0)
+    if not np.all(d > 0):  # a column the motion does not excite (no gradient asked there)
+        return math.inf, None if dW is None else np.zeros((K, 3, n))
     U, s, Vt = np.linalg.svd(Wb / d, full_matrices=False)
-    f = float(np.log(s[0] / s[-1]))
+    f = float(np.log(s[0] / s[-1])) if s[-1] > 0 else math.inf
     if dW is None:
         return f, None
     G = np.outer(U[:, 0], Vt[0]) / s[0] - np.outer(U[:, -1], Vt[-1]) / s[-1]

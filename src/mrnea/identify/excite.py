@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -153,8 +153,9 @@ class _Problem:
         J = J.reshape(-1, self.n * self.m)
         return np.vstack([-J, J])
 
-    def solve(self, x0: NDArray, maxiter: int) -> NDArray:
-        """SLSQP from x0; the free numbers it ends at."""
+    def solve(self, x0: NDArray, maxiter: int, checkpoint: Callable[[], None]) -> NDArray:
+        """SLSQP from x0; the free numbers it ends at (``checkpoint`` called every
+        iteration)."""
         constraints = [{"type": "ineq", "fun": lambda x: self.A @ x - self.b,
                         "jac": lambda x: self.A}]
         if np.any(np.isfinite(self.limits.effort)):
@@ -165,7 +166,8 @@ class _Problem:
                   for i in range(self.m)]
         res = scipy.optimize.minimize(self.value, x0, jac=self.gradient, method="SLSQP",
                                       bounds=bounds, constraints=constraints,
-                                      options={"maxiter": maxiter})
+                                      options={"maxiter": maxiter},
+                                      callback=lambda xk: checkpoint())
         return res.x
 
 
@@ -369,7 +371,8 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
                velocity_limit: ArrayLike | None = None,
                acceleration_limit: ArrayLike | None = None, effort_margin: float = 0.9,
                candidates: int = 100, starts: int = 3, maxiter: int = 100,
-               samples: int | None = None, seed: int = 0) -> Excitation:
+               samples: int | None = None, seed: int = 0,
+               checkpoint: Callable[[], None] | None = None) -> Excitation:
     """An optimised excitation trajectory for identifying ``robot`` (module docstring).
 
     Parameters
@@ -389,6 +392,8 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     samples : instants per period of the optimisation's criterion and constraints; None: 12 L
         (at least twice the base parameters' count over n).
     seed : of the random series.
+    checkpoint : called between candidates and every SLSQP iteration (the command line's stop
+        requests, :func:`mrnea.cli.base.checkpoint`); None: nothing.
 
     Returns
     -------
@@ -419,6 +424,8 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     least = max(12 * L, -(-2 * base.r // robot.n))
     samples = least if samples is None else _count(samples, "samples", -(-base.r // robot.n) + 1)
     seed = _count(seed, "seed", 0)
+    validate.callable_or_none(checkpoint, "checkpoint")
+    stop = checkpoint or (lambda: None)
 
     problem = _Problem(robot, base, limits, L, f, samples)
     rng = np.random.default_rng(seed)
@@ -429,11 +436,12 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
         s = _bounds_ok(limits, c, a, b, f, 1.0 / (samples * f), t_opt)
         x = _free(c, s * a, s * b)
         pool.append((problem.value(x), x))
+        stop()
     pool.sort(key=lambda p: p[0])
     t = np.arange(cycles) * dt  # one period's cycles
-    results = [pool[0][1]] + [problem.solve(x, maxiter) for _, x in pool[:starts]]
+    results = [pool[0][1]] + [problem.solve(x, maxiter, stop) for _, x in pool[:starts]]
     scored = []
-    for x in results:
+    for x in filter(lambda x: np.all(np.isfinite(x)), results):
         c, a, b = into_limits(robot, limits, x, L, f, dt, t)
         W = criterion.stacked(robot, base, *evaluate(c, a, b, f, t))
         scored.append((criterion.condition(W), c, a, b))
