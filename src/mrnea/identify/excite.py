@@ -59,6 +59,7 @@ from mrnea.simulate import simulate
 
 UNLIMITED_SPAN = math.pi  # [rad | m] the position range +-span of a joint without limits
 BISECTIONS = 30  # steps of the bisection on the scale s for the efforts
+MAX_CYCLES = 10_000_000  # rows of a program, at most (about 0.5 GB for 6 joints)
 
 
 @dataclass(frozen=True)
@@ -257,7 +258,9 @@ class Excitation:
 
         return {"robot": self.robot.name, "base_frequency": self.base_frequency,
                 "harmonics": self.harmonics, "duration": self.duration, "dt": self.dt,
-                "condition": self.condition, "condition_start": self.condition_start,
+                "condition": self.condition,
+                "condition_start": (self.condition_start if math.isfinite(self.condition_start)
+                                    else None),
                 "achievable": self.achievable, "verdict": self.verdict,
                 "c": self.c.tolist(), "a": self.a.tolist(), "b": self.b.tolist(),
                 "limits": {"lower": finite(lim.lower), "upper": finite(lim.upper),
@@ -411,6 +414,10 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
                                    f"base_frequency = {period:g} s), got {duration:g} s")
     cycles = _whole(period / dt, f"dt: the period (1 / base_frequency = {period:g} s) must be "
                                  f"a whole number of cycles, got dt = {dt:g} s")
+    if periods * cycles >= MAX_CYCLES:
+        raise StateError(f"duration: {duration:g} s at dt = {dt:g} s is "
+                         f"{float(periods * cycles):.3g} cycles; at most {MAX_CYCLES} (a shorter "
+                         f"duration or a coarser dt)")
     if cycles < 10 * L:
         raise StateError(f"dt: {dt:g} s gives {cycles} cycles per period; {L} harmonics need at "
                          f"least {10 * L} (dt <= {period / (10 * L):g} s)")
@@ -446,6 +453,10 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
         W = criterion.stacked(robot, base, *evaluate(c, a, b, f, t))
         scored.append((criterion.condition(W), c, a, b))
     best = min(scored, key=lambda s: s[0])
+    if not math.isfinite(best[0]):
+        raise StateError("velocity_limit: the limits leave no motion that excites every base "
+                         "parameter (the condition number is infinite); allow larger velocities, "
+                         "accelerations or efforts")
     t_all = np.arange(periods * cycles + 1) * dt
     q_cmd = evaluate(best[1], best[2], best[3], f, t_all)[0]
     q_cmd[-1] = q_cmd[0]  # the period closes exactly
