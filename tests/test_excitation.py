@@ -179,10 +179,11 @@ def test_gradients_equal_central_differences(puma) -> None:
     """The criterion's analytic gradient and the efforts' Jacobian against central differences
     of the criterion and the efforts themselves (step 1e-6 on the free numbers)."""
     from mrnea.identify.base import base_parameters as bp
-    from mrnea.identify.excite import _Problem, limits_of, random_free
+    from mrnea.identify.criterion import Problem
+    from mrnea.identify.excite import limits_of, random_free
 
     limits = limits_of(puma, V, A, MARGIN)
-    problem = _Problem(puma, bp(puma), limits, L, F, 40)
+    problem = Problem(puma, bp(puma), limits, L, F, 40)
     x = random_free(np.random.default_rng(3), limits, L).ravel() * 0.2
     x[::2 * L - 1] = (puma.lower + puma.upper) / 2
     g, J = problem.gradient(x), problem.efforts_jacobian(x)

@@ -18,17 +18,26 @@ rounding); in q it is a central difference with step ``H_Q`` (error ~ H_Q^2). Th
 ``[qdd_j, qd_j, [qd_j > 0], -[qd_j < 0], 1]`` (:func:`mrnea.identify.actuator_regressor`) have
 the derivatives 1 (column ``5 j``, by qdd_j) and 1 (column ``5 j + 1``, by qd_j); the Coulomb
 columns are constant where qd_j != 0.
+
+:class:`Problem` is the optimisation of :mod:`mrnea.identify.excite` over one joint's Fourier
+free numbers (:func:`basis`): the criterion at ``samples`` instants of a period, the linear
+position, velocity and acceleration constraints and the effort constraints (tau = W theta), with
+their Jacobians, solved by SLSQP.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
+import scipy.optimize
 from numpy.typing import NDArray
 
 from mrnea.identify.base import BaseParameters, full_regressor
-from mrnea.identify.regressor import regressor
+from mrnea.identify.fourier import coefficients, evaluate
+from mrnea.identify.regressor import actuator_parameters, inertial_parameters, regressor
 from mrnea.model import Robot
 
 H_Q = 1e-6  # [rad | m] step of the central difference in q
@@ -88,3 +97,113 @@ def log_condition(W: NDArray, base: BaseParameters, dW: NDArray | None = None
     G = G / d - Wb * (np.einsum("ic,ic->c", Wb, G) / d ** 3)  # G' of the module docstring
     G = G.reshape(K, n, base.r)
     return f, np.einsum("kic,kvjic->kvj", G, base.reduce(dW))
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the excitation keeps within, per joint (n,): positions ``lower``, ``upper`` [rad | m],
+    ``velocity`` [rad/s | m/s], ``acceleration`` [rad/s^2 | m/s^2] (inf: none) and ``effort``
+    [N m | N] (``effort_margin`` times the robot's effort limit; inf: none)."""
+
+    lower: NDArray[np.float64]
+    upper: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    effort: NDArray[np.float64]
+
+
+def basis(harmonics: int, base_frequency: float, t: NDArray) -> NDArray[np.float64]:
+    """(3, K, m): q, qd, qdd at times t [s] of each of one joint's m = 2 L - 1 free numbers
+    (:func:`mrnea.identify.fourier.coefficients`): ``q_j(t) = B[0] @ x_j``."""
+    m = 2 * harmonics - 1
+    c, a, b = coefficients(np.eye(m), m, harmonics)
+    return np.stack(evaluate(c, a, b, base_frequency, t))
+
+
+class Problem:
+    """The optimisation of the module docstring: the criterion, the constraints and their
+    derivatives at the ``samples`` instants of one period, for the free numbers x (n m,)."""
+
+    def __init__(self, robot: Robot, base: BaseParameters, limits: Limits, harmonics: int,
+                 base_frequency: float, samples: int) -> None:
+        self.robot, self.base, self.limits = robot, base, limits
+        self.n, self.m = robot.n, 2 * harmonics - 1
+        self.theta = np.concatenate([inertial_parameters(robot), actuator_parameters(robot)])
+        self.B = basis(harmonics, base_frequency, np.arange(samples) / (samples * base_frequency))
+        self._W: tuple[bytes, NDArray] | None = None  # x and W of the last call
+        self._dW: tuple[bytes, NDArray, NDArray] | None = None  # x, W and dW of the last call
+        self.A, self.b = self._linear()
+
+    def states(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        X = x.reshape(self.n, self.m)
+        return self.B[0] @ X.T, self.B[1] @ X.T, self.B[2] @ X.T
+
+    def regressor(self, x: NDArray) -> NDArray:
+        """W (K, n, 15 n) at the instants (cached for the last x)."""
+        if self._W is None or self._W[0] != x.tobytes():
+            self._W = (x.tobytes(), full_regressor(self.robot, *self.states(x)))
+        return self._W[1]
+
+    def derivatives(self, x: NDArray) -> tuple[NDArray, NDArray]:
+        """W and dW (K, 3, n, n, 15 n) at the instants (cached for the last x)."""
+        if self._dW is None or self._dW[0] != x.tobytes():
+            self._dW = (x.tobytes(), *derivatives(self.robot, *self.states(x)))
+        return self._dW[1], self._dW[2]
+
+    def value(self, x: NDArray) -> float:
+        """The criterion, log cond (the line search's calls: no derivatives)."""
+        return log_condition(self.regressor(x), self.base)[0]
+
+    def gradient(self, x: NDArray) -> NDArray:
+        """d log cond / dx (n m,)."""
+        W, dW = self.derivatives(x)
+        g = log_condition(W, self.base, dW)[1]
+        return np.einsum("vkm,kvj->jm", self.B, g).ravel()
+
+    def _linear(self) -> tuple[NDArray, NDArray]:
+        """``A x >= b``: the position, velocity and acceleration limits at every instant."""
+        lim, (n, m), K = self.limits, (self.n, self.m), self.B.shape[1]
+        rows, rhs = [], []
+        for j in range(n):
+            bounds = ((lim.lower[j], lim.upper[j]), (-lim.velocity[j], lim.velocity[j]),
+                      (-lim.acceleration[j], lim.acceleration[j]))
+            for v, (low, high) in enumerate(bounds):
+                for sign, bound in ((1.0, low), (-1.0, -high)):
+                    if np.isfinite(bound):
+                        A = np.zeros((K, n * m))
+                        A[:, j * m:(j + 1) * m] = sign * self.B[v]
+                        rows.append(A)
+                        rhs.append(np.full(K, bound))
+        return np.vstack(rows), np.concatenate(rhs)
+
+    def efforts(self, x: NDArray) -> NDArray:
+        """``e - tau >= 0`` and ``e + tau >= 0`` for every finite effort limit e at every
+        instant (tau = W theta)."""
+        finite = np.isfinite(self.limits.effort)
+        tau = (self.regressor(x) @ self.theta)[:, finite]
+        e = self.limits.effort[finite]
+        return np.concatenate([(e - tau).ravel(), (e + tau).ravel()])
+
+    def efforts_jacobian(self, x: NDArray) -> NDArray:
+        """d :meth:`efforts` / dx."""
+        dtau = self.derivatives(x)[1] @ self.theta  # (K, 3, n, n): d tau_i / d(q, qd, qdd)_j
+        J = np.einsum("vkm,kvji->kijm", self.B, dtau)[:, np.isfinite(self.limits.effort)]
+        J = J.reshape(-1, self.n * self.m)
+        return np.vstack([-J, J])
+
+    def solve(self, x0: NDArray, maxiter: int, checkpoint: Callable[[], None]) -> NDArray:
+        """SLSQP from x0; the free numbers it ends at (``checkpoint`` called every
+        iteration)."""
+        constraints = [{"type": "ineq", "fun": lambda x: self.A @ x - self.b,
+                        "jac": lambda x: self.A}]
+        if np.any(np.isfinite(self.limits.effort)):
+            constraints.append({"type": "ineq", "fun": self.efforts,
+                                "jac": self.efforts_jacobian})
+        bounds = [(lo, hi) if i == 0 else (None, None)
+                  for lo, hi in zip(self.limits.lower, self.limits.upper, strict=True)
+                  for i in range(self.m)]
+        res = scipy.optimize.minimize(self.value, x0, jac=self.gradient, method="SLSQP",
+                                      bounds=bounds, constraints=constraints,
+                                      options={"maxiter": maxiter},
+                                      callback=lambda xk: checkpoint())
+        return res.x

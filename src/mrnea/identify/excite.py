@@ -11,7 +11,8 @@ direction of the base parameters, which is what fails an identification; a large
 hide one weak direction behind strong ones. The column scaling makes it independent of the
 parameters' units.
 
-**Optimisation.** ``scipy.optimize.minimize`` (SLSQP) over the free numbers of every joint
+**Optimisation** (:class:`mrnea.identify.criterion.Problem`). ``scipy.optimize.minimize``
+(SLSQP) over the free numbers of every joint
 (the offset ``c_j`` and the amplitudes of harmonics 2..L; harmonic 1 keeps the motion at rest at
 t = 0). The criterion and its gradient come from ``samples`` instants per period, the gradient
 analytic through the SVD and by exact differences of the regressor
@@ -42,16 +43,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import validate
 from mrnea.actuators import actuator_efforts, effort_limits_at
 from mrnea.errors import StateError
 from mrnea.identify import criterion
-from mrnea.identify.base import BaseParameters, base_parameters
+from mrnea.identify.base import base_parameters
+from mrnea.identify.criterion import Limits, Problem
 from mrnea.identify.fourier import coefficients, evaluate
-from mrnea.identify.regressor import actuator_parameters, inertial_parameters, require_serial
+from mrnea.identify.regressor import require_serial
 from mrnea.io.pathcsv import save_csv
 from mrnea.io.program import Program, save_program
 from mrnea.model import Robot
@@ -60,116 +61,6 @@ from mrnea.simulate import simulate
 UNLIMITED_SPAN = math.pi  # [rad | m] the position range +-span of a joint without limits
 BISECTIONS = 30  # steps of the bisection on the scale s for the efforts
 MAX_CYCLES = 10_000_000  # rows of a program, at most (about 0.5 GB for 6 joints)
-
-
-@dataclass(frozen=True)
-class Limits:
-    """What the excitation keeps within, per joint (n,): positions ``lower``, ``upper`` [rad | m],
-    ``velocity`` [rad/s | m/s], ``acceleration`` [rad/s^2 | m/s^2] (inf: none) and ``effort``
-    [N m | N] (``effort_margin`` times the robot's effort limit; inf: none)."""
-
-    lower: NDArray[np.float64]
-    upper: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    acceleration: NDArray[np.float64]
-    effort: NDArray[np.float64]
-
-
-def basis(harmonics: int, base_frequency: float, t: NDArray) -> NDArray[np.float64]:
-    """(3, K, m): q, qd, qdd at times t [s] of each of one joint's m = 2 L - 1 free numbers
-    (:func:`mrnea.identify.fourier.coefficients`): ``q_j(t) = B[0] @ x_j``."""
-    m = 2 * harmonics - 1
-    c, a, b = coefficients(np.eye(m), m, harmonics)
-    return np.stack(evaluate(c, a, b, base_frequency, t))
-
-
-class _Problem:
-    """The optimisation of the module docstring: the criterion, the constraints and their
-    derivatives at the ``samples`` instants of one period, for the free numbers x (n m,)."""
-
-    def __init__(self, robot: Robot, base: BaseParameters, limits: Limits, harmonics: int,
-                 base_frequency: float, samples: int) -> None:
-        self.robot, self.base, self.limits = robot, base, limits
-        self.n, self.m = robot.n, 2 * harmonics - 1
-        self.theta = np.concatenate([inertial_parameters(robot), actuator_parameters(robot)])
-        self.B = basis(harmonics, base_frequency, np.arange(samples) / (samples * base_frequency))
-        self._W: tuple[bytes, NDArray] | None = None  # x and W of the last call
-        self._dW: tuple[bytes, NDArray, NDArray] | None = None  # x, W and dW of the last call
-        self.A, self.b = self._linear()
-
-    def states(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        X = x.reshape(self.n, self.m)
-        return self.B[0] @ X.T, self.B[1] @ X.T, self.B[2] @ X.T
-
-    def regressor(self, x: NDArray) -> NDArray:
-        """W (K, n, 15 n) at the instants (cached for the last x)."""
-        if self._W is None or self._W[0] != x.tobytes():
-            self._W = (x.tobytes(), criterion.full_regressor(self.robot, *self.states(x)))
-        return self._W[1]
-
-    def derivatives(self, x: NDArray) -> tuple[NDArray, NDArray]:
-        """W and dW (K, 3, n, n, 15 n) at the instants (cached for the last x)."""
-        if self._dW is None or self._dW[0] != x.tobytes():
-            self._dW = (x.tobytes(), *criterion.derivatives(self.robot, *self.states(x)))
-        return self._dW[1], self._dW[2]
-
-    def value(self, x: NDArray) -> float:
-        """The criterion, log cond (the line search's calls: no derivatives)."""
-        return criterion.log_condition(self.regressor(x), self.base)[0]
-
-    def gradient(self, x: NDArray) -> NDArray:
-        """d log cond / dx (n m,)."""
-        W, dW = self.derivatives(x)
-        g = criterion.log_condition(W, self.base, dW)[1]
-        return np.einsum("vkm,kvj->jm", self.B, g).ravel()
-
-    def _linear(self) -> tuple[NDArray, NDArray]:
-        """``A x >= b``: the position, velocity and acceleration limits at every instant."""
-        lim, (n, m), K = self.limits, (self.n, self.m), self.B.shape[1]
-        rows, rhs = [], []
-        for j in range(n):
-            bounds = ((lim.lower[j], lim.upper[j]), (-lim.velocity[j], lim.velocity[j]),
-                      (-lim.acceleration[j], lim.acceleration[j]))
-            for v, (low, high) in enumerate(bounds):
-                for sign, bound in ((1.0, low), (-1.0, -high)):
-                    if np.isfinite(bound):
-                        A = np.zeros((K, n * m))
-                        A[:, j * m:(j + 1) * m] = sign * self.B[v]
-                        rows.append(A)
-                        rhs.append(np.full(K, bound))
-        return np.vstack(rows), np.concatenate(rhs)
-
-    def efforts(self, x: NDArray) -> NDArray:
-        """``e - tau >= 0`` and ``e + tau >= 0`` for every finite effort limit e at every
-        instant (tau = W theta)."""
-        finite = np.isfinite(self.limits.effort)
-        tau = (self.regressor(x) @ self.theta)[:, finite]
-        e = self.limits.effort[finite]
-        return np.concatenate([(e - tau).ravel(), (e + tau).ravel()])
-
-    def efforts_jacobian(self, x: NDArray) -> NDArray:
-        """d :meth:`efforts` / dx."""
-        dtau = self.derivatives(x)[1] @ self.theta  # (K, 3, n, n): d tau_i / d(q, qd, qdd)_j
-        J = np.einsum("vkm,kvji->kijm", self.B, dtau)[:, np.isfinite(self.limits.effort)]
-        J = J.reshape(-1, self.n * self.m)
-        return np.vstack([-J, J])
-
-    def solve(self, x0: NDArray, maxiter: int, checkpoint: Callable[[], None]) -> NDArray:
-        """SLSQP from x0; the free numbers it ends at (``checkpoint`` called every
-        iteration)."""
-        constraints = [{"type": "ineq", "fun": lambda x: self.A @ x - self.b,
-                        "jac": lambda x: self.A}]
-        if np.any(np.isfinite(self.limits.effort)):
-            constraints.append({"type": "ineq", "fun": self.efforts,
-                                "jac": self.efforts_jacobian})
-        bounds = [(lo, hi) if i == 0 else (None, None)
-                  for lo, hi in zip(self.limits.lower, self.limits.upper, strict=True)
-                  for i in range(self.m)]
-        res = scipy.optimize.minimize(self.value, x0, jac=self.gradient, method="SLSQP",
-                                      bounds=bounds, constraints=constraints,
-                                      options={"maxiter": maxiter},
-                                      callback=lambda xk: checkpoint())
-        return res.x
 
 
 @dataclass(frozen=True, eq=False)
@@ -434,7 +325,7 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     validate.callable_or_none(checkpoint, "checkpoint")
     stop = checkpoint or (lambda: None)
 
-    problem = _Problem(robot, base, limits, L, f, samples)
+    problem = Problem(robot, base, limits, L, f, samples)
     rng = np.random.default_rng(seed)
     t_opt = np.arange(samples) / (samples * f)
     pool = []
