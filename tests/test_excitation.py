@@ -215,3 +215,17 @@ def test_cli_stop_request_ends_soon_and_writes_nothing(tmp_path, sig) -> None:
     assert p.returncode == 130, err
     assert time.monotonic() - sent < 20, "the stop request waited for the end"
     assert not out.exists() or not any(out.iterdir())  # the run's own empty folder goes too
+
+
+@pytest.mark.slow
+def test_cli_robot_named_by_a_program(tmp_path) -> None:
+    """ROBOT may be a program file: the excitation program names the program's robot."""
+    prog = tmp_path / "p.toml"
+    prog.write_text('[program]\nrobot = "puma560"\ndt = 0.01\npayload = "2.0"\n[path]\n'
+                    'profile = "quintic"\nwaypoints = [[0, 0, 0, 0, 0, 0], [0.1, 0, 0, 0, 0, 0]]\n'
+                    'velocity_limit = 1.0\nacceleration_limit = 2.0\n')
+    res = mrnea_cli("excite", prog, "--out", tmp_path / "o", "--harmonics", "2", "--candidates",
+                    "2", "--starts", "1", "--dt", "0.02", "--velocity-limit", "2", "--quiet")
+    assert res.returncode == 0, res.stderr
+    written = load_program(tmp_path / "o" / "excitation.toml")
+    assert written.robot == "puma560" and written.options.payload[0] == 2.0

@@ -42,7 +42,7 @@ from mrnea.cli.options import (
 )
 from mrnea.cli.retime import _program_keys, _robot_spec
 from mrnea.errors import StateError, quote
-from mrnea.io import RobotOptions
+from mrnea.io import RobotOptions, is_program_file, load_program
 from mrnea.io.source import parse_number
 from mrnea.io.writer import check_new, create, own_folder
 
@@ -127,19 +127,29 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
     """An excitation trajectory for identifying ROBOT: a Fourier series per joint, its
     coefficients optimised for a well-conditioned base regressor, within the limits.
 
+    ROBOT is a built-in name, a robot file, or a program file naming its robot (with its
+    robot options).
+
     Writes excitation.csv, excitation.toml (run it: mrnea check DIR/excitation.toml) and
     summary.json into --out; exit 1 when mrnea's simulation finds it NOT ACHIEVABLE.
     """
     from mrnea.identify.excite import excitation
 
+    spec, options = robot, robot_options
+    if is_program_file(robot):  # a program names the robot (and its options)
+        prog = load_program(robot)
+        if prog.robot is None:
+            raise click.BadParameter(f"the program {robot} names no robot; give the robot",
+                                     param_hint="'ROBOT'")
+        spec, options = prog.robot, robot_options.over(prog.options)
     rob = load_robot_arg(robot, robot_options)
     limits = {"velocity_limit": _limit(velocity_limit, "--velocity-limit", rob.n),
               "acceleration_limit": _limit(acceleration_limit, "--acceleration-limit", rob.n)}
-    spec = _robot_spec(robot)
+    spec = _robot_spec(spec)
     with own_folder(Path(out) if out else fresh_dir("mrnea-excite")) as folder:
         paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY)}
-        check_new([*paths.values(), *([folder / "payload.toml"] if robot_options.payload
-                                       else [])], force)
+        check_new([*paths.values(), *([folder / "payload.toml"] if options.payload else [])],
+                  force)
         with compile_notice(quiet):
             try:
                 exc = excitation(rob, base_frequency=base_frequency, harmonics=harmonics,
@@ -152,7 +162,7 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
         checkpoint()  # a stop request during the simulation: nothing written
         exc.save_csv(paths[CSV], force)
         exc.save_program(paths[PROGRAM], spec, CSV,
-                         program_keys=_program_keys(robot_options, folder, force),
+                         program_keys=_program_keys(options, folder, force),
                          overwrite=force)
         with create(paths[SUMMARY], force) as fh:
             json.dump(exc.summary(), fh, indent=2, allow_nan=False)
