@@ -53,8 +53,8 @@ HOSTILE = ["nan", "inf", "-inf", "1e308", "-1e308", "1e-320", "0", "-1", "1_0", 
 GARBAGE = ["", "-", "--", "---x", "-h", "0", "-1", "nan", "1_0", "\uff11", "x" * 200, "a\nb",
            "/dev/zero", "/", ".", "..", "~", "$HOME", "sdt", "puma560", "missing.toml"]
 # how often each command is drawn: those reading the hostile files most, the fixed SDT runs
-# (demo, fig3: a few seconds each) least
-WEIGHT = {"check": 4, "simulate": 3, "info": 2, "demo": 1, "fig3": 1}
+# (demo, fig3: a few seconds each) and the optimisation (excite: up to a minute) least
+WEIGHT = {"check": 4, "simulate": 3, "info": 2, "demo": 1, "fig3": 1, "excite": 1}
 FILES = ["robot.toml", "robot.urdf", "prog.toml", "sdt.toml", "path.csv", "out", "out/x.png",
          "fig.svg", "fig.xyz"]
 

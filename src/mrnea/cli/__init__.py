@@ -7,6 +7,8 @@ lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper'
 ``mrnea retime [ROBOT] PROGRAM --out DIR`` gives a program the fastest timing the robot can make.
 ``mrnea sweep [ROBOT] PROGRAM... --grid GRID.toml`` runs every program on every robot variant of
 a grid, on Dask (docs/sweeps.md).
+``mrnea excite ROBOT --out DIR`` writes an optimised excitation trajectory for identification
+(docs/identification.md).
 ``mrnea size [ROBOT] PROGRAM... --catalogue FILE`` chooses each joint's motor and gearbox from a
 catalogue (docs/sizing.md).
 ``mrnea identify ROBOT LOG --out DIR`` identifies the links, friction and rotor inertia from a log
@@ -26,8 +28,7 @@ command goes in a module
 of its own, imported below.
 """
 
-from mrnea.cli import identify, info, paper, retime, run, size, sweep
+from mrnea.cli import excite, identify, info, paper, retime, run, size, sweep
 from mrnea.cli.base import main
 
-__all__ = ["info", "main", "paper", "retime", "run", "size", "sweep"]
-__all__ += ["identify"]
+__all__ = ["excite", "identify", "info", "main", "paper", "retime", "run", "size", "sweep"]
