@@ -131,7 +131,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
 
     A serial chain (the model's TREE flag 0) runs :func:`mrnea_pass` compiled for ``tree=None``:
     Numba drops the tree's branches from that copy, so a chain runs the operations of the
-    pass before trees, at its speed (the branches left in, never taken, cost a chain 10-15 %
+    pass before trees, at its speed (the branches left in, never taken, cost a chain 14-19 %
     of the pass: docs/performance.md section 14).
     """
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
