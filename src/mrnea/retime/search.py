@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from mrnea.actuators import program_requirement
 from mrnea.errors import RetimeError
+from mrnea.retime.jerk import jerk_profile, jerks, sample_smooth
 from mrnea.retime.job import Job, accelerations
 from mrnea.retime.path import piece_rows
 from mrnea.retime.rows import Limits, static_check
@@ -79,12 +80,13 @@ class Plan:
 
 
 def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
-                 acc: NDArray | None) -> NDArray:
+                 acc: NDArray | None, jerk: NDArray | None = None) -> NDArray:
     """(M,) per cycle, the largest ratio over joints of the program's own requirement to its
     effort limit at speed (:func:`mrnea.actuators.program_requirement`), of the commanded
     velocity (backward difference) to the velocity limit and, with acceleration limits, of the
-    acceleration (as the simulation forms it) to its limit. Unscaled: compare with the
-    margin."""
+    acceleration (as the simulation forms it) to its limit and, with jerk limits, of the jerk
+    (:func:`mrnea.retime.jerk.jerks`, each difference counted at both rows it joins) to its
+    limit. Unscaled: compare with the margin."""
     tau, lim = np.empty_like(Q), np.empty_like(Q)
     for a in range(0, Q.shape[0], CHUNK):  # a checkpoint between chunks (the stop bound)
         job.checkpoint()
@@ -101,6 +103,9 @@ def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
         r = np.maximum(r, np.nan_to_num(v))
         if acc is not None:
             r = np.maximum(r, np.abs(accelerations(Q, job.dt)) / acc)
+        if jerk is not None:
+            rj = np.abs(jerks(Q, job.dt)) / jerk
+            r = np.maximum(r, np.maximum(rj[:-1], rj[1:]))
     return r.max(axis=1)
 
 
@@ -132,9 +137,12 @@ def _tighten(job: Job, paths: dict[int, tuple], local: dict[int, NDArray], clock
 
 
 def _solve_all(job: Job, paths: dict[int, tuple], m: float, local: dict[int, NDArray],
-               acc: NDArray | None, logs: list) -> tuple:
+               acc: NDArray | None, jerk: NDArray | None, logs: list) -> tuple:
     """Every moving piece solved at margin m x its local factors, sampled at dt, assembled:
-    (Q, FE, PE, clock, speeds)."""
+    (Q, FE, PE, clock, speeds). With jerk limits (n,) the time-optimal profile is the upper
+    envelope of the jerk-limited one (:mod:`mrnea.retime.jerk`), planned at the same margin and
+    local factors x the jerk limits."""
+    from mrnea.retime.rows import velocity_cap
     from mrnea.retime.toppra import sample_profile, toppra_profile
 
     base = Limits.of(job.robot, m, acc)
@@ -144,12 +152,21 @@ def _solve_all(job: Job, paths: dict[int, tuple], m: float, local: dict[int, NDA
         static_check(job.robot, need, job.clock[k0] + pc.s, m)
         lim = replace(base, margin=m * local[j][:, None]) if np.any(local[j] < 1) else base
         t0 = time.perf_counter()
-        sd, log = toppra_profile(pc, lim, job.dt, job.checkpoint)
+        stage: list = []
+        sd, log = toppra_profile(pc, lim, job.dt, job.checkpoint, stage)
         t1 = time.perf_counter()
         job.timings["toppra"] += log["solver_time"]
         job.timings["rows"] += t1 - t0 - log["solver_time"]
-        retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt, job.robot.n),
-                                job.q[k0], job.q[k1])
+        if jerk is None:
+            s_t = sample_profile(pc.s, sd, job.dt, job.robot.n)
+        else:
+            job.checkpoint()
+            sd, sdd = jerk_profile(pc, spline(pc.s, 3), stage[0], velocity_cap(pc, lim), sd,
+                                   np.ravel(lim.margin * local[j][:, None])[:, None] * jerk)
+            s_t = sample_smooth(pc.s, sd, sdd, job.dt, job.robot.n)
+            job.timings["jerk"] += time.perf_counter() - t1
+            t1 = time.perf_counter()
+        retimed[j] = piece_rows(spline, s_t, job.q[k0], job.q[k1])
         job.check_resolution(j, spline, *retimed[j], largest_acceleration(pc, sd))
         job.timings["sampling"] += time.perf_counter() - t1
         speeds[j] = sd
@@ -168,26 +185,35 @@ def largest_acceleration(pc: Any, sd: NDArray) -> NDArray:
 
 
 def plan_at(job: Job, paths: dict[int, tuple], m: float, acc: NDArray | None,
-            logs: list) -> Plan:
+            jerk: NDArray | None, logs: list) -> Plan:
     """The plan at margin m held at the cycle resolution (module docstring), verified."""
     local = {j: np.ones(pc.s.size) for j, (_, pc, _) in paths.items()}
     for rounds in range(CYCLE_ROUNDS + 1):
-        Q, FE, PE, clock, speeds = _solve_all(job, paths, m, local, acc, logs)
+        Q, FE, PE, clock, speeds = _solve_all(job, paths, m, local, acc, jerk, logs)
         t0 = time.perf_counter()
-        over = cycle_ratios(job, Q, FE, PE, acc) / m
+        over = cycle_ratios(job, Q, FE, PE, acc, jerk) / m
         job.timings["verification"] += time.perf_counter() - t0
         if over.max() <= 1 or rounds == CYCLE_ROUNDS or not _tighten(job, paths, local, clock,
                                                                       over):
             break
     sim = job.verify(Q, FE, PE)
     acc_ok = acc is None or np.all(np.abs(accelerations(Q, job.dt)) <= acc)
+    acc_ok = acc_ok and (jerk is None or within_jerk(Q, job.dt, jerk))
     # the program's own requirement over the true limits: the last round's, of this plan
     return Plan(m, Q, FE, PE, clock, speeds, sim, bool(sim.achievable and acc_ok),
                 float(over.max() * m), rounds)
 
 
+def within_jerk(Q: NDArray, dt: float, jerk: NDArray) -> bool:
+    """Whether the jerks of rows Q (:func:`mrnea.retime.jerk.jerks`) are within the limits
+    (n,), to the rounding of a third difference: 8 x the rows' largest rounding error over
+    dt^3 (the rows are written exactly, as their shortest reprs)."""
+    tol = 8 * np.finfo(float).eps * np.max(np.abs(Q), axis=0) / dt ** 3
+    return bool(np.all(np.abs(jerks(Q, dt)) <= jerk + tol))
+
+
 def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None,
-           logs: list) -> Plan:
+           logs: list, jerk: NDArray | None = None) -> Plan:
     """The fastest verified plan at the highest margin <= ``margin`` that verifies, to
     :data:`SEARCH_TOL` (module docstring).
 
@@ -196,7 +222,7 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
     RetimeError
         No margin down to :data:`MIN_MARGIN` verifies (quoting the last verdict).
     """
-    first = plan_at(job, paths, margin, acc, logs)
+    first = plan_at(job, paths, margin, acc, jerk, logs)
     if first.ok:
         return first
     hi, best, last = first, None, first
@@ -206,7 +232,7 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
             raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
                               f"simulation accepts; the last one: {last.sim.verdict()}")
         m = max(MIN_MARGIN, _lattice(m * min(1 - SEARCH_TOL, 1 / max(last.own, 1 + 1e-9))))
-        last = plan_at(job, paths, m, acc, logs)
+        last = plan_at(job, paths, m, acc, jerk, logs)
         if last.ok:
             best = last
         else:
@@ -218,7 +244,7 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
             mid, probe = min(mid, _lattice(lo.margin * (1 + SEARCH_TOL))), False
         if mid <= lo.margin or mid >= hi.margin:
             break
-        p = plan_at(job, paths, mid, acc, logs)
+        p = plan_at(job, paths, mid, acc, jerk, logs)
         if p.ok:
             lo = p
             best = p if p.rows <= best.rows else best
