@@ -25,9 +25,9 @@ from mrnea.retime.jerk import jerks
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES = {  # name: (robot, program, jerk limits [rad/s^3], the limit of the figure)
     "Puma 560 pick": (lambda: mrnea.robots.puma560(), lambda: mrnea.load_program(
-        EXAMPLES / "puma_pick.toml"), (2000.0, 500.0, 200.0, 100.0), 200.0),
+        EXAMPLES / "puma_pick.toml"), (5000.0, 2000.0, 1000.0), 2000.0),
     "SDT training profile": (lambda: mrnea.robots.sdt(), lambda: mrnea.load_program("demo"),
-                             (20.0, 5.0, 2.0), 2.0),
+                             (10.0, 3.0), 3.0),
 }
 
 

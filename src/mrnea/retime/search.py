@@ -13,7 +13,10 @@ and its acceleration against an acceleration limit). Where a cycle exceeds them 
 r, the planning limits of the grid points its rows span (the intervals from the row before to
 the row after) are divided by 1 + :data:`OVERSHOOT` (r - 1) + :data:`SLACK` and the pieces solved
 again, up to :data:`CYCLE_ROUNDS` times. The limits elsewhere keep m: a local correction, not a
-global one.
+global one. With jerk limits (:mod:`mrnea.retime.jerk`) the rows' jerks are checked the same
+way and the jerk limits tightened on their own where a cycle exceeds them (tightening the
+effort limits for a jerk excess made TOPP-RA infeasible where a pose needs most of its limit to
+be held); a plan verifies only if its rows keep the jerk limits (:func:`within_jerk`).
 
 Only then is the plan simulated. If the simulation still refuses it, the next margin comes from
 the program's own requirement over the true limits (what the verdict reports as
@@ -80,13 +83,12 @@ class Plan:
 
 
 def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
-                 acc: NDArray | None, jerk: NDArray | None = None) -> NDArray:
+                 acc: NDArray | None) -> NDArray:
     """(M,) per cycle, the largest ratio over joints of the program's own requirement to its
     effort limit at speed (:func:`mrnea.actuators.program_requirement`), of the commanded
     velocity (backward difference) to the velocity limit and, with acceleration limits, of the
-    acceleration (as the simulation forms it) to its limit and, with jerk limits, of the jerk
-    (:func:`mrnea.retime.jerk.jerks`, each difference counted at both rows it joins) to its
-    limit. Unscaled: compare with the margin."""
+    acceleration (as the simulation forms it) to its limit. Unscaled: compare with the
+    margin."""
     tau, lim = np.empty_like(Q), np.empty_like(Q)
     for a in range(0, Q.shape[0], CHUNK):  # a checkpoint between chunks (the stop bound)
         job.checkpoint()
@@ -103,10 +105,17 @@ def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
         r = np.maximum(r, np.nan_to_num(v))
         if acc is not None:
             r = np.maximum(r, np.abs(accelerations(Q, job.dt)) / acc)
-        if jerk is not None:
-            rj = np.abs(jerks(Q, job.dt)) / jerk
-            r = np.maximum(r, np.maximum(rj[:-1], rj[1:]))
     return r.max(axis=1)
+
+
+def jerk_ratios(Q: NDArray, dt: float, jerk: NDArray | None) -> NDArray:
+    """(M,) per cycle, the largest ratio over joints of the rows' jerk
+    (:func:`mrnea.retime.jerk.jerks`, each third difference counted at both middle rows it
+    spans) to the jerk limit (n,); zeros without one. Unscaled."""
+    if jerk is None:
+        return np.zeros(Q.shape[0])
+    r = (np.abs(jerks(Q, dt)) / jerk).max(axis=1)
+    return np.maximum(r[:-1], r[1:])
 
 
 def _tighten(job: Job, paths: dict[int, tuple], local: dict[int, NDArray], clock: NDArray,
@@ -137,11 +146,12 @@ def _tighten(job: Job, paths: dict[int, tuple], local: dict[int, NDArray], clock
 
 
 def _solve_all(job: Job, paths: dict[int, tuple], m: float, local: dict[int, NDArray],
-               acc: NDArray | None, jerk: NDArray | None, logs: list) -> tuple:
+               acc: NDArray | None, jerk: NDArray | None, jlocal: dict[int, NDArray],
+               logs: list) -> tuple:
     """Every moving piece solved at margin m x its local factors, sampled at dt, assembled:
     (Q, FE, PE, clock, speeds). With jerk limits (n,) the time-optimal profile is the upper
-    envelope of the jerk-limited one (:mod:`mrnea.retime.jerk`), planned at the same margin and
-    local factors x the jerk limits."""
+    envelope of the jerk-limited one (:mod:`mrnea.retime.jerk`), planned at the margin x the
+    jerk limits x their own local factors ``jlocal``."""
     from mrnea.retime.rows import velocity_cap
     from mrnea.retime.toppra import sample_profile, toppra_profile
 
@@ -162,7 +172,7 @@ def _solve_all(job: Job, paths: dict[int, tuple], m: float, local: dict[int, NDA
         else:
             job.checkpoint()
             sd, sdd = jerk_profile(pc, spline(pc.s, 3), stage[0], velocity_cap(pc, lim), sd,
-                                   np.ravel(lim.margin * local[j][:, None])[:, None] * jerk)
+                                   (m * jlocal[j])[:, None] * jerk)
             s_t = sample_smooth(pc.s, sd, sdd, job.dt, job.robot.n)
             job.timings["jerk"] += time.perf_counter() - t1
             t1 = time.perf_counter()
@@ -188,20 +198,25 @@ def plan_at(job: Job, paths: dict[int, tuple], m: float, acc: NDArray | None,
             jerk: NDArray | None, logs: list) -> Plan:
     """The plan at margin m held at the cycle resolution (module docstring), verified."""
     local = {j: np.ones(pc.s.size) for j, (_, pc, _) in paths.items()}
+    jlocal = {j: np.ones(pc.s.size) for j, (_, pc, _) in paths.items()}
     for rounds in range(CYCLE_ROUNDS + 1):
-        Q, FE, PE, clock, speeds = _solve_all(job, paths, m, local, acc, jerk, logs)
+        Q, FE, PE, clock, speeds = _solve_all(job, paths, m, local, acc, jerk, jlocal, logs)
         t0 = time.perf_counter()
-        over = cycle_ratios(job, Q, FE, PE, acc, jerk) / m
+        over = cycle_ratios(job, Q, FE, PE, acc) / m
+        overj = jerk_ratios(Q, job.dt, jerk) / m  # the jerk limits are tightened on their own
         job.timings["verification"] += time.perf_counter() - t0
-        if over.max() <= 1 or rounds == CYCLE_ROUNDS or not _tighten(job, paths, local, clock,
-                                                                      over):
+        if max(over.max(), overj.max()) <= 1 or rounds == CYCLE_ROUNDS:
+            break
+        changed = [_tighten(job, paths, loc, clock, r) for loc, r in ((local, over),
+                                                                       (jlocal, overj))]
+        if not any(changed):
             break
     sim = job.verify(Q, FE, PE)
     acc_ok = acc is None or np.all(np.abs(accelerations(Q, job.dt)) <= acc)
     acc_ok = acc_ok and (jerk is None or within_jerk(Q, job.dt, jerk))
     # the program's own requirement over the true limits: the last round's, of this plan
     return Plan(m, Q, FE, PE, clock, speeds, sim, bool(sim.achievable and acc_ok),
-                float(over.max() * m), rounds)
+                float(max(over.max(), overj.max()) * m), rounds)
 
 
 def within_jerk(Q: NDArray, dt: float, jerk: NDArray) -> bool:
