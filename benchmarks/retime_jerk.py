@@ -8,7 +8,7 @@ the verification, the largest jerk of its rows over the limit, the wall time. Th
 (``--figures DIR``): the simulated joint torques against time, unlimited and at the figure's
 jerk limit, one panel per joint, with the effort limits.
 
-Run: ``python benchmarks/retime_jerk.py [--figures docs]``.
+Run: ``python benchmarks/retime_jerk.py [--figures docs] [--only SDT]``.
 """
 
 from __future__ import annotations
@@ -65,11 +65,14 @@ def figure(name: str, unlimited: mrnea.retime.RetimeResult, limited: mrnea.retim
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--figures", type=Path, default=None, help="write the torque figures here")
+    ap.add_argument("--only", default="", help="only the cases whose name contains this")
     args = ap.parse_args()
     print("| case | jerk limit [rad/s³] | duration [s] | vs unlimited | margin | verified | "
           "largest jerk / limit | retime [s] |")
     print("|" + "---|" * 8)
     for name, (make_robot, make_program, limits, shown) in CASES.items():
+        if args.only not in name:
+            continue
         robot, prog = make_robot(), make_program()
         t0 = time.perf_counter()
         base = mrnea.retime(robot, prog)

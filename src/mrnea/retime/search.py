@@ -244,6 +244,11 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
     m = margin
     while best is None:  # step down by the program's own overshoot
         if m <= MIN_MARGIN:
+            if last.sim.achievable:  # the simulation accepted it: a kinematic limit failed
+                raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program "
+                                  "whose rows keep the acceleration and jerk limits (the ends "
+                                  "of the moving pieces: docs/retime.md, Jerk limits); give "
+                                  "larger limits")
             raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
                               f"simulation accepts; the last one: {last.sim.verdict()}")
         m = max(MIN_MARGIN, _lattice(m * min(1 - SEARCH_TOL, 1 / max(last.own, 1 + 1e-9))))
