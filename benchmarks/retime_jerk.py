@@ -1,5 +1,6 @@
 """Issue 24 part 2: jerk-limited retiming of the Puma 560 pick and the SDT's training profile
-(``demo``), against the unlimited time-optimal retime, and a figure of the joint torques.
+(``demo``, as examples/sdt_training.toml), against the unlimited time-optimal retime, and a
+figure of the joint torques.
 
 For each robot: the unlimited retime (toppra, margin 0.98), the largest jerk its rows ask
 (third differences over dt^3, :func:`mrnea.retime.jerk.jerks`), then the jerk-limited retime
@@ -26,7 +27,8 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES = {  # name: (robot, program, jerk limits [rad/s^3], the limit of the figure)
     "Puma 560 pick": (lambda: mrnea.robots.puma560(), lambda: mrnea.load_program(
         EXAMPLES / "puma_pick.toml"), (5000.0, 2000.0, 1000.0), 2000.0),
-    "SDT training profile": (lambda: mrnea.robots.sdt(), lambda: mrnea.load_program("demo"),
+    "SDT training profile": (lambda: mrnea.robots.sdt(), lambda: mrnea.load_program(
+                                 EXAMPLES / "sdt_training.toml"),
                              (10.0, 3.0), 3.0),
 }
 
