@@ -70,8 +70,8 @@ def third_differences(q: np.ndarray, dt: float) -> np.ndarray:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("q1", [[1.2, -1.6, 2.0],  # the velocity limit binds (joint 1)
-                                [0.3, -0.2, 0.25]])  # a short move: jerk and acceleration only
+@pytest.mark.parametrize("q1", [[1.2, -1.6, 2.0],  # the velocity limits bind (joints 1, 2)
+                                [0.3, -0.2, 0.25]])  # a short move: jerk only
 def test_straight_line_within_2_percent_of_ruckig(q1):
     q1 = np.array(q1)
     t, q = straight(q1)
