@@ -63,7 +63,7 @@ class Plan:
     program instant ``clock`` (M,), the path speed per piece ``speeds``, the verifying
     simulation ``sim`` (None if not simulated), whether it verified ``ok``, and ``own``: the
     largest ratio of the program's own requirement to the true limits (effort at speed,
-    velocity, acceleration limit)."""
+    velocity, acceleration limit, jerk limit)."""
 
     margin: float
     Q: NDArray
