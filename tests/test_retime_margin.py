@@ -161,7 +161,8 @@ def test_the_search_finds_the_highest_margin_that_verifies(monkeypatch):
 
 def test_margin_search_gives_up_below_its_floor(monkeypatch):
     def plan_at(job, paths, m, acc, jerk, logs):
-        sim = type("S", (), {"verdict": lambda self: "NOT ACHIEVABLE: joint1 needs more"})()
+        sim = type("S", (), {"verdict": lambda self: "NOT ACHIEVABLE: joint1 needs more",
+                             "achievable": False})()
         return rsearch.Plan(m, np.zeros((3, 1)), None, None, np.zeros(3), {}, sim, False,
                             2.0, 0)
 
