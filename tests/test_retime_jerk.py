@@ -153,3 +153,19 @@ def test_bad_jerk_limit(kwargs, match):
     with pytest.raises(StateError, match=match):
         mrnea.retime(arm(), (t, q), **kwargs)
 
+
+
+def test_search_failing_on_the_rows_says_so(monkeypatch):
+    """When every margin's simulation is accepted but its rows exceed a kinematic limit, the
+    error names those limits instead of quoting an ACHIEVABLE verdict."""
+    from mrnea.errors import RetimeError
+    from mrnea.retime import search as rsearch
+
+    def plan_at(job, paths, m, acc, jerk, logs):
+        sim = type("S", (), {"verdict": lambda self: "ACHIEVABLE", "achievable": True})()
+        return rsearch.Plan(m, np.zeros((3, 1)), None, None, np.zeros(3), {}, sim, False,
+                            2.0, 0)
+
+    monkeypatch.setattr(rsearch, "plan_at", plan_at)
+    with pytest.raises(RetimeError, match="acceleration and jerk limits"):
+        rsearch.search(None, {}, 1.0, None, [], np.ones(1))
