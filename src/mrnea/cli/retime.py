@@ -46,6 +46,7 @@ from mrnea.cli.options import (
 from mrnea.errors import MrneaError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.source import parse_number
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
 
@@ -54,6 +55,37 @@ CSV, PROGRAM, SUMMARY, REPORT, PAYLOAD = ("retimed.csv", "retimed.toml", "summar
 #: A Cartesian program's retimed timing: its tool poses at the retimed cycles, and the program
 #: of one pose CSV move that runs them (docs/cartesian.md, "Retiming").
 POSES, CARTESIAN = "retimed_poses.csv", "retimed_cartesian.toml"
+
+
+class _JerkLimit(click.ParamType):
+    """``J`` or ``J1,J2,...,Jn``: joint jerk limits [rad/s^3 | m/s^3], each a finite number > 0
+    in the strict grammar of :func:`mrnea.io.source.parse_number` (the count is checked against
+    the robot once it is loaded)."""
+
+    name = "jerk"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        if isinstance(value, tuple):
+            return value
+        out = []
+        for part in str(value).split(","):
+            try:
+                number = parse_number(part.strip())
+            except ValueError as exc:
+                self.fail(f"{exc} (in {value!r})", param, ctx)
+            if not number > 0:
+                self.fail(f"every limit must be > 0, got {value!r}", param, ctx)
+            out.append(number)
+        return tuple(out)
+
+
+def _jerk_limits(jerk: tuple[float, ...] | None, robot: Robot) -> list[float] | None:
+    """``--jerk-limit``'s numbers, one for every joint or one per joint."""
+    if jerk is None or len(jerk) in (1, robot.n):
+        return None if jerk is None else list(jerk)
+    raise MrneaError(f"--jerk-limit: expected one number or {robot.n} (one per joint: "
+                     f"{', '.join(robot.joint_names)}), got {len(jerk)}")
 
 
 def _robot_spec(spec: str) -> str:
@@ -103,6 +135,9 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @click.option("--margin", type=FRACTION, default=0.98, show_default=True, metavar="M",
               help="toppra: plan against M x every effort and velocity limit, 0 < M <= 1 "
                    "(lowered until the simulation accepts the result).")
+@click.option("--jerk-limit", "jerk", type=_JerkLimit(), default=None, metavar="J[,J2,...]",
+              help="toppra: joint jerk limits [rad/s^3 | m/s^3], one for every joint or one per "
+                   "joint: the fastest timing found whose jerks stay within them.")
 @click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",
               help="Cycle time [s] of the retimed program (default the program's; a CSV "
                    "PROGRAM needs it).")
@@ -116,8 +151,8 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @quiet_opt
 @json_opt
 def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
-           dt: float | None, interpolation: str | None, units: str | None, mode: str,
-           robot_options: RobotOptions,
+           jerk: tuple[float, ...] | None, dt: float | None, interpolation: str | None,
+           units: str | None, mode: str, robot_options: RobotOptions,
            no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
@@ -140,6 +175,9 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         prog = load_program_arg(program_arg)
         spec = _robot_spec(robot_arg or prog.robot)
         options = robot_options.over(prog.options)
+    jerk_limit = _jerk_limits(jerk, run.robot)
+    if jerk_limit is not None and method != "toppra":
+        raise MrneaError("--jerk-limit: only --method toppra takes it")
     t = np.arange(run.q_cmd.shape[0]) * run.dt
     tool = None if run.cartesian is None else prog.moves.tool
     with own_folder(Path(out)) as folder:
@@ -150,7 +188,8 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
             try:
                 res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
                                      margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                     mode=run.mode or mode, checkpoint=checkpoint)
+                                     mode=run.mode or mode, checkpoint=checkpoint,
+                                     jerk_limit=jerk_limit)
             except RetimeError as exc:  # about the program: say which file it is
                 raise RetimeError(f"{program_arg}: {exc}") from None
         _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,

@@ -30,10 +30,11 @@ from mrnea.model import Robot
 from mrnea.retime.path import at_clock, pieces, polyline_error
 from mrnea.simulate import SimulationResult, simulate
 
-TIMINGS = ("coefficients", "rows", "toppra", "sampling", "verification")
+TIMINGS = ("coefficients", "rows", "toppra", "jerk", "sampling", "verification")
 """What :attr:`Job.timings` splits a retiming's time into (seconds each): the splines and the
 one batched mRNEA call per piece (scale: the Hollerbach coefficients), the constraint rows and
-their linearisation, the TOPP-RA solves (toppra's set-up included), the sampling of the profile
+their linearisation, the TOPP-RA solves (toppra's set-up included), the jerk-limited linear
+programs (0 without a jerk limit), the sampling of the profile
 at dt with the wrench, and the verifying simulations."""
 
 PATH_TOL = 1e-3  # rad | m: how far the retimed rows, joined by straight lines, may leave the path
