@@ -218,7 +218,7 @@ EXIT_CODES = {
     "check": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the verdict), 2 bad input, 130 "
              "interrupted.",
     "retime": "Exit code: 0 retimed and verified achievable, 1 NOT ACHIEVABLE (the "
-              "verification), 2 bad input or no timing found (the error says why), 130 "
+              "verification, or no timing exists: nothing written), 2 bad input, 130 "
               "interrupted (nothing written).",
     "sweep": "Exit code: 0 done (each row holds its own verdict), 2 bad input, 130 interrupted "
              "(the rows done written).",

@@ -23,7 +23,7 @@ import json
 import shlex
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import click
 import numpy as np
@@ -42,7 +42,7 @@ from mrnea.cli.options import (
     robot_options,
     units_opt,
 )
-from mrnea.errors import MrneaError, RetimeError
+from mrnea.errors import MrneaError, NoTimingError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.writer import check_new, create, own_folder
@@ -137,18 +137,25 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         spec = _robot_spec(robot_arg or prog.robot)
         options = robot_options.over(prog.options)
     t = np.arange(run.q_cmd.shape[0]) * run.dt
-    with own_folder(Path(out)) as folder:
-        paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
-        check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
-        with compile_notice(quiet):
-            try:
-                res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
-                                     margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                     mode=run.mode or mode, checkpoint=checkpoint)
-            except RetimeError as exc:  # about the program: say which file it is
-                raise RetimeError(f"{program_arg}: {exc}") from None
-        _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,
-               not no_3d)
+    try:
+        with own_folder(Path(out)) as folder:
+            paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
+            check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])],
+                      force)
+            with compile_notice(quiet):
+                try:
+                    res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
+                                         margin=margin, f_ext=run.f_ext,
+                                         f_ext_point=run.f_ext_point, mode=run.mode or mode,
+                                         checkpoint=checkpoint)
+                except NoTimingError:
+                    raise
+                except RetimeError as exc:  # about the program: say which file it is
+                    raise RetimeError(f"{program_arg}: {exc}") from None
+            _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
+                   force, not no_3d)
+    except NoTimingError as exc:  # a verdict: nothing written, the new folder removed
+        _no_timing(f"{program_arg}: {exc}", as_json, quiet)
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))
@@ -158,6 +165,20 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                    f"{paths[REPORT]}")
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
+
+
+def _no_timing(why: str, as_json: bool, quiet: bool) -> NoReturn:
+    """End the command on the verdict that no timing of the path is achievable
+    (:class:`~mrnea.errors.NoTimingError`): one ``NOT ACHIEVABLE`` line on stdout (the JSON
+    object ``{"achievable": false, "retimed": false, "verdict": ...}`` with --json), exit 1."""
+    verdict = f"NOT ACHIEVABLE at any timing: {why}"
+    if as_json:
+        click.echo(json.dumps({"achievable": False, "retimed": False, "verdict": verdict},
+                              indent=2, allow_nan=False))
+    elif not quiet:
+        click.echo(verdict)
+    checkpoint()
+    sys.exit(EXIT_NOT_ACHIEVABLE)
 
 
 def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
