@@ -30,7 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
-from typing import Any, Literal
+from typing import Literal
 
 import numba as nb
 import numpy as np
@@ -315,20 +315,6 @@ def forward_kinematics(robot: Robot, q: ArrayLike, tool: Tool = None) -> NDArray
         status = _FRAMES.free(m, q, T, ws)
     validate.check_status(robot, status, {"q": q})
     return T
-
-
-def state_by_state(function: Callable[..., Any], robot: Robot, *states: ArrayLike) -> Any:
-    """``function(robot, *states)`` of a batch (each state (B, n)), evaluated one state at a
-    time through the single-state entries and stacked: the batch call's numbers (the same
-    kernels' arithmetic) without its parallel batch kernel, whose first compile costs tens of
-    seconds on a fresh install (docs/performance.md, Start-up) where the report's few thousand
-    states take milliseconds this way. Returns the outputs, each (B, ...), as ``function``
-    returns them (one array or a tuple)."""
-    arrays = [np.asarray(s, dtype=float) for s in states]
-    rows = [function(robot, *(a[k] for a in arrays)) for k in range(arrays[0].shape[0])]
-    if rows and isinstance(rows[0], tuple):
-        return tuple(np.stack(parts) for parts in zip(*rows, strict=True))
-    return np.stack(rows)
 
 
 def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None) -> NDArray[np.float64]:

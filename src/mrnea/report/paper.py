@@ -10,8 +10,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike
 
-from mrnea import validate
-from mrnea.dynamics import forward_dynamics, inverse_dynamics, mass_matrix_and_bias, state_by_state
+from mrnea.dynamics import forward_dynamics, inverse_dynamics, mass_matrix_and_bias
 from mrnea.errors import StateError
 from mrnea.report.drawing import MAX_JOINTS, axes_grid, header, joint_units, label, peak, plot_line
 
@@ -40,8 +39,7 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     matplotlib.figure.Figure
         One row per joint; column (a) torques, column (b) accelerations.
     """
-    validate.require_robot(robot)
-    for name, value in (("t", t), ("q", q), ("qd", qd), ("qdd", qdd)):
+    for name, value in (("t", t), ("qdd", qdd)):  # q, qd: the dynamics functions check them
         try:
             kind = np.asarray(value).dtype.kind
         except (TypeError, ValueError):  # ragged
@@ -49,15 +47,15 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
         if kind not in "iuf":
             raise StateError(f"{name}: expected an array of real numbers, got "
                              f"{type(value).__name__}")
-    t, q, qd, qdd = (np.asarray(a, dtype=float) for a in (t, q, qd, qdd))
-    if t.ndim != 1 or qdd.ndim != 2 or not q.shape == qd.shape == qdd.shape == (t.size, robot.n):
-        raise StateError(f"fig3: expected t (K,) and q, qd, qdd (K, n = {robot.n}); got t "
-                         f"{t.shape}, q {q.shape}, qd {qd.shape}, qdd {qdd.shape}")
-    # state by state: the batch kernels' first compile would cost more than the figure
-    u_rnea = state_by_state(inverse_dynamics, robot, q, qd, qdd)
-    H, u_bias = state_by_state(mass_matrix_and_bias, robot, q, qd)
+    t = np.asarray(t, dtype=float)
+    qdd = np.asarray(qdd, dtype=float)
+    if t.ndim != 1 or qdd.ndim != 2 or qdd.shape[0] != t.shape[0]:
+        raise StateError(f"fig3: expected t (K,) and q, qd, qdd (K, n); got t {t.shape}, "
+                         f"qdd {qdd.shape}")
+    u_rnea = inverse_dynamics(robot, q, qd, qdd)
+    H, u_bias = mass_matrix_and_bias(robot, q, qd)
     u_mrnea = np.einsum("kij,kj->ki", H, qdd) + u_bias
-    qdd_fd = state_by_state(forward_dynamics, robot, q, qd, u_rnea)
+    qdd_fd = forward_dynamics(robot, q, qd, u_rnea)
     du = np.abs(u_rnea - u_mrnea)
     da = np.abs(qdd_fd - qdd)
     rel_u = float(du.max() / max(peak(u_rnea), 1e-300))

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import forward_kinematics, state_by_state
+from mrnea.dynamics import forward_kinematics
 from mrnea.errors import StateError
 from mrnea.report.shapes import Shape, robot_shapes, tip_point
 
@@ -252,9 +252,8 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     path is the programmed Cartesian path), else of :func:`tip_point`."""
     robot = result.robot
     idx = frame_indices(result.t, robot.n)
-    # the links' frames, not the base's; state by state (no batch kernel to compile)
-    real = state_by_state(forward_kinematics, robot, result.q[idx])[:, 1:]
-    cmd = state_by_state(forward_kinematics, robot, result.q_cmd[idx])[:, 1:]
+    real = forward_kinematics(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
+    cmd = forward_kinematics(robot, result.q_cmd[idx])[:, 1:]
     t = result.t
     return scene_data(t[idx], real, cmd, robot_shapes(robot), pool_flags(result.saturated, idx),
                       robot.joint_names, (float(t[0]), float(t[-1]), float(result.dt)),
