@@ -48,7 +48,11 @@ from mrnea.errors import MrneaError, clip, quote
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report an interrupted command
 MAX_LINE = 1000  # characters of an error or warning line (a safety net: messages quote briefly)
-COMPILE_NOTICE = "Compiling mrnea's kernels (first run only, about a minute; cached afterwards)..."
+# "up to a minute": the slowest first run, mrnea demo, compiles for 70 s CPU on a loaded 2-core
+# machine (docs/performance.md, Start-up: 90 s there before the engine cut, which measured
+# 65.6 s on a quieter one)
+COMPILE_NOTICE = ("Compiling mrnea's kernels (first run only, up to a minute; cached "
+                  "afterwards)...")
 
 
 class _CompileNotice(numba_event.Listener):
