@@ -10,7 +10,9 @@ DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia 
 ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) ends the command
 within about a second (the retiming calls :func:`mrnea.cli.base.checkpoint` between its solves
 and simulation chunks; the files are written with a checkpoint between each) and writes
-nothing: files this run had already written are removed again. Exit code 130.
+nothing: files this run had already written are removed again. Exit code 130. A program no
+timing makes achievable (:class:`~mrnea.errors.NoTimingError`) is a verdict: one ``NOT ACHIEVABLE
+at any timing:`` line, exit code 1, nothing written.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
