@@ -179,8 +179,8 @@ class Program:
         :meth:`load_robot` and a sweep's programs call it. Exact for both kinds of path (a
         profile and a resampling are linear in the waypoints and limits scaled alike), once
         per program (the arrays stay read-only); nothing for a path in rad or a robot without
-        prismatic joints."""
-        if not self._mm_pending or not any(robot.is_prismatic):
+        prismatic joints, or a robot of another joint count (its caller refuses that)."""
+        if not self._mm_pending or not any(robot.is_prismatic) or self.n != robot.n:
             return
         f = np.where(robot.is_prismatic, 1e-3 * 180.0 / math.pi, 1.0)
         for name, a in (("q_cmd", self.q_cmd), ("csv_rows", self.csv_rows)):
