@@ -10,7 +10,9 @@ DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia 
 ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) ends the command
 within about a second (the retiming calls :func:`mrnea.cli.base.checkpoint` between its solves
 and simulation chunks; the files are written with a checkpoint between each) and writes
-nothing: files this run had already written are removed again. Exit code 130.
+nothing: files this run had already written are removed again. Exit code 130. A program no
+timing makes achievable (:class:`~mrnea.errors.NoTimingError`) is a verdict: one ``NOT ACHIEVABLE
+at any timing:`` line, exit code 1, nothing written.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
@@ -24,7 +26,7 @@ import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import click
 import numpy as np
@@ -43,7 +45,7 @@ from mrnea.cli.options import (
     robot_options,
     units_opt,
 )
-from mrnea.errors import MrneaError, RetimeError
+from mrnea.errors import MrneaError, NoTimingError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import parse_number
@@ -180,20 +182,26 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         raise MrneaError("--jerk-limit: only --method toppra takes it")
     t = np.arange(run.q_cmd.shape[0]) * run.dt
     tool = None if run.cartesian is None else prog.moves.tool
-    with own_folder(Path(out)) as folder:
-        paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
-                                         *((POSES, CARTESIAN) if run.cartesian else ()))}
-        check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
-        with compile_notice(quiet):
-            try:
-                res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
-                                     margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                     mode=run.mode or mode, checkpoint=checkpoint,
-                                     jerk_limit=jerk_limit)
-            except RetimeError as exc:  # about the program: say which file it is
-                raise RetimeError(f"{program_arg}: {exc}") from None
-        _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,
-               not no_3d, (tool, run.cartesian))
+    try:
+        with own_folder(Path(out)) as folder:
+            paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
+                                             *((POSES, CARTESIAN) if run.cartesian else ()))}
+            check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])],
+                      force)
+            with compile_notice(quiet):
+                try:
+                    res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
+                                         margin=margin, f_ext=run.f_ext,
+                                         f_ext_point=run.f_ext_point, mode=run.mode or mode,
+                                         checkpoint=checkpoint, jerk_limit=jerk_limit)
+                except NoTimingError:
+                    raise
+                except RetimeError as exc:  # about the program: say which file it is
+                    raise RetimeError(f"{program_arg}: {exc}") from None
+            _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
+                   force, not no_3d, (tool, run.cartesian))
+    except NoTimingError as exc:  # a verdict: nothing written, the new folder removed
+        _no_timing(f"{program_arg}: {exc}", as_json, quiet)
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))
@@ -204,6 +212,20 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                                          if CARTESIAN in paths else ""))
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
+
+
+def _no_timing(why: str, as_json: bool, quiet: bool) -> NoReturn:
+    """End the command on the verdict that no timing of the path is achievable
+    (:class:`~mrnea.errors.NoTimingError`): one ``NOT ACHIEVABLE`` line on stdout (the JSON
+    object ``{"achievable": false, "retimed": false, "verdict": ...}`` with --json), exit 1."""
+    verdict = f"NOT ACHIEVABLE at any timing: {why}"
+    if as_json:
+        click.echo(json.dumps({"achievable": False, "retimed": False, "verdict": verdict},
+                              indent=2, allow_nan=False))
+    elif not quiet:
+        click.echo(verdict)
+    checkpoint()
+    sys.exit(EXIT_NOT_ACHIEVABLE)
 
 
 def _cartesian_program(res: Any, paths: dict[str, Path], tool: Any, force: bool) -> None:

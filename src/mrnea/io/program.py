@@ -81,6 +81,9 @@ class Program:
     moves : a Cartesian program's tool, q0 and ``[[move]]`` tables (:class:`mrnea.io.moves.Moves`);
         None for a joint path. Such a program's ``t`` and ``q_cmd`` are None until
         :func:`mrnea.cartesian.solve` makes them with the robot (``mrnea.load_program`` does).
+    units : the ``[path]``'s ``units``: ``"deg"`` reads revolute joints in degrees and prismatic
+        ones in mm, as ``--units deg`` reads a CSV; q_cmd and csv_rows are SI either way once
+        the robot is known (:meth:`apply_units`).
     cartesian : the solved Cartesian path (:class:`mrnea.cartesian.CartesianPath`: the programmed
         tool pose of every cycle, the move it belongs to, the inverse kinematics' errors and the
         verdict), kept alongside q_cmd; None for a joint path or before solving.
@@ -107,6 +110,8 @@ class Program:
     moves: Moves | None = None
     cartesian: Any = None
     wrench: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    units: Literal["rad", "deg"] = "rad"
+    _mm_pending: bool = field(default=False, repr=False)
 
     @property
     def K(self) -> int:
@@ -166,8 +171,28 @@ class Program:
                     f"{self.n} joint values per waypoint")
             raise ProgramFileError(f"{where}: {what}, robot {shorten(loaded.name)} has "
                                    f"{loaded.n}")
+        self.apply_units(loaded)
         self.check_path(loaded)
         return loaded
+
+    def apply_units(self, robot: Robot) -> None:
+        """Give a ``units = "deg"`` path's prismatic joints their mm, as ``--units deg`` does
+        for a CSV (docs/programs.md). The file does not say which joints are prismatic, so
+        every column is parsed as degrees (x pi/180); this rescales q_cmd's and csv_rows'
+        columns of ``robot``'s prismatic joints to mm (x 1e-3) once the robot is known:
+        :meth:`load_robot` and a sweep's programs call it. Exact for both kinds of path (a
+        profile and a resampling are linear in the waypoints and limits scaled alike), once
+        per program (the arrays stay read-only); nothing for a path in rad or a robot without
+        prismatic joints, or a robot of another joint count (its caller refuses that)."""
+        if not self._mm_pending or not any(robot.is_prismatic) or self.n != robot.n:
+            return
+        f = np.where(robot.is_prismatic, 1e-3 * 180.0 / math.pi, 1.0)
+        for name, a in (("q_cmd", self.q_cmd), ("csv_rows", self.csv_rows)):
+            if a is not None:
+                a = a * (f if name == "q_cmd" else np.concatenate([[1.0], f]))
+                a.setflags(write=False)
+                object.__setattr__(self, name, a)  # the frozen dataclass's arrays, replaced
+        object.__setattr__(self, "_mm_pending", False)
 
     def check_path(self, robot: Robot) -> None:
         """A :class:`mrnea.errors.PathWarning` for each joint whose resampled CSV path leaves
@@ -372,7 +397,8 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
                    mode=mode, name=name, source=source, options=options,
                    csv=path["csv"] if "csv" in path else None, interpolation=interpolation,
-                   csv_rows=rows)
+                   csv_rows=rows, units=path.get("units", "rad"),
+                   _mm_pending=path.get("units") == "deg")
 
 
 def load_program(path: str | Path) -> Program:

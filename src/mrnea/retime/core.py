@@ -100,11 +100,14 @@ def retime(
 
     Raises
     ------
+    NoTimingError
+        (a RetimeError) No timing exists: the path cannot be followed at any speed (a pose the
+        robot cannot hold against gravity or the wrench: the message names the joint, the
+        program instant and the ratio of need to limit), it leaves the position limits, or no
+        margin down to 0.5 (no scale factor) gives a program the simulation accepts.
     RetimeError
-        The path cannot be followed at any speed (a pose the robot cannot hold against gravity
-        or the wrench: the message names the joint, the program instant and the ratio of need
-        to limit), it leaves the position limits, or no margin down to 0.5 gives a program the
-        simulation accepts.
+        The program never moves, no limit binds, the cycle is too coarse for the path, or a
+        dwell needs more than ``margin`` x its limit.
     StateError
         A bad argument.
 

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from mrnea import validate
 from mrnea.achievable import MODES
-from mrnea.errors import RetimeError, StateError
+from mrnea.errors import NoTimingError, RetimeError, StateError
 from mrnea.io.program import Program
 from mrnea.model import Robot
 from mrnea.retime.path import at_clock, pieces, polyline_error
@@ -113,7 +113,7 @@ class Job:
         if out.any():
             i = int(np.argmax(out))
             k = int(np.argmax((q[:, i] < lower[i]) | (q[:, i] > upper[i])))
-            raise RetimeError(f"joint '{robot.joint_names[i]}' (joint {i + 1}) leaves its "
+            raise NoTimingError(f"joint '{robot.joint_names[i]}' (joint {i + 1}) leaves its "
                               f"position limits [{lower[i]:.4g}, {upper[i]:.4g}] at t = "
                               f"{k * pdt:.4g} s of the program ({q[k, i]:.4g}); no timing "
                               "can fix that")

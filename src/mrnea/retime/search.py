@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.actuators import program_requirement
-from mrnea.errors import RetimeError
+from mrnea.errors import NoTimingError
 from mrnea.retime.jerk import jerk_profile, jerks, sample_smooth
 from mrnea.retime.job import Job, accelerations
 from mrnea.retime.path import piece_rows
@@ -234,7 +234,7 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
 
     Raises
     ------
-    RetimeError
+    NoTimingError
         No margin down to :data:`MIN_MARGIN` verifies (quoting the last verdict).
     """
     first = plan_at(job, paths, margin, acc, jerk, logs)
@@ -245,11 +245,11 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
     while best is None:  # step down by the program's own overshoot
         if m <= MIN_MARGIN:
             if last.sim.achievable:  # the simulation accepted it: a kinematic limit failed
-                raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program "
+                raise NoTimingError(f"no planning margin down to {MIN_MARGIN} gives a program "
                                   "whose rows keep the acceleration and jerk limits (the ends "
                                   "of the moving pieces: docs/retime.md, Jerk limits); give "
                                   "larger limits")
-            raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
+            raise NoTimingError(f"no planning margin down to {MIN_MARGIN} gives a program the "
                               f"simulation accepts; the last one: {last.sim.verdict()}")
         m = max(MIN_MARGIN, _lattice(m * min(1 - SEARCH_TOL, 1 / max(last.own, 1 + 1e-9))))
         last = plan_at(job, paths, m, acc, jerk, logs)

@@ -104,6 +104,7 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
         if prog.n != robot.n:
             raise SweepError(f"program {quote(prog.name)} ({prog.source or 'object'}) commands "
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
+        prog.apply_units(robot)  # a units = "deg" path's prismatic joints in mm
         out.append(solve(prog, robot))  # a Cartesian program's joint path (others: unchanged)
     return out
 
