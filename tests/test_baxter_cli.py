@@ -118,7 +118,7 @@ def test_sweep_a_named_joints_effort_limit(baxter, tmp_path) -> None:
     prog = mrnea.load_program(PROGRAM, robot=robot)
     i = robot.joint_names.index("left_s1")
     hold = abs(pc.rnea(prog.q_cmd[0], np.zeros(15), np.zeros(15))[i])
-    assert 12.0 < hold < 40.0
+    assert 5.0 < hold < 40.0
     grid = tmp_path / "grid.toml"
     grid.write_text(f'[grid]\n"effort_limit.left_s1" = [{hold * 0.8}, 50.0]\n')
     res = mrnea_cli("sweep", path, PROGRAM, "--grid", grid, "--out", tmp_path / "s",
