@@ -98,6 +98,24 @@ def test_simulate_writes_every_cycle_as_pinocchio_has_it(baxter, simulated) -> N
         assert n in html
 
 
+def test_the_report_reads_at_800_px(simulated) -> None:
+    """Fifteen joints: the run parameters' joint list wraps, the page never scrolls sideways;
+    every branch is a group of the per-joint tables."""
+    from chromium_cdp import Browser, ChromiumUnavailable
+
+    _, out = simulated
+    try:
+        b = Browser(width=800, height=1000)
+    except ChromiumUnavailable as exc:
+        pytest.skip(f"no Chromium for the browser tests: {exc}")
+    with b:
+        page = b.open((out / "report.html").as_uri())
+        got = page.evaluate("[window.innerWidth, document.documentElement.scrollWidth, "
+                            "document.querySelectorAll('tr.branch').length]")
+        assert got == [800, 800, 9], got
+        assert page.errors == [] and page.outside_requests == []
+
+
 @pytest.mark.slow
 def test_retime_and_check_the_retimed_program(baxter, tmp_path) -> None:
     path, _ = baxter

@@ -50,6 +50,7 @@ th { background: #f0f0f0; text-align: center; }
 td.l, th.l { text-align: left; }
 tr.sat td { background: #fdecea; }
 tr.branch th { background: #e4ebf3; text-align: left; font-weight: normal; }
+table.kv td { white-space: normal; }
 .scroll { overflow-x: auto; }
 .note { color: #555; font-size: 0.88em; }
 figure { margin: 1em 0 2em 0; }
@@ -114,7 +115,7 @@ class _Html(str):
 def _kv_table(rows: Sequence[tuple[str, str]]) -> str:
     body = "".join(f'<tr><th class="l">{_e(k)}</th><td class="l">'
                    f'{v if isinstance(v, _Html) else _e(v)}</td></tr>' for k, v in rows)
-    return f"<table>{body}</table>"
+    return f'<table class="kv">{body}</table>'
 
 
 def _time(t: float, dt: float) -> str:
