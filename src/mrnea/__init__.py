@@ -35,7 +35,7 @@ from mrnea.errors import (
     StateError,
     SweepError,
 )
-from mrnea.identify import regressor
+from mrnea.identify import excitation, regressor
 from mrnea.ik import inverse_kinematics
 from mrnea.io import load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
@@ -66,6 +66,7 @@ __all__ = [
     "SweepError",
     "__version__",
     "achievable_accelerations",
+    "excitation",
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",

@@ -98,6 +98,8 @@ class SimulationResult:
     tool_point : for a Cartesian program, the tool frame's origin [m] in the last link's frame
         (the 3D view draws its path, the programmed Cartesian path, and the real one); None
         otherwise.
+    tool_targets : for a Cartesian program, (M, 4, 4) the target poses of its Cartesian moves,
+        base frame [m] (the 3D view marks them); None otherwise.
     """
 
     robot: Robot
@@ -129,6 +131,7 @@ class SimulationResult:
     tool_position_error: NDArray | None = None
     tool_orientation_error: NDArray | None = None
     tool_point: tuple[float, float, float] | None = None
+    tool_targets: NDArray | None = None
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -380,7 +383,9 @@ def simulate(
         coulomb=zeros(), stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros(),
         tool_position_error=None if cartesian is None else np.zeros(K),
         tool_orientation_error=None if cartesian is None else np.zeros(K),
-        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])))
+        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])),
+        tool_targets=None if cartesian is None or not cartesian.targets
+        else np.array([T for _, T in cartesian.targets]))
     clamp = zeros(np.int64)
     status_k = np.empty(K, dtype=np.int64)  # the program requirement's, per cycle
     res.q[0], res.qd[0] = x0, v0

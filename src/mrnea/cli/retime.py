@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +51,9 @@ from mrnea.model import Robot
 
 CSV, PROGRAM, SUMMARY, REPORT, PAYLOAD = ("retimed.csv", "retimed.toml", "summary.json",
                                           "report.html", "payload.toml")
+#: A Cartesian program's retimed timing: its tool poses at the retimed cycles, and the program
+#: of one pose CSV move that runs them (docs/cartesian.md, "Retiming").
+POSES, CARTESIAN = "retimed_poses.csv", "retimed_cartesian.toml"
 
 
 def _robot_spec(spec: str) -> str:
@@ -140,8 +144,10 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         spec = _robot_spec(robot_arg or prog.robot)
         options = robot_options.over(prog.options)
     t = np.arange(run.q_cmd.shape[0]) * run.dt
+    tool = None if run.cartesian is None else prog.moves.tool
     with own_folder(Path(out)) as folder:
-        paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
+        paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
+                                         *((POSES, CARTESIAN) if run.cartesian else ()))}
         check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
         with compile_notice(quiet):
             try:
@@ -151,22 +157,60 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
             except RetimeError as exc:  # about the program: say which file it is
                 raise RetimeError(f"{program_arg}: {exc}") from None
         _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,
-               not no_3d)
+               not no_3d, (tool, run.cartesian))
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))
     elif not quiet:
         click.echo(res.verdict())
         click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
-                   f"{paths[REPORT]}")
+                   f"{paths[REPORT]}" + (f", {paths[POSES]}, {paths[CARTESIAN]}"
+                                         if CARTESIAN in paths else ""))
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
+def _cartesian_program(res: Any, paths: dict[str, Path], tool: Any, force: bool) -> None:
+    """A program of one ``poses`` move running :data:`POSES` from the first retimed row, with
+    the joint program's [program] keys and [wrench] (read back from its file)."""
+    import tomllib
+
+    from mrnea.io.program import save_program
+
+    joint = tomllib.loads(paths[PROGRAM].read_text(encoding="utf-8"))
+    program = {**joint["program"], "q0": res.q_cmd[0],
+               **({"tool": tool} if tool is not None else {})}
+    save_program(paths[CARTESIAN], program, None, joint.get("wrench"),
+                 f"The retimed Cartesian program: its tool poses at the retimed cycles "
+                 f"({POSES}), solved by inverse kinematics from q0.\nRun: mrnea check "
+                 f"{CARTESIAN}", force,
+                 moves=[{"type": "poses", "csv": POSES, "interpolation": "linear"}])
+
+
+def _cartesian_steps(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any,
+                     force: bool) -> list[tuple[Path, Callable[[], Any]]]:
+    """The writes of a Cartesian program's retimed timing (none for a joint program): the
+    tool poses of the retimed rows (forward kinematics of the tool frame) as a pose CSV, and
+    :func:`_cartesian_program`."""
+    if cartesian is None:
+        return []
+    from mrnea.dynamics import forward_kinematics
+    from mrnea.io.posecsv import save_poses
+
+    def poses() -> None:
+        T = forward_kinematics(res.robot, res.q_cmd, tool=cartesian.tool)[:, -1]
+        save_poses(paths[POSES], res.t, T, force)
+
+    return [(paths[POSES], poses),
+            (paths[CARTESIAN], lambda: _cartesian_program(res, paths, tool, force))]
+
+
 def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
-           name: str, force: bool, view3d: bool) -> None:
+           name: str, force: bool, view3d: bool, cartesian: tuple[Any, Any] = (None, None)
+           ) -> None:
     """Write the run's files, a checkpoint before each; a stop request removes the files this
-    run wrote so far (the command leaves all of them or none of its own)."""
+    run wrote so far (the command leaves all of them or none of its own). ``cartesian``: a
+    Cartesian program's (tool spec, CartesianPath), whose retimed timing is written too."""
     from mrnea.report.retime import write_retime_report
 
     payload = folder / PAYLOAD
@@ -176,6 +220,7 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
         (paths[PROGRAM], lambda: res.save_program(
             paths[PROGRAM], spec, CSV, name=name,
             program_keys=_program_keys(options, folder, force), overwrite=force)),
+        *_cartesian_steps(res, paths, *cartesian, force),
         (paths[SUMMARY], lambda: res.save_summary(paths[SUMMARY], force)),
         (paths[REPORT], lambda: write_retime_report(res, paths[REPORT], force, files={
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],

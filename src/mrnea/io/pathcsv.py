@@ -40,8 +40,8 @@ from mrnea.resources import format_bytes, require_memory
 from mrnea.trajectory import cycles, require_path_memory
 from mrnea.validate import choice, time_step
 
-__all__ = ["CSV_UNITS", "DELIMITERS", "INTERPOLATIONS", "from_csv", "limit_warnings", "read_table",
-           "resample", "save_csv"]
+__all__ = ["CSV_UNITS", "DELIMITERS", "INTERPOLATIONS", "data_lines", "from_csv",
+           "limit_warnings", "read_table", "resample", "save_csv"]
 
 #: The interpolations of a path CSV's rows, by name, and what each one is (the report says it).
 INTERPOLATIONS = {
@@ -86,6 +86,14 @@ def _rows(text: str):
         else:
             for cells in csv.reader([line], delimiter=delimiter):
                 yield number, [c.strip(" \t") for c in cells]
+
+
+def data_lines(path: Path) -> list[int]:
+    """The line numbers (1-based) of a path CSV's header and data rows, in order: the lines
+    :func:`read_table` reads (not blank, not a ``#`` comment). For messages about a row that
+    :func:`read_table` has returned."""
+    text = read_text(path, "path CSV file", ProgramFileError, MAX_CSV_SIZE)
+    return [number for number, _ in list(_rows(text))[1:]]
 
 
 def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64]]:

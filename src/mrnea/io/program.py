@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -21,14 +21,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import MrneaError, ProgramFileError, StateError, quote
-from mrnea.io.dispatch import BUILTIN_ROBOTS, RobotOptions, flange_of, resolve_robot
+from mrnea.io.dispatch import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.jointnames import PROFILES, CsvHeader, read_named_path
-from mrnea.io.moves import read_moves
+from mrnea.io.moves import MOVE_KEYS, read_moves
 from mrnea.io.pathcsv import INTERPOLATIONS, read_table, resample
 from mrnea.io.payload import parse_payload
 from mrnea.io.program_value import Program
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
+from mrnea.io.wrench import WRENCH_KEYS, read_wrench, wrench_at
 from mrnea.io.writer import create
 
 __all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
@@ -46,10 +47,6 @@ _MOVE_KEYS = ("tool", "q0")  # [program] keys of a Cartesian program only
 _CSV_KEYS = ("csv", "units", "interpolation")
 _PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
               "dwell", "csv", "units", "interpolation")
-_WRENCH_KEYS = ("times", "values", "point", "point_frame")
-#: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
-#: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
-POINT_FRAMES = ("link", "flange")
 
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
@@ -163,36 +160,6 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         raise check.error(where, str(exc)) from None
 
 
-def _wrench_table(check: TomlCheck, table: Mapping[str, Any], robot: str | None
-                  ) -> tuple[NDArray, NDArray, NDArray | None]:
-    """The [wrench] table: times (W,) [s], values (W, 6) [N, N m] and the point (3,) [m] in
-    the last link's frame (or None)."""
-    where = "[wrench]"
-    check.check_keys(table, _WRENCH_KEYS, where)
-    times = check.vector(check.require(table, "times", where), where, "times")
-    if np.any(np.diff(times) <= 0):
-        k = int(np.argmax(np.diff(times) <= 0)) + 1
-        raise check.error(where, f"'times' must be strictly increasing: times[{k}] = "
-                                 f"{times[k]} follows {times[k - 1]}")
-    values = check.matrix(check.require(table, "values", where), where, "values", width=6,
-                          rows=times.size)
-    point = None
-    if "point" in table:
-        point = check.vector(table["point"], where, "point", 3)
-    frame = table.get("point_frame", "link")
-    if frame not in POINT_FRAMES:
-        raise check.error(where, f"'point_frame' must be one of "
-                                 f"{', '.join(map(repr, POINT_FRAMES))}, got {frame!r}")
-    if frame == "flange":  # DH frame n -> the last link's frame: p_link = B_n p_flange
-        B = flange_of(robot)
-        if B is None:
-            raise check.error(where, f"point_frame = 'flange' needs a robot given by a DH table "
-                                     f"(dh = \"standard\" or \"modified\"); {robot} is not")
-        p = np.zeros(3) if point is None else point
-        point = B[:3, :3] @ p + B[:3, 3]
-    return times, values, point
-
-
 def loads_program(text: str, source: str = "<string>", base_dir: str | Path | None = None
                   ) -> Program:
     """Parse a program from a TOML string (format: ``docs/programs.md``).
@@ -235,13 +202,17 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
                                        f"got {quote(mode)}")
     if "move" in doc:
-        if "path" in doc or "wrench" in doc:
-            raise check.error("", f"a program of [[move]] tables cannot have a "
-                                  f"[{'path' if 'path' in doc else 'wrench'}] table (its path is "
-                                  f"its moves; a wrench with moves is not supported yet)")
-        moves = read_moves(check, prog, doc["move"])
-        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=None,
-                       mode=mode, name=name, source=source, options=options, moves=moves)
+        if "path" in doc:
+            raise check.error("", "a program of [[move]] tables cannot have a [path] table (its "
+                                  "path is its moves)")
+        moves = read_moves(check, prog, doc["move"], dt, base)
+        wrench = point = None
+        if "wrench" in doc:
+            *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                     robot)
+        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=point,
+                       mode=mode, name=name, source=source, options=options, moves=moves,
+                       wrench=None if wrench is None else tuple(wrench))
     for key in _MOVE_KEYS:
         if key in prog:
             raise check.error("[program]", f"'{key}' belongs to a program of [[move]] tables "
@@ -257,9 +228,9 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
-        times, values, point = _wrench_table(check, check.table(doc["wrench"], "top level",
-                                                                 "wrench"), robot)
-        f_ext = np.column_stack([np.interp(t, times, values[:, c]) for c in range(6)])
+        times, values, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                           robot)
+        f_ext = wrench_at(times, values, t)
     for a in (t, q, f_ext, point, rows):
         if a is not None:
             a.setflags(write=False)
@@ -284,10 +255,10 @@ def _named(check: TomlCheck, doc: Mapping[str, Any], path: Mapping[str, Any],
     named = read_named_path(check, path, math.pi / 180.0 if units == "deg" else 1.0)
     wrench = point = None
     if "wrench" in doc:
-        *wrench, point = _wrench_table(check, check.table(doc["wrench"], "top level", "wrench"),
-                                       fields["robot"])
+        *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                     fields["robot"])
     return Program(t=None, q_cmd=None, f_ext=None, f_ext_point=point, named=named,
-                   wrench_table=None if wrench is None else tuple(wrench), **fields)
+                   wrench=None if wrench is None else tuple(wrench), **fields)
 
 
 def load_program(path: str | Path) -> Program:
@@ -317,8 +288,8 @@ def load_program(path: str | Path) -> Program:
 
 
 def _toml_value(v: Any) -> str:
-    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit) or
-    a (nested) list of them."""
+    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit), a
+    (nested) list of them or an inline table."""
     if isinstance(v, np.ndarray):
         v = v.tolist()
     if isinstance(v, str):
@@ -332,21 +303,31 @@ def _toml_value(v: Any) -> str:
         return repr(x) if math.isfinite(x) else ("nan" if x != x else "inf" if x > 0 else "-inf")
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):  # an inline table (a tool's xyz and rpy)
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}"
+                               for k, x in v.items()) + "}"
     raise TypeError(f"cannot write {type(v).__name__} to a program file")
 
 
-def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
-                  wrench: Mapping[str, Any] | None = None, comment: str = "") -> str:
+def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any] | None,
+                  wrench: Mapping[str, Any] | None = None, comment: str = "",
+                  moves: Sequence[Mapping[str, Any]] = ()) -> str:
     """The text of a program file (the format :func:`loads_program` reads) from the keys of its
-    ``[program]``, ``[path]`` and optional ``[wrench]`` tables; ``comment``: lines put first as
-    TOML comments. Numbers are written as their shortest repr, so they read back bit for bit.
-    A list of rows (the wrench's values) gets one row per line. A key the table does not know
+    ``[program]``, ``[path]`` (None for a Cartesian program) and optional ``[wrench]`` tables,
+    and a Cartesian program's ``[[move]]`` tables (``moves``, each with its ``type``);
+    ``comment``: lines put first as TOML comments. Numbers are written as their shortest
+    repr, so they read back bit for bit. A list of rows (the wrench's values) gets one row per
+    line. A key the table does not know
     is a StateError (the file would not load)."""
     lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
-    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": _WRENCH_KEYS}
-    for table, keys in (("program", program), ("path", path), ("wrench", wrench)):
+    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": WRENCH_KEYS}
+    tables = [("program", program), ("path", path), ("wrench", wrench),
+              *(("[move]", m) for m in moves)]
+    for table, keys in tables:
         if keys is None:
             continue
+        if table == "[move]":
+            allowed[table] = MOVE_KEYS.get(keys.get("type"), ("type",))
         unknown = [k for k in keys if k not in allowed[table]]
         if unknown:
             raise StateError(f"{table}: unknown key {quote(unknown[0])} for a program file's "
@@ -362,13 +343,14 @@ def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
 
 
 def save_program(path: str | os.PathLike[str], program: Mapping[str, Any],
-                 path_table: Mapping[str, Any], wrench: Mapping[str, Any] | None = None,
-                 comment: str = "", overwrite: bool = False) -> Path:
+                 path_table: Mapping[str, Any] | None, wrench: Mapping[str, Any] | None = None,
+                 comment: str = "", overwrite: bool = False,
+                 moves: Sequence[Mapping[str, Any]] = ()) -> Path:
     """Write :func:`dumps_program`'s text to ``path`` through :func:`mrnea.io.writer.create`
     (whole or not at all, never through a link, an existing file replaced only with
     ``overwrite``)."""
     with create(path, overwrite) as fh:
-        fh.write(dumps_program(program, path_table, wrench, comment))
+        fh.write(dumps_program(program, path_table, wrench, comment, moves))
     return Path(path)
 
 

@@ -20,6 +20,7 @@ from mrnea.io.dispatch import RobotOptions, load_robot_spec, resolve_robot, same
 from mrnea.io.jointnames import CsvHeader, NamedPath, column_order, named_rows
 from mrnea.io.moves import Moves
 from mrnea.io.pathcsv import limit_warnings
+from mrnea.io.wrench import wrench_at
 from mrnea.model import Robot
 
 __all__ = ["Program"]
@@ -63,8 +64,10 @@ class Program:
         verdict), kept alongside q_cmd; None for a joint path or before solving.
     named : a path of waypoint tables by joint name (:class:`mrnea.io.jointnames.NamedPath`);
         ``t``, ``q_cmd`` (and ``f_ext``) are None until :meth:`on` makes them on a robot.
-    wrench_table : a named path's ``[wrench]`` (times (W,) [s], values (W, 6)), interpolated at
-        its cycles by :meth:`on`; None otherwise.
+    wrench : a Cartesian program's or a named path's ``[wrench]`` breakpoints (times (W,) [s]
+        from its first cycle, values (W, 6) [N, N m]), made into ``f_ext`` (a Cartesian
+        program's ``f_ext_point`` defaulted to the tool point) when it is solved (:meth:`on`
+        for a named path); None otherwise.
     columns : a CSV path's header (time first), matched to a robot's joint names by :meth:`on`
         where it names them (:func:`mrnea.io.jointnames.column_order`); None for waypoints.
 
@@ -87,7 +90,7 @@ class Program:
     moves: Moves | None = None
     cartesian: Any = None
     named: NamedPath | None = None
-    wrench_table: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    wrench: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
     columns: CsvHeader | None = None
 
     @property
@@ -176,15 +179,11 @@ class Program:
         """
         if self.named is not None:
             t, q = named_rows(self.named, robot, self.dt)
-            f_ext = None
-            if self.wrench_table is not None:
-                times, values = self.wrench_table
-                f_ext = np.column_stack([np.interp(t, times, values[:, c]) for c in range(6)])
+            f_ext = None if self.wrench is None else wrench_at(*self.wrench, t)
             for a in (t, q, f_ext):
                 if a is not None:
                     a.setflags(write=False)
-            return dataclasses.replace(self, t=t, q_cmd=q, f_ext=f_ext, named=None,
-                                       wrench_table=None)
+            return dataclasses.replace(self, t=t, q_cmd=q, f_ext=f_ext, named=None, wrench=None)
         order = self._order(robot)
         if order is None or np.array_equal(order, np.arange(1, robot.n + 1)):
             return self

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import StateError
@@ -190,6 +191,7 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
                shapes: Sequence[Sequence[Shape]], saturated: ArrayLike,
                joint_names: Sequence[str], clock: tuple[float, float, float],
                tip: ArrayLike = (0.0, 0.0, 0.0), compress: bool = True,
+               targets: ArrayLike | None = None,
                tips: Sequence[tuple[int, ArrayLike]] | None = None) -> dict[str, Any]:
     """The JSON spec the page embeds.
 
@@ -212,6 +214,10 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
         The end-effector point [m] in the last link's frame whose paths are drawn.
     compress : bool
         gzip the binary payload.
+    targets : (M, 4, 4) array_like or None
+        A Cartesian program's move targets, tool poses in base coordinates: each drawn as a dot
+        at the tool point and a stick along the tool's z axis; in the spec as ``targets``, rows
+        ``[x, y, z, qx, qy, qz, qw]`` (three.js' quaternion order).
     tips : sequence of (link index, (3,) point [m] in that link's frame), optional
         Every point whose paths are drawn (a tree: each branch's tip); None: ``tip`` on the
         last link alone.
@@ -244,7 +250,12 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
     shape_json = [[_shape_json(s, payload, meshes) for s in body] for body in shapes]
     raw = b"".join(payload.parts)
     blob = gzip.compress(raw, compresslevel=9, mtime=0) if compress else raw
-    return {"version": 1, "frames": F, "joints": [str(x) for x in joint_names],
+    marks = []
+    if targets is not None and len(targets):
+        Tg = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+        marks = np.column_stack([Tg[:, :3, 3], Rotation.from_matrix(Tg[:, :3, :3]).as_quat()
+                                 ]).tolist()
+    return {"version": 1, "frames": F, "targets": marks, "joints": [str(x) for x in joint_names],
             "clock": {"t0": float(clock[0]), "t1": float(clock[1]), "dt": float(clock[2])},
             "box": [lo.tolist(), hi.tolist()], "bounds": [box_lo, box_hi], "support": support,
             "tip": tip.tolist(), "tips": [[k, *p.tolist()] for k, p in traced],
@@ -259,7 +270,8 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     (the ghost), the pooled saturation flags, the robot's shapes and the slider on the cycle
     clock. The end-effector paths are those of a Cartesian program's tool point (its commanded
     path is the programmed Cartesian path), else of :func:`tip_point` of every branch's last
-    link (:func:`~mrnea.report.shapes.leaves`: a tree's tips)."""
+    link (:func:`~mrnea.report.shapes.leaves`: a tree's tips); the program's move targets are
+    marked."""
     robot = result.robot
     idx = frame_indices(result.t, robot.n)
     real = forward_kinematics(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
@@ -268,5 +280,6 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     return scene_data(t[idx], real, cmd, robot_shapes(robot), pool_flags(result.saturated, idx),
                       robot.joint_names, (float(t[0]), float(t[-1]), float(result.dt)),
                       tip_point(robot) if result.tool_point is None else result.tool_point,
+                      targets=result.tool_targets,
                       tips=None if result.tool_point is not None else
                       [(i, tip_point(robot, i)) for i in leaves(robot)])

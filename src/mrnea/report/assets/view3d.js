@@ -8,7 +8,8 @@
 (function () {
   "use strict";
   const THREE = globalThis.MRNEA_THREE;
-  const C = { real: 0x5b7fa6, sat: 0xd62728, ghost: 0x9aa3ad, trace: 0x1f77b4, traceCmd: 0x595959 };
+  const C = { real: 0x5b7fa6, sat: 0xd62728, ghost: 0x9aa3ad, trace: 0x1f77b4, traceCmd: 0x595959,
+              target: 0xc51b8a };
 
   function bytesFromBase64(s) {
     const bin = atob(s);
@@ -205,6 +206,20 @@
     }
     const traces = tips.map((tp) => trace(real, C.trace, false, tp))
       .concat(cmd ? tips.map((tp) => trace(cmd, C.traceCmd, true, tp)) : []);
+
+    // the target poses of a Cartesian program's moves: a dot at the tool point and a stick
+    // along the tool's z axis (its approach direction)
+    (spec.targets || []).forEach((a) => {
+      const g = new THREE.Group();
+      g.position.set(a[0], a[1], a[2]);
+      g.quaternion.set(a[3], a[4], a[5], a[6]);
+      const mat = new THREE.MeshBasicMaterial({ color: C.target });
+      g.add(new THREE.Mesh(new THREE.SphereGeometry(cell / 14, 16, 8), mat));
+      const stick = new THREE.BufferGeometry().setFromPoints(
+        [new THREE.Vector3(0, 0, 0), new THREE.Vector3(0, 0, cell / 2)]);
+      g.add(new THREE.Line(stick, new THREE.LineBasicMaterial({ color: C.target })));
+      scene.add(g);
+    });
 
     // camera: from the front right and above, at the distance where the box the motion sweeps
     // (every shape over every frame) just fits the canvas; refitted on resize until the user moves it
