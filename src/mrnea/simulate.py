@@ -37,7 +37,7 @@ from mrnea.io.writer import create
 from mrnea.kernels.achievable import CLAMP_POSITION, CLAMP_VELOCITY
 from mrnea.kernels.drive import actuator_terms, motor_torques
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
-from mrnea.kernels.layout import POSE, entry_scratch
+from mrnea.kernels.layout import entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
@@ -451,7 +451,7 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     m, _, _, act = compiled.of(robot)
     Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
     actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
-                   entry_scratch(n, POSE))  # one thread: no worker threads left spinning
+                   entry_scratch(n))  # SOLVE's rows: a tree's mRNEA stashes columns in S[n:2n]
     j = cholesky_solve(Ha, zero, np.empty((n, n)), np.empty(n))
     if j == OK:
         return

@@ -135,7 +135,8 @@ def _poses_of(move: Move, T: NDArray, where: str) -> NDArray:
 
 def solve(program: Program, robot: Robot) -> Program:
     """``program`` with ``t``, ``q_cmd`` and ``cartesian`` made by inverse kinematics on ``robot``
-    (module docstring); a joint program unchanged.
+    (module docstring); a joint program in the robot's joint order
+    (:meth:`mrnea.io.Program.on`: a program naming its joints), else unchanged.
 
     Raises
     ------
@@ -144,6 +145,7 @@ def solve(program: Program, robot: Robot) -> Program:
         three points on one line) or a tool the robot does not have: the message names the
         file, the move and the key.
     """
+    program = program.on(robot)  # a program naming its joints: its rows in the robot's order
     spec = program.moves
     if spec is None:
         return program

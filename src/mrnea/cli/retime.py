@@ -98,11 +98,13 @@ def _robot_spec(spec: str) -> str:
 
 
 def _point_mass(options: RobotOptions) -> str | None:
-    """The payload as ``KG@X,Y,Z`` (shortest reprs), or None when it has an inertia."""
-    mass, com, inertia = options.payload
-    if np.any(inertia):
+    """The payload as ``KG@X,Y,Z`` or ``KG@LINK:X,Y,Z`` (shortest reprs), or None when it has
+    an inertia."""
+    p = options.payload
+    if np.any(p.inertia):
         return None
-    return f"{float(mass)!r}@" + ",".join(repr(float(c)) for c in com)
+    return (f"{float(p.mass)!r}@" + (f"{p.link}:" if p.link is not None else "")
+            + ",".join(repr(float(c)) for c in p.com))
 
 
 def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str, Any]:
@@ -116,11 +118,12 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
     if options.payload is not None:
         keys["payload"] = _point_mass(options) or PAYLOAD
         if keys["payload"] == PAYLOAD:
-            mass, com, inertia = options.payload
+            p = options.payload
             with create(folder / PAYLOAD, force) as fh:
                 fh.write(f"# The payload of the retimed program ({PROGRAM}).\n"
-                         f"mass = {float(mass)!r}\ncom = {[float(c) for c in com]!r}\n"
-                         f"inertia = {np.asarray(inertia, dtype=float).tolist()!r}\n")
+                         f"mass = {float(p.mass)!r}\ncom = {[float(c) for c in p.com]!r}\n"
+                         f"inertia = {np.asarray(p.inertia, dtype=float).tolist()!r}\n"
+                         + (f"link = {json.dumps(p.link)}\n" if p.link is not None else ""))
     if options.gravity is not None:
         keys["gravity"] = [float(g) for g in options.gravity]
     return keys

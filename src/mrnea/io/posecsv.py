@@ -70,7 +70,7 @@ def read_poses(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], li
     docstring). ProgramFileError: naming the file, the line and the column at fault."""
     header, rows = read_table(path, None)
     lines = data_lines(path)
-    layout = _columns(path, header, lines[0])
+    layout = _columns(path, list(header.names), lines[0])
     if layout is QUATERNION:
         quat = rows[:, 4:8]
         norm = np.linalg.norm(quat, axis=1)

@@ -1,6 +1,7 @@
 """Program files: a robot, a cycle time, a path and an optional external wrench, in TOML.
 
-:func:`load_program` reads one into a :class:`Program` (format and examples: ``docs/programs.md``).
+:func:`load_program` reads one into a :class:`~mrnea.io.program_value.Program` (format and
+examples: ``docs/programs.md``).
 A waypoint path is made by the profiles of :mod:`mrnea.trajectory` (pure NumPy, below ``io``), a
 CSV path by :mod:`mrnea.io.pathcsv`; the robot is a built-in name or a robot file
 (:func:`mrnea.io.dispatch.resolve_robot`). Every problem raises
@@ -13,195 +14,30 @@ import json
 import math
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import MrneaError, ProgramFileError, StateError, quote, shorten
-from mrnea.io.dispatch import (
-    BUILTIN_ROBOTS,
-    RobotOptions,
-    load_robot_spec,
-    resolve_robot,
-    same_robot,
-)
-from mrnea.io.moves import MOVE_KEYS, Moves, read_moves
-from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
+from mrnea.errors import MrneaError, ProgramFileError, StateError, quote
+from mrnea.io.dispatch import BUILTIN_ROBOTS, RobotOptions, resolve_robot
+from mrnea.io.jointnames import PROFILES, CsvHeader, read_named_path
+from mrnea.io.moves import MOVE_KEYS, read_moves
+from mrnea.io.pathcsv import INTERPOLATIONS, read_table, resample
 from mrnea.io.payload import parse_payload
+from mrnea.io.program_value import Program
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.io.wrench import WRENCH_KEYS, read_wrench, wrench_at
 from mrnea.io.writer import create
-from mrnea.model import Robot
-from mrnea.trajectory import quintic, scurve, trapezoidal
 
 __all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
            "save_program"]
 
-#: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
-#: and ``[path] units``.
+#: The values of ``[program] mode`` and ``[path] units`` (``[path] profile``: ``PROFILES``).
 MODES = ("hybrid", "paper")
-PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic, "scurve": scurve}
 UNITS = ("rad", "deg")
-
-
-@dataclass(frozen=True, eq=False)
-class Program:
-    """A robot program ready for :func:`mrnea.simulate.simulate`, read by :func:`load_program`.
-
-    Run it with ``simulate(prog.load_robot(), prog.q_cmd, prog.dt, f_ext=prog.f_ext,
-    f_ext_point=prog.f_ext_point)``, adding ``mode=prog.mode`` when the program sets one.
-
-    Attributes
-    ----------
-    robot : a built-in robot name (``sdt``, ``puma560``) or the path of a robot file, resolved
-        relative to the program file's folder; None if the program names no robot (it then
-        runs on a robot given to :meth:`load_robot`).
-    options : what the program changes in its robot (``actuators``, ``tip``, ``payload``,
-        ``gravity``; paths resolved relative to the program file's folder).
-    dt : interpolation cycle [s].
-    t : (K,) cycle times [s] (``k dt`` for waypoint paths, the CSV's clock for CSV paths).
-    q_cmd : (K, n) commanded joint positions [rad | m].
-    f_ext : (K, 6) wrench ``[f; n]`` [N, N m] the end effector exerts on its environment, base
-        frame, one row per cycle; None: no external wrench.
-    f_ext_point : (3,) point [m] where f_ext acts, in the last link's frame (mrnea's link frame
-        n, not the DH frame n of the paper; a program may give it in DH frame n with
-        ``point_frame = "flange"``, converted here); None: the last link frame's origin.
-    mode : ``"hybrid"``, ``"paper"`` or None (the simulator's default).
-    name : the program's name.
-    source : the program file it was read from (for messages).
-    csv : the CSV file of a CSV path (None for waypoints; for messages).
-    interpolation : how a CSV path's rows were resampled to dt (a name of
-        :data:`mrnea.io.pathcsv.INTERPOLATIONS`); None for a waypoint path.
-    csv_rows : (R, 1 + n) the CSV path's rows, time [s] and positions [rad | m]; None for a
-        waypoint path.
-    moves : a Cartesian program's tool, q0 and ``[[move]]`` tables (:class:`mrnea.io.moves.Moves`);
-        None for a joint path. Such a program's ``t`` and ``q_cmd`` are None until
-        :func:`mrnea.cartesian.solve` makes them with the robot (``mrnea.load_program`` does).
-    units : the ``[path]``'s ``units``: ``"deg"`` reads revolute joints in degrees and prismatic
-        ones in mm, as ``--units deg`` reads a CSV; q_cmd and csv_rows are SI either way once
-        the robot is known (:meth:`apply_units`).
-    cartesian : the solved Cartesian path (:class:`mrnea.cartesian.CartesianPath`: the programmed
-        tool pose of every cycle, the move it belongs to, the inverse kinematics' errors and the
-        verdict), kept alongside q_cmd; None for a joint path or before solving.
-    wrench : a Cartesian program's ``[wrench]`` breakpoints (times (W,) [s] from its first
-        cycle, values (W, 6) [N, N m]), made into ``f_ext`` (and ``f_ext_point`` defaulted to the
-        tool point) when it is solved; None otherwise.
-
-    The arrays are read-only.
-    """
-
-    robot: str | None
-    dt: float
-    t: NDArray[np.float64] | None
-    q_cmd: NDArray[np.float64] | None
-    f_ext: NDArray[np.float64] | None
-    f_ext_point: NDArray[np.float64] | None
-    mode: Literal["hybrid", "paper"] | None
-    name: str
-    source: str = ""
-    options: RobotOptions = field(default_factory=RobotOptions)
-    csv: str | None = None
-    interpolation: str | None = None
-    csv_rows: NDArray[np.float64] | None = None
-    moves: Moves | None = None
-    cartesian: Any = None
-    wrench: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
-    units: Literal["rad", "deg"] = "rad"
-    _mm_pending: bool = field(default=False, repr=False)
-
-    @property
-    def K(self) -> int:
-        """Number of cycles."""
-        if self.q_cmd is None:
-            raise StateError(f"{self.source or self.name}: a Cartesian program has no cycles "
-                             f"before its inverse kinematics: mrnea.cartesian.solve(program, "
-                             f"robot) (mrnea.load_program solves it)")
-        return int(self.q_cmd.shape[0])
-
-    @property
-    def n(self) -> int:
-        """Number of joints."""
-        return self.moves.n if self.q_cmd is None else int(self.q_cmd.shape[1])
-
-    @property
-    def duration(self) -> float:
-        """``(K - 1) dt`` [s]: from the first to the last cycle."""
-        return (self.K - 1) * self.dt
-
-    def load_robot(self, robot: str | None = None, options: RobotOptions | None = None
-                   ) -> Robot:
-        """The robot to run the program on, with the program's options and ``options`` over them.
-
-        Parameters
-        ----------
-        robot : a robot given besides the program (the command line's ROBOT: a built-in name
-            or a path relative to the current folder); None: the one the program names. When
-            both are given they must be the same robot (the same built-in, or the same file
-            under any path), compared before any option is applied.
-        options : options that replace the program's where they are set (the command line's).
-
-        Raises
-        ------
-        ProgramFileError
-            No robot at all, a ``robot`` other than the program's, or a robot whose joint count
-            differs from the program's (the message names the file and both counts).
-        RobotFileError
-            If the robot file cannot be read.
-        """
-        where = self.source or self.name
-        if robot is not None:
-            source = resolve_robot(robot)
-            if self.robot is not None and not same_robot(source, self.robot):
-                raise ProgramFileError(
-                    f"robot {quote(robot)} is not the robot {where} names ({self.robot}); "
-                    f"give either the program alone or its own robot")
-        elif self.robot is None:
-            raise ProgramFileError(f"{where}: the program names no robot ([program] robot); "
-                                   f"give one (ROBOT PROGRAM on the command line)")
-        else:
-            source = self.robot
-        loaded = load_robot_spec(source, options=(options or RobotOptions()).over(self.options))
-        if loaded.n != self.n:
-            what = (f"its CSV path {self.csv} has {self.n} joint columns" if self.csv else
-                    f"[program] q0 has {self.n} joint values" if self.moves else
-                    f"{self.n} joint values per waypoint")
-            raise ProgramFileError(f"{where}: {what}, robot {shorten(loaded.name)} has "
-                                   f"{loaded.n}")
-        self.apply_units(loaded)
-        self.check_path(loaded)
-        return loaded
-
-    def apply_units(self, robot: Robot) -> None:
-        """Give a ``units = "deg"`` path's prismatic joints their mm, as ``--units deg`` does
-        for a CSV (docs/programs.md). The file does not say which joints are prismatic, so
-        every column is parsed as degrees (x pi/180); this rescales q_cmd's and csv_rows'
-        columns of ``robot``'s prismatic joints to mm (x 1e-3) once the robot is known:
-        :meth:`load_robot` and a sweep's programs call it. Exact for both kinds of path (a
-        profile and a resampling are linear in the waypoints and limits scaled alike), once
-        per program (the arrays stay read-only); nothing for a path in rad or a robot without
-        prismatic joints, or a robot of another joint count (its caller refuses that)."""
-        if not self._mm_pending or not any(robot.is_prismatic) or self.n != robot.n:
-            return
-        f = np.where(robot.is_prismatic, 1e-3 * 180.0 / math.pi, 1.0)
-        for name, a in (("q_cmd", self.q_cmd), ("csv_rows", self.csv_rows)):
-            if a is not None:
-                a = a * (f if name == "q_cmd" else np.concatenate([[1.0], f]))
-                a.setflags(write=False)
-                object.__setattr__(self, name, a)  # the frozen dataclass's arrays, replaced
-        object.__setattr__(self, "_mm_pending", False)
-
-    def check_path(self, robot: Robot) -> None:
-        """A :class:`mrnea.errors.PathWarning` for each joint whose resampled CSV path leaves
-        ``robot``'s position limits although the CSV's rows stay within them
-        (:func:`mrnea.io.pathcsv.limit_warnings`; :meth:`load_robot` calls it). Nothing for a
-        waypoint path."""
-        if self.csv_rows is not None:
-            limit_warnings(robot, self.t, self.q_cmd, self.csv_rows, str(self.interpolation),
-                           self.source or self.name)
 
 
 _TOP_KEYS = ("program", "path", "wrench", "move")
@@ -256,9 +92,9 @@ def _limit(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArra
 
 
 def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
-          ) -> tuple[NDArray, NDArray, str | None, NDArray | None]:
-    """(t, q_cmd, interpolation, CSV rows) of the [path] table (the last two None for
-    waypoints)."""
+          ) -> tuple[NDArray, NDArray, str | None, NDArray | None, CsvHeader | None]:
+    """(t, q_cmd, interpolation, CSV rows, CSV header) of the [path] table (the last three
+    None for waypoints)."""
     where = "[path]"
     check.check_keys(table, _PATH_KEYS, where)
     units = table.get("units", "rad")
@@ -280,11 +116,11 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
             raise check.error(where, f"'interpolation' must be one of "
                                      f"{', '.join(map(repr, INTERPOLATIONS))}, got "
                                      f"{interpolation!r}")
-        _, data = read_table(p, None)
+        header, data = read_table(p, None)
         data[:, 1:] *= scale
         try:
             return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)),
-                    interpolation, data)
+                    interpolation, data, header)
         except StateError as exc:  # too many cycles for dt
             raise check.error(where, f"{quote(str(p))}: {exc}") from None
     if "interpolation" in table:
@@ -319,7 +155,7 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         raise check.error(where, f"'jerk_limit' applies to profile = \"scurve\" only, not "
                                  f"{profile!r}")
     try:
-        return (*PROFILES[profile](w, dt, vmax, amax, dwell=dwell, **jerk), None, None)
+        return (*PROFILES[profile](w, dt, vmax, amax, dwell=dwell, **jerk), None, None, None)
     except StateError as exc:
         raise check.error(where, str(exc)) from None
 
@@ -382,14 +218,18 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
             raise check.error("[program]", f"'{key}' belongs to a program of [[move]] tables "
                                            f"(Cartesian moves), not to a [path]")
     path = check.table(check.require(doc, "path", "top level"), "top level", "path")
-    t, q, interpolation, rows = _path(check, path, dt, base)
+    waypoints = path.get("waypoints")
+    if isinstance(waypoints, list) and waypoints and isinstance(waypoints[0], dict):
+        return _named(check, doc, path, dict(robot=robot, dt=dt, mode=mode, name=name,
+                                             source=source, options=options))
+    t, q, interpolation, rows, header = _path(check, path, dt, base)
     if q.shape[0] < 2:
         raise check.error("[path]", "the program is a single cycle (all waypoints equal and no "
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
         times, values, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
-                                       robot)
+                                           robot)
         f_ext = wrench_at(times, values, t)
     for a in (t, q, f_ext, point, rows):
         if a is not None:
@@ -397,8 +237,30 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
                    mode=mode, name=name, source=source, options=options,
                    csv=path["csv"] if "csv" in path else None, interpolation=interpolation,
-                   csv_rows=rows, units=path.get("units", "rad"),
+                   csv_rows=rows, columns=header, units=path.get("units", "rad"),
                    _mm_pending=path.get("units") == "deg")
+
+
+def _named(check: TomlCheck, doc: Mapping[str, Any], path: Mapping[str, Any],
+           fields: dict[str, Any]) -> Program:
+    """A program whose waypoints are tables by joint name: its rows are made on a robot
+    (:meth:`Program.on`)."""
+    check.check_keys(path, _PATH_KEYS, "[path]")
+    for key in ("csv", "interpolation"):
+        if key in path:
+            raise check.error("[path]", f"{quote(key)} cannot be used with 'waypoints'")
+    units = path.get("units", "rad")
+    if units not in UNITS:
+        raise check.error("[path]", f"'units' must be one of {', '.join(map(repr, UNITS))}, "
+                                    f"got {quote(units)}")
+    named = read_named_path(check, path, math.pi / 180.0 if units == "deg" else 1.0)
+    wrench = point = None
+    if "wrench" in doc:
+        *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                     fields["robot"])
+    return Program(t=None, q_cmd=None, f_ext=None, f_ext_point=point, named=named,
+                   wrench=None if wrench is None else tuple(wrench), units=units,
+                   _mm_pending=units == "deg", **fields)
 
 
 def load_program(path: str | Path) -> Program:

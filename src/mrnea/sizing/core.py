@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.actuators import program_requirement
+from mrnea.cartesian import solve
 from mrnea.errors import SizingError, listing, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
@@ -160,7 +161,7 @@ def _cases(programs: object, robot: Robot) -> list[Case]:
         if isinstance(p, (str, Path)):
             p = training_program() if str(p) == DEMO_PROGRAM else load_program(p)
         if isinstance(p, Program):
-            p.apply_units(robot)  # a units = "deg" path's prismatic joints in mm
+            p = solve(p, robot)  # joints by name, Cartesian moves: the robot's joint path
             out.append(Case(p.name, np.asarray(p.q_cmd), p.dt, p.f_ext, p.f_ext_point))
         elif isinstance(p, Case):
             out.append(p)

@@ -178,21 +178,23 @@
     const ghost = cmd ? buildRobot(spec, meshes, buf, true) : null;
     if (ghost) ghost.groups.forEach((g) => { g.renderOrder = 1; scene.add(g); });
 
-    // end-effector traces: the tip point (last link frame) at every frame
-    const tip = new THREE.Vector3().fromArray(spec.tip);
-    function tracePoints(P) {
+    // end-effector traces: each tip point (a tree: every branch's; [link, x, y, z], the point in
+    // that link's frame) at every frame
+    const tips = spec.tips || [[n - 1, ...spec.tip]];
+    function tracePoints(P, link, tip) {
       const pts = new Float32Array(3 * F), v = new THREE.Vector3(), q = new THREE.Quaternion();
       for (let k = 0; k < F; k++) {
-        const o = (k * n + n - 1) * 7;
+        const o = (k * n + link) * 7;
         q.set(P[o + 3], P[o + 4], P[o + 5], P[o + 6]);
         v.copy(tip).applyQuaternion(q).add(new THREE.Vector3(P[o], P[o + 1], P[o + 2]));
         v.toArray(pts, 3 * k);
       }
       return pts;
     }
-    function trace(P, color, dashed) {
+    function trace(P, color, dashed, [link, ...xyz]) {
       const geo = new THREE.BufferGeometry();
-      geo.setAttribute("position", new THREE.BufferAttribute(tracePoints(P), 3));
+      const tip = new THREE.Vector3().fromArray(xyz);
+      geo.setAttribute("position", new THREE.BufferAttribute(tracePoints(P, link, tip), 3));
       const full = new THREE.Line(geo, new THREE.LineBasicMaterial({ color, transparent: true,
                                                                        opacity: 0.25 }));
       const done = new THREE.Line(geo.clone(), dashed
@@ -202,8 +204,8 @@
       scene.add(full, done);
       return done.geometry;
     }
-    const traceReal = trace(real, C.trace, false);
-    const traceCmd = cmd ? trace(cmd, C.traceCmd, true) : null;
+    const traces = tips.map((tp) => trace(real, C.trace, false, tp))
+      .concat(cmd ? tips.map((tp) => trace(cmd, C.traceCmd, true, tp)) : []);
 
     // the target poses of a Cartesian program's moves: a dot at the tool point and a stick
     // along the tool's z axis (its approach direction)
@@ -280,8 +282,7 @@
       const [k, f] = frameAt(t);
       pose(realRobot.groups, real, k, f);
       if (ghost) pose(ghost.groups, cmd, k, f);
-      traceReal.setDrawRange(0, k + 1);
-      if (traceCmd) traceCmd.setDrawRange(0, k + 1);
+      for (const tr of traces) tr.setDrawRange(0, k + 1);
       const names = [];
       for (let j = 0; j < n; j++) {
         const on = sat[k * n + j] !== 0;
