@@ -358,6 +358,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 @pytest.mark.parametrize("example, urdf", [
     ("ur5_cartesian_pick.toml", UR5),
+    ("ur5_blended_square.toml", UR5),
     ("panda_cartesian_hand.toml", "panda_description/urdf/panda.urdf"),
 ])
 def test_examples_are_achievable(example, urdf):
@@ -386,6 +387,20 @@ def test_retime_keeps_the_tool_path(tmp_path):
         worst = max(worst, float(np.min(np.linalg.norm(a + u[:, None] * ab - p, axis=1))))
     assert worst <= 1e-5, worst
     assert rows[-1, 0] < prog.t[-1]  # and faster
+    # the retimed Cartesian timing: the tool poses of the retimed rows (Pinocchio), and a
+    # program of one pose CSV move that gives the retimed rows back by inverse kinematics
+    poses = np.loadtxt(tmp_path / "out" / "retimed_poses.csv", delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(poses[:, 0], rows[:, 0])
+    for r, q in zip(poses[::25], rows[::25, 1:], strict=True):
+        T = ref.pose(q)
+        assert np.linalg.norm(T[:3, 3] - r[1:4]) <= 1e-12
+        R = pin.Quaternion(r[4], r[5], r[6], r[7]).toRotationMatrix()
+        assert np.linalg.norm(pin.log3(R.T @ T[:3, :3])) <= 1e-12
+    back = mrnea.load_program(tmp_path / "out" / "retimed_cartesian.toml")
+    assert back.dt == 0.002 and back.K == rows.shape[0] and back.cartesian.achievable
+    assert np.abs(back.q_cmd - rows[:, 1:]).max() <= 1e-8
+    res = mrnea_cli("check", tmp_path / "out" / "retimed_cartesian.toml")
+    assert res.returncode == 0 and res.stdout.startswith("ACHIEVABLE"), res.stdout + res.stderr
 
 
 def test_simulate_writes_the_tool_errors_and_exits_1_on_a_bad_path(tmp_path):

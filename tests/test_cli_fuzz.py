@@ -9,7 +9,7 @@ declarations, math-text names, huge and tiny numbers...), deleting or duplicatin
 truncating. The commands run in-process (click's test runner), in a fresh folder per example.
 
 Beyond the exit code: no "Traceback" and no "internal error" (the last-resort message for a
-bug), and stderr holds only the error line, ``mrnea: warning:`` lines, the progress label and the
+bug), and stderr holds only the error line, ``mrnea: warning:`` lines, the progress labels and the
 compile notice. The fast test (in the default run) fuzzes ``info`` and ``check``, which write
 nothing; the ``slow`` one (``-m slow``) all commands, ``simulate``, ``demo`` and ``fig3``
 included, with many more examples.
@@ -53,8 +53,8 @@ HOSTILE = ["nan", "inf", "-inf", "1e308", "-1e308", "1e-320", "0", "-1", "1_0", 
 GARBAGE = ["", "-", "--", "---x", "-h", "0", "-1", "nan", "1_0", "\uff11", "x" * 200, "a\nb",
            "/dev/zero", "/", ".", "..", "~", "$HOME", "sdt", "puma560", "missing.toml"]
 # how often each command is drawn: those reading the hostile files most, the fixed SDT runs
-# (demo, fig3: a few seconds each) least
-WEIGHT = {"check": 4, "simulate": 3, "info": 2, "demo": 1, "fig3": 1}
+# (demo, fig3: a few seconds each) and the optimisation (excite: up to a minute) least
+WEIGHT = {"check": 4, "simulate": 3, "info": 2, "demo": 1, "fig3": 1, "excite": 1}
 FILES = ["robot.toml", "robot.urdf", "prog.toml", "sdt.toml", "path.csv", "out", "out/x.png",
          "fig.svg", "fig.xyz"]
 
@@ -149,7 +149,8 @@ def _check(args: list[str], files: dict[str, str]) -> None:
     else:
         assert not errors, where
     for line in lines:
-        assert (line.startswith(("mrnea: error:", "mrnea: warning:", "simulating"))
+        assert (line.startswith(("mrnea: error:", "mrnea: warning:", "simulating",
+                                 "identifying"))
                 or line == COMPILE_NOTICE), where
 
 

@@ -79,6 +79,53 @@ def test_retime_exits_0_once_verified(tmp_path: Path, fast: Path):
     one_error_line(mrnea_cli("retime", fast), "--out")
 
 
+def test_retime_exits_1_when_no_timing_exists(tmp_path: Path):
+    """A program the robot cannot follow in any timing is a verdict (exit 1, one NOT
+    ACHIEVABLE line, nothing written, no folder left), not bad input. Independently of mrnea:
+    the program turns joint 6 only, holding joints 1-5 at 0, and Pinocchio's gravity torque of
+    joint 2 there, with a 40 kg payload at the flange, is 214.9 N m, over the Puma 560's
+    186.4 N m (static friction, up to 13.6 N m, cannot make up for it); and joint 3's upper
+    limit is 45 deg (Corke's Puma 560), which the second program passes (1 rad)."""
+    import numpy as np
+    import pinocchio as pin
+    from conftest import to_pinocchio
+
+    import mrnea
+
+    heavy = mrnea.robots.puma560().with_payload(40.0)
+    model = to_pinocchio(heavy)
+    g = pin.rnea(model, model.createData(), np.zeros(6), np.zeros(6), np.zeros(6))
+    ratio = g[1] / 186.4
+    assert ratio - 13.6 / 186.4 > 1.0  # the oracle: no timing holds the pose
+    wrist = tmp_path / "wrist.toml"
+    wrist.write_text(FAST.replace("[0.5, 0.5, 0.5, 0.5, 0.5, 0.5]", "[0, 0, 0, 0, 0, 0.5]"))
+    res = mrnea_cli("retime", wrist, "--out", tmp_path / "r", "--payload", "40")
+    assert res.returncode == 1, (res.stdout, res.stderr)
+    assert "error" not in res.stderr and "Traceback" not in res.stderr  # (a compile notice)
+    assert len(res.stdout.splitlines()) == 1
+    line = res.stdout.strip()
+    assert line.startswith("NOT ACHIEVABLE at any timing: ") and "wrist.toml" in line
+    assert "at any speed" in line and "joint 'joint2' (joint 2)" in line, line
+    quoted = float(line.split(" times its limit")[0].split(", ")[-1])
+    assert abs(quoted - ratio) <= 13.6 / 186.4  # within joint 2's Coulomb friction
+    assert not (tmp_path / "r").exists()
+    res = mrnea_cli("retime", wrist, "--out", tmp_path / "r", "--payload", "40", "--json")
+    assert res.returncode == 1 and json.loads(res.stdout) == {
+        "achievable": False, "retimed": False, "verdict": line}
+    beyond = tmp_path / "beyond.toml"
+    beyond.write_text(FAST.replace("[0.5, 0.5, 0.5, 0.5, 0.5, 0.5]", "[0, 0, 1.0, 0, 0, 0]"))
+    res = mrnea_cli("retime", beyond, "--out", tmp_path / "b", "--quiet")
+    assert res.returncode == 1 and res.stdout == "" and res.stderr == "", res.stderr
+    res = mrnea_cli("retime", beyond, "--out", tmp_path / "b")
+    assert res.returncode == 1 and "joint 'joint3' (joint 3) leaves its position limits" in (
+        res.stdout) and f"{np.deg2rad(45):.4g}]" in res.stdout, res.stdout
+    assert not (tmp_path / "b").exists()
+    # bad input stays bad input: a program that never moves
+    still = tmp_path / "still.toml"
+    still.write_text(FAST.replace("[0.5, 0.5, 0.5, 0.5, 0.5, 0.5]", "[0, 0, 0, 0, 0, 0]"))
+    one_error_line(mrnea_cli("retime", still, "--out", tmp_path / "s"), "single cycle")
+
+
 def test_commands_without_a_verdict(tmp_path: Path):
     assert mrnea_cli("info", "sdt").returncode == 0
     one_error_line(mrnea_cli("info", "nosuchrobot"), "nosuchrobot")

@@ -140,3 +140,47 @@ def test_units_deg_reads_a_prismatic_column_in_mm(tmp_path: Path) -> None:
 def test_units_needs_a_csv_program() -> None:
     one_error_line(mrnea_cli("check", ROOT / "examples" / "puma_pick.toml", "--units", "deg"),
                    "--units", "[path]")
+
+
+def test_a_program_files_units_deg_reads_a_prismatic_joint_in_mm(tmp_path: Path) -> None:
+    """A program file's ``units = "deg"`` means what ``--units deg`` does: degrees for the
+    revolute joint, mm for the prismatic one. Oracle: the same program written in SI by the
+    test (numpy.radians, / 1000), by waypoints and by a CSV path."""
+    robot = slider(tmp_path)
+    head = f'[program]\nrobot = "{robot}"\ndt = 0.005\n[path]\nprofile = "trapezoidal"\n'
+    (tmp_path / "si.toml").write_text(
+        head + f"waypoints = [[0, 0.1], [{float(np.radians(60.0))!r}, 0.4]]\n"
+        f"velocity_limit = [{float(np.radians(90.0))!r}, 0.25]\n"
+        f"acceleration_limit = [{float(np.radians(180.0))!r}, 0.5]\n")
+    (tmp_path / "deg.toml").write_text(
+        head + 'units = "deg"\nwaypoints = [[0, 100], [60, 400]]\n'
+        "velocity_limit = [90, 250]\nacceleration_limit = [180, 500]\n")
+    import mrnea
+
+    si, deg = (mrnea.load_program(tmp_path / f"{k}.toml") for k in ("si", "deg"))
+    si.load_robot(), deg.load_robot()
+    assert deg.q_cmd.shape == si.q_cmd.shape
+    np.testing.assert_allclose(deg.q_cmd, si.q_cmd, rtol=1e-12, atol=1e-15)
+    assert deg.q_cmd[:, 1].max() == pytest.approx(0.4, rel=1e-12)  # m, not 400 x pi/180
+    want, got = (mrnea_cli("check", tmp_path / f"{k}.toml", "--json") for k in ("si", "deg"))
+    assert want.returncode == 0 and got.returncode == 0, got.stderr
+    a, b = json.loads(want.stdout), json.loads(got.stdout)
+    for ja, jb in zip(a["joints"], b["joints"], strict=True):
+        assert jb["program_peak_effort"] == pytest.approx(ja["program_peak_effort"], rel=1e-9)
+        assert jb["peak_speed"] == pytest.approx(ja["peak_speed"], rel=1e-9)
+    # a CSV path in deg and mm: the program file and --units deg read it alike
+    t = np.arange(0.0, 2.0 + 1e-9, 0.02)
+    s = 0.5 * (1 - np.cos(np.pi * t / 2.0))
+    write_rows(tmp_path / "mm.csv", ["t", "turn", "lift"],
+               np.column_stack([t, 70.0 * s, 100.0 + 300.0 * s]))
+    (tmp_path / "csv.toml").write_text(f'[program]\nrobot = "{robot}"\ndt = 0.005\n'
+                                       '[path]\ncsv = "mm.csv"\nunits = "deg"\n')
+    prog = mrnea.load_program(tmp_path / "csv.toml")
+    prog.load_robot()
+    np.testing.assert_allclose(prog.csv_rows[:, 2], 0.1 + 0.3 * s, rtol=1e-12)
+    np.testing.assert_allclose(prog.csv_rows[:, 1], np.radians(70.0 * s), rtol=1e-12)
+    a = json.loads(mrnea_cli("check", tmp_path / "csv.toml", "--json").stdout)
+    b = json.loads(mrnea_cli("check", robot, tmp_path / "mm.csv", "--dt", "0.005", "--units",
+                             "deg", "--json").stdout)
+    for ja, jb in zip(a["joints"], b["joints"], strict=True):
+        assert jb["program_peak_effort"] == pytest.approx(ja["program_peak_effort"], rel=1e-9)

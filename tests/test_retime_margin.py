@@ -140,7 +140,7 @@ def test_the_search_finds_the_highest_margin_that_verifies(monkeypatch):
     within 0.1 % below it, on the same margin whatever margin above it is asked."""
     threshold, calls = 0.9137, []
 
-    def plan_at(job, paths, m, acc, logs):
+    def plan_at(job, paths, m, acc, jerk, logs):
         calls.append(m)
         rows = round(1000 / m)
         ok = m <= threshold
@@ -160,8 +160,9 @@ def test_the_search_finds_the_highest_margin_that_verifies(monkeypatch):
 
 
 def test_margin_search_gives_up_below_its_floor(monkeypatch):
-    def plan_at(job, paths, m, acc, logs):
-        sim = type("S", (), {"verdict": lambda self: "NOT ACHIEVABLE: joint1 needs more"})()
+    def plan_at(job, paths, m, acc, jerk, logs):
+        sim = type("S", (), {"verdict": lambda self: "NOT ACHIEVABLE: joint1 needs more",
+                             "achievable": False})()
         return rsearch.Plan(m, np.zeros((3, 1)), None, None, np.zeros(3), {}, sim, False,
                             2.0, 0)
 

@@ -15,10 +15,11 @@ from conftest import PinChain, random_inertia, random_rotation, random_states, r
 
 import mrnea
 from mrnea.compiled import of
-from mrnea.errors import ModelError
+from mrnea.errors import ModelError, SingularMassMatrixError
 from mrnea.kernels.kinematics import link_jacobian_ws
 from mrnea.kernels.layout import entry_scratch
 from mrnea.kernels.mrnea import mrnea_full
+from mrnea.kernels.solve import ltl_solve
 from mrnea.kernels.status import OK
 from mrnea.robots import puma560
 
@@ -145,6 +146,36 @@ def test_batches_equal_pinocchio_on_trees(case) -> None:
     for b in range(B):
         assert rel_err(tau[b], pc.rnea(s["q"][b], s["qd"][b], s["qdd"][b], s["f_ext"][b],
                                        s["f_ext_point"][b])) <= TOL
+
+
+def test_sparse_ltl_solves_pinocchios_mass_matrix(case) -> None:
+    """The tree's L^T L solve (kernels/solve.py ``ltl_solve``, forward dynamics on a tree) on
+    Pinocchio's H (CRBA): x equals NumPy's dense solve, and the factor reads and writes only
+    L's entries L_ik with k carrying i (L filled with NaN first: every other entry stays NaN
+    and none reached x), the sparsity without fill-in."""
+    robot, pc, s = case
+    n = robot.n
+    own = np.array([[k <= i and carries(robot, k, i) for k in range(n)] for i in range(n)])
+    m = of(robot)[0]
+    for b in range(8):
+        H, rhs = pc.mass_matrix(s["q"][b]), s["tau"][b]
+        L, x = np.full((n, n), np.nan), np.empty(n)
+        assert ltl_solve(m, H, rhs, L, x) == OK
+        assert rel_err(x, np.linalg.solve(H, rhs)) <= TOL
+        assert np.isnan(L[~own]).all() and np.isfinite(L[own]).all()
+
+
+def test_a_massless_leaf_of_a_tree_is_named() -> None:
+    """A massless leaf link on one branch (two_arms' left tip link, of joint 'l3', index 3 of
+    7) leaves H singular: every forward-dynamics method raises and names that joint, the
+    tree's L^T L solve too (its pivots are taken tip to base: the right arm's first)."""
+    robot = two_arms()
+    links = [mrnea.Link("la3") if lk.name == "la3" else lk for lk in robot.links]
+    bad = mrnea.Robot(robot.joints, links, name="two_arms_massless_tip")
+    n = robot.n
+    for method in FD_METHODS:
+        with pytest.raises(SingularMassMatrixError, match="'l3'"):
+            mrnea.forward_dynamics(bad, np.full(n, 0.3), np.zeros(n), np.ones(n), method=method)
 
 
 def test_frames_and_jacobians_of_every_link_equal_pinocchio(case) -> None:

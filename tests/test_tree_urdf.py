@@ -132,3 +132,45 @@ def test_a_program_keeps_several_tips(tmp_path) -> None:
     assert robot.n == 8 and robot.parents == (-1, -1, 1, 2, 3, 4, 5, 6)
     with pytest.raises(RobotFileError, match="'tip' must be a non-empty string"):
         _options(check, {"tip": ["head", 3]}, tmp_path)
+
+
+def test_jacobian_of_a_named_link_equals_pinocchios_frame_jacobian() -> None:
+    """``mrnea.jacobian(robot, q, point, link=...)`` on Baxter: at the origin of the head's,
+    either wrist's and the left finger's link frame it equals Pinocchio's
+    ``computeFrameJacobian`` of that body frame in ``LOCAL_WORLD_ALIGNED`` (base axes, velocity
+    of the frame's origin); at a point p of the link (link frame), that Jacobian with
+    v_p = v_o + w x (R p). A batch equals its states; an unknown link is one StateError."""
+    import pinocchio as pin
+
+    from mrnea.errors import StateError
+
+    rel, tips, _ = TREES["baxter"]
+    path = erd_path(rel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = mrnea.load_urdf(path, tip=tips)
+    pc = PinChain(robot, pin_from_urdf(path, robot))
+    rng = np.random.default_rng(11)
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    Q = rng.uniform(lo, hi, size=(4, robot.n))
+    P = rng.normal(0, 0.1, size=(4, 3))
+    for link in ("head", "right_wrist", "left_wrist", "l_gripper_l_finger"):
+        fid = pc.model.getFrameId(link)
+        for q, p in zip(Q, P, strict=True):
+            Jo = np.array(pin.computeFrameJacobian(pc.model, pc.data, pc.config(q), fid,
+                                                   pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
+            pin.updateFramePlacements(pc.model, pc.data)
+            assert rel_err(mrnea.jacobian(robot, q, link=link), Jo) <= TOL, link
+            Jp = Jo.copy()
+            Jp[:3] += np.cross(Jp[3:].T, pc.data.oMf[fid].rotation @ p).T
+            assert rel_err(mrnea.jacobian(robot, q, p, link=link), Jp) <= TOL, link
+        batch = mrnea.jacobian(robot, Q, P, link=link)
+        assert batch.shape == (4, 6, robot.n)
+        for b in range(4):
+            assert np.array_equal(batch[b], mrnea.jacobian(robot, Q[b], P[b], link=link))
+    # the last link's, as without ``link``
+    assert np.array_equal(mrnea.jacobian(robot, Q[0], P[0], link=robot.link_names[-1]),
+                          mrnea.jacobian(robot, Q[0], P[0]))
+    with pytest.raises(StateError, match="link: 'left_hand' is not a link of robot"):
+        mrnea.jacobian(robot, Q[0], link="left_hand")

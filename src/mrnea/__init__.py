@@ -25,6 +25,7 @@ from mrnea.errors import (
     ModelError,
     ModelWarning,
     MrneaError,
+    NoTimingError,
     OutputError,
     PathWarning,
     ProgramFileError,
@@ -35,7 +36,7 @@ from mrnea.errors import (
     StateError,
     SweepError,
 )
-from mrnea.identify import regressor
+from mrnea.identify import excitation, regressor
 from mrnea.ik import inverse_kinematics
 from mrnea.io import load_robot, load_urdf
 from mrnea.model import Joint, Link, Robot
@@ -53,6 +54,7 @@ __all__ = [
     "ModelError",
     "ModelWarning",
     "MrneaError",
+    "NoTimingError",
     "OutputError",
     "PathWarning",
     "ProgramFileError",
@@ -66,6 +68,7 @@ __all__ = [
     "SweepError",
     "__version__",
     "achievable_accelerations",
+    "excitation",
     "forward_dynamics",
     "forward_kinematics",
     "inverse_dynamics",

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import textwrap
+from collections.abc import Sequence
 from typing import Any
 
 from mrnea.actuator_fields import ACTUATOR_FIELDS
@@ -85,13 +86,46 @@ def _pack(names: list[str], columns: list[tuple[str, list[str]]], width: int
     return tables
 
 
+def _forks(parents: Sequence[int]) -> list[bool]:
+    """Whether each joint's parent (a joint, or the base) has more than one child joint."""
+    children = [0] * (len(parents) + 1)  # children[p + 1]: joint p's (p = -1: the base's)
+    for p in parents:
+        children[p + 1] += 1
+    return [children[p + 1] > 1 for p in parents]
+
+
+def branch_depths(parents: Sequence[int]) -> list[int]:
+    """How many branch points lie above each joint (a joint, or the base, with more than one
+    child joint): the indentation of a tree's joints in ``info``, so that each branch is one
+    block, set in under the joint it hangs from. All zero for a serial chain."""
+    depth: list[int] = []
+    for p, fork in zip(parents, _forks(parents), strict=True):
+        depth.append((0 if p < 0 else depth[p]) + fork)
+    return depth
+
+
+def branches(parents: Sequence[int]) -> list[list[int]]:
+    """A tree's branches: its maximal chains, each a list of joint indices (depth-first order
+    makes each consecutive). A branch starts at the first joint and at every joint whose parent
+    (or the base) has several children. One branch for a serial chain."""
+    out: list[list[int]] = []
+    for i, fork in enumerate(_forks(parents)):
+        if i == 0 or fork:
+            out.append([])
+        out[-1].append(i)
+    return out
+
+
 def describe(robot: Robot, width: int = 100) -> str:
     """A text description of ``robot`` at most ``width`` characters wide where possible.
 
     A heading line (name, joints, base, gravity), then the joints' table: type, link, mass
     [kg], position and velocity limits, and one column per actuator field (its symbol and unit
     in the header; ``-``: no torque-speed curve; the curve as peak/corner speed/no-load speed),
-    then a legend of the actuator symbols. If the table is wider than ``width`` it is split into
+    then a legend of the actuator symbols. A tree's joints are set in by two spaces per branch
+    point above them (:func:`branch_depths`), each listed under the joint it hangs from (depth
+    first, as the robot numbers them), and a line after the heading names each branch's first
+    joint and its parent. If the table is wider than ``width`` it is split into
     a geometry table and an actuator table, else into as many tables as it takes; if a single
     column is still too wide, each joint is a block of ``field [unit]: value``
     lines.
@@ -102,6 +136,15 @@ def describe(robot: Robot, width: int = 100) -> str:
                          subsequent_indent="    ")
     geometry, actuators = _columns(robot)
     names = list(robot.joint_names)
+    if not robot.is_serial:
+        parents = robot.parents
+        parts = [names[b[0]] + (f"..{names[b[-1]]}" if len(b) > 1 else "")
+                 + (f" (on {names[parents[b[0]]]})" if parents[b[0]] >= 0 else "")
+                 for b in branches(parents)]
+        head += textwrap.wrap(f"a tree of {len(parts)} branches: {'; '.join(parts)}",
+                              max(width, 40), subsequent_indent="    ")
+        depth = branch_depths(parents)
+        names = ["  " * (d - min(depth)) + name for d, name in zip(depth, names, strict=True)]
     legend = [""] + [line for f in ACTUATOR_FIELDS for line in textwrap.wrap(
         f"{f.symbol}: {f.meaning}", max(width, 40), subsequent_indent="    ")]
     for tables in ([geometry + actuators], [geometry, actuators],
@@ -146,15 +189,17 @@ def robot_data(robot: Robot) -> dict[str, Any]:
     """``robot`` as JSON-ready data (``json.dumps(..., allow_nan=False)`` accepts it).
 
     ``name``, ``n``, ``base``, ``gravity`` [m/s^2], and per joint (root to tip): its name,
-    type, parent link, origin (4x4, parent link frame -> joint frame) and axis, its limits and
+    type, parent link, parent joint (``parent_joint``, None on the base: a tree's structure),
+    origin (4x4, parent link frame -> joint frame) and axis, its limits and
     actuator fields (SI units, joint side; the torque-speed curve as ``peak``,
     ``corner_speed``, ``no_load_speed`` or None), ``units`` (of q, qd, qdd, tau) and the
     ``link`` it moves (name, mass [kg], com [m, link frame], inertia [kg m^2, about the com]).
     Unlimited values (infinite limits) are None.
     """
     joints = []
-    for j, lk in zip(robot.joints, robot.links, strict=True):
+    for j, lk, p in zip(robot.joints, robot.links, robot.parents, strict=True):
         d = _joint(j)
+        d["parent_joint"] = None if p < 0 else robot.joint_names[p]
         d["link"] = {"name": lk.name, "mass": lk.mass, "com": lk.com.tolist(),
                      "inertia": lk.inertia.tolist()}
         joints.append(d)

@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.compiled import BY_ID
+from mrnea.errors import StateError
 from mrnea.kernels.aba import aba, aba_batch
 from mrnea.kernels.engines import (
     ENGINE_CRBA,
@@ -48,7 +49,7 @@ from mrnea.kernels.engines import (
     fd_walker_orin,
     mass_matrix_bias_batch,
 )
-from mrnea.kernels.kinematics import frames, frames_batch, jacobian_batch
+from mrnea.kernels.kinematics import frames, frames_batch, jacobian_batch, link_jacobian_ws
 from mrnea.kernels.kinematics import jacobian as jacobian_kernel
 from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, OUT3_T, SCRATCH_T, batch_scratch
 from mrnea.kernels.mrnea import fd_mrnea, mrnea
@@ -317,8 +318,9 @@ def forward_kinematics(robot: Robot, q: ArrayLike, tool: Tool = None) -> NDArray
     return T
 
 
-def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None) -> NDArray[np.float64]:
-    """The geometric Jacobian of a point of the last link, in base coordinates.
+def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
+             link: str | None = None) -> NDArray[np.float64]:
+    """The geometric Jacobian of a point of the last link (or of ``link``), in base coordinates.
 
     ``J @ qd = [v; w]``: the linear velocity [m/s] of the point and the angular velocity
     [rad/s] of the last link, both in base coordinates (rows linear then angular, Pinocchio's
@@ -332,12 +334,18 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None) -> NDAr
     ----------
     robot : Robot
     q : (n,) or (B, n) joint positions [rad | m].
-    point : (3,) or (B, 3) [m], in the last link's frame; None: that frame's origin.
+    point : (3,) or (B, 3) [m], in the last link's frame (``link``'s); None: its origin.
+    link : None (the last link), or the name of any link of the robot (``robot.link_names``;
+        on a tree, any branch's): the point is fixed to that link, and column k is zero unless
+        joint k carries it. Pinocchio's ``getFrameJacobian`` of a frame at the point on that
+        link, ``LOCAL_WORLD_ALIGNED``.
 
     Returns
     -------
     J : (6, n) or (B, 6, n) [m/rad or -, rad/rad or rad/m: per unit joint rate].
     """
+    if link is not None:
+        return _link_jacobian(robot, q, point, link)
     try:  # the fast path (module docstring); a point must be a (3,) float64 array
         m, shape, ws, _ = BY_ID[id(robot)]
         if q.dtype is _F64 and q.ndim == 1 and (point is None or (
@@ -361,3 +369,20 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None) -> NDAr
         status = _JACOBIAN.call(m, q, p, J, ws)
     validate.check_status(robot, status, {"q": q, "point": p})
     return J
+
+
+def _link_jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None,
+                   link: str) -> NDArray[np.float64]:
+    """:func:`jacobian` of a point of the named link, state by state (``link_jacobian_ws``)."""
+    validate.require_robot(robot)
+    if link not in robot.link_names:
+        raise StateError(f"link: {link!r} is not a link of robot '{robot.name}' (its links: "
+                         f"{', '.join(robot.link_names)})")
+    batched, q, p = validate.kinematics_inputs(robot, q, point)
+    m, _, ws, _ = compiled.of(robot)
+    t = robot.link_names.index(link)
+    Q, P = np.atleast_2d(q), np.atleast_2d(p)
+    J = np.empty((Q.shape[0], 6, robot.n))
+    status = np.array([link_jacobian_ws(m, Q[b], t, P[b], J[b], ws) for b in range(len(Q))])
+    validate.check_status(robot, status if batched else int(status[0]), {"q": q, "point": p})
+    return J if batched else J[0]

@@ -117,6 +117,16 @@ class RetimeError(MrneaError):
     program the verifying simulation accepts."""
 
 
+class NoTimingError(RetimeError):
+    """No timing of the program's path is achievable: a pose on it the robot cannot hold
+    against gravity, a wrench and friction (its need over the effort limit), a point of it
+    outside a joint's position limits, or no planning margin (or scale factor) whose timing the
+    verifying simulation accepts. A verdict about the program, not bad input: ``mrnea retime``
+    prints it as ``NOT ACHIEVABLE`` and exits 1. The other :class:`RetimeError` cases (a
+    program that never moves, no limit that binds, a cycle too coarse for the path, a planning
+    margin below what a dwell needs) are bad input (exit 2)."""
+
+
 class OutputError(MrneaError):
     """An output file cannot be written: it exists (and replacing it was not allowed), its place
     is a directory, its folder is missing or not writable, or another run owns the folder."""

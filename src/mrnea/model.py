@@ -37,6 +37,7 @@ A :class:`Robot` is validated once, at construction; every error names the link 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -47,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.actuator_fields import actuator_values, check_actuator_fields
-from mrnea.errors import ModelError, quote
+from mrnea.errors import ModelError, quote, shorten
 from mrnea.frozen import (
     Frozen,
     check_magnitude,
@@ -396,26 +397,36 @@ class Robot(Frozen):
         return self._replace(gravity=gravity)
 
     def with_payload(self, mass: float, com: ArrayLike = (0.0, 0.0, 0.0),
-                     inertia: ArrayLike | None = None) -> Robot:
-        """A copy carrying a payload rigidly fixed to the last link, merged into its inertials.
+                     inertia: ArrayLike | None = None, link: str | None = None) -> Robot:
+        """A copy carrying a payload rigidly fixed to a link, merged into its inertials.
 
         Parameters
         ----------
         mass : the payload's mass [kg], >= 0.
-        com : (3,) its centre of mass [m] in the last link's frame (as ``f_ext_point``).
-        inertia : (3, 3) [kg m^2] about its centre of mass, axes of the last link's frame;
-            None: a point mass. The last link keeps its name; its inertials become those of
+        com : (3,) its centre of mass [m] in the link's frame (the last link's: as
+            ``f_ext_point``).
+        inertia : (3, 3) [kg m^2] about its centre of mass, axes of the link's frame;
+            None: a point mass. The link keeps its name; its inertials become those of
             the two bodies joined (:func:`mrnea.rigid.combine_inertials`).
+        link : the name of the link carrying it (a branching robot's hand, say); None: the
+            last link. A name the robot does not have is a ModelError naming it.
         """
         try:
             p = Link("payload", mass, com, np.zeros((3, 3)) if inertia is None else inertia)
         except ModelError as exc:
             raise ModelError(f"with_payload: {exc}") from None
-        last = self._links[-1]
-        m, c, inertia_sum = combine_inertials([(last.mass, last.com, last.inertia),
+        names = self.link_names
+        if link is not None and link not in names:
+            close = difflib.get_close_matches(str(link), names, n=1)
+            raise ModelError(f"payload: no link named {quote(link)} in robot {quote(self._name)}"
+                             f"{f' (did you mean {close[0]!r}?)' if close else ''}; its "
+                             f"links: {shorten(', '.join(names), 300)}")
+        i = len(names) - 1 if link is None else names.index(link)
+        old = self._links[i]
+        m, c, inertia_sum = combine_inertials([(old.mass, old.com, old.inertia),
                                                (p.mass, p.com, p.inertia)])
-        merged = Link(last.name, m, c, inertia_sum, last.visuals, last.frames)
-        return self._replace(links=(*self._links[:-1], merged))
+        merged = Link(old.name, m, c, inertia_sum, old.visuals, old.frames)
+        return self._replace(links=(*self._links[:i], merged, *self._links[i + 1:]))
 
     def _replace(self, **kw: object) -> Robot:
         return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]

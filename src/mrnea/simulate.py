@@ -37,7 +37,7 @@ from mrnea.io.writer import create
 from mrnea.kernels.derived import derived
 from mrnea.kernels.drive import actuator_terms
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
-from mrnea.kernels.layout import POSE, entry_scratch
+from mrnea.kernels.layout import entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
@@ -98,6 +98,8 @@ class SimulationResult:
     tool_point : for a Cartesian program, the tool frame's origin [m] in the last link's frame
         (the 3D view draws its path, the programmed Cartesian path, and the real one); None
         otherwise.
+    tool_targets : for a Cartesian program, (M, 4, 4) the target poses of its Cartesian moves,
+        base frame [m] (the 3D view marks them); None otherwise.
     """
 
     robot: Robot
@@ -129,6 +131,7 @@ class SimulationResult:
     tool_position_error: NDArray | None = None
     tool_orientation_error: NDArray | None = None
     tool_point: tuple[float, float, float] | None = None
+    tool_targets: NDArray | None = None
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -377,7 +380,9 @@ def simulate(
         coulomb=zeros(), stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros(),
         tool_position_error=None if cartesian is None else np.zeros(K),
         tool_orientation_error=None if cartesian is None else np.zeros(K),
-        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])))
+        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])),
+        tool_targets=None if cartesian is None or not cartesian.targets
+        else np.array([T for _, T in cartesian.targets]))
     clamp = zeros(np.int64)
     status_k = np.empty(K, dtype=np.int64)  # the program requirement's, per cycle
     res.q[0], res.qd[0] = x0, v0
@@ -443,7 +448,7 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     m, _, _, act = compiled.of(robot)
     Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
     actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
-                   entry_scratch(n, POSE))  # one thread: no worker threads left spinning
+                   entry_scratch(n))  # SOLVE's rows: a tree's mRNEA stashes columns in S[n:2n]
     j = cholesky_solve(Ha, zero, np.empty((n, n)), np.empty(n))
     if j == OK:
         return

@@ -32,10 +32,10 @@ def load_program(path: str | Path, robot: Robot | str | None = None,
     Parameters
     ----------
     path : the ``.toml`` program file.
-    robot : for a Cartesian program, the robot to solve it on: a :class:`mrnea.Robot`, or a
-        built-in name or robot file (the program's own if it names one,
-        :meth:`mrnea.io.Program.load_robot`); None: the robot the program names. Unused for a
-        joint program.
+    robot : for a Cartesian program, a program naming its joints or a CSV path (whose header
+        may name them), the robot to put it on: a :class:`mrnea.Robot`, or a built-in name or
+        robot file (the program's own if it names one, :meth:`mrnea.io.Program.load_robot`);
+        None: the robot the program names. Unused for a path of waypoint arrays.
     options : robot options over the program's (:meth:`mrnea.io.Program.load_robot`).
 
     Returns
@@ -51,10 +51,13 @@ def load_program(path: str | Path, robot: Robot | str | None = None,
         cannot be timed.
     """
     prog = read_program(path)
-    if prog.moves is None:
+    if prog.moves is None and prog.named is None and prog.columns is None:
         return prog
     if robot is None and prog.robot is None:
-        raise ProgramFileError(f"{prog.source}: a Cartesian program is solved on its robot, and "
+        if prog.columns is not None:  # a CSV path without a robot: its columns in order
+            return prog
+        what = "Cartesian program" if prog.moves is not None else "program naming its joints"
+        raise ProgramFileError(f"{prog.source}: a {what} is solved on its robot, and "
                                f"this one names none ([program] robot); give one: "
                                f"mrnea.load_program(path, robot=...)")
     rob = robot if isinstance(robot, Robot) else prog.load_robot(robot, options)

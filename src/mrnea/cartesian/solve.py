@@ -5,14 +5,24 @@ Usage: ``prog = solve(program, robot)``: a :class:`mrnea.io.Program` of ``[[move
 ``sweep`` take) and ``program.cartesian``, a :class:`CartesianPath`. A joint program is returned
 as it is.
 
-The moves run in order from ``q0``, each from where the previous one ended, rest to rest:
+The moves run in order from ``q0``, each from where the previous one ended, rest to rest
+unless a ``blend`` joins linear moves:
 
 * ``joint``: the joint profile of :mod:`mrnea.trajectory` (trapezoidal, quintic or S-curve)
   from the current q to the target; the tool pose of its cycles is the forward kinematics of q;
 * ``linear`` / ``circular``: the tool poses of :func:`mrnea.cartesian.path.move_poses` from the
   current programmed pose (after a joint move: the forward kinematics of its target), solved by
   :func:`mrnea.ik.solve_path` warm-started at the current q: the continuous branch through q0;
+* linear moves joined by ``blend`` > 0: one path through rounded corners, timed as one
+  (:func:`mrnea.cartesian.blend.chain_poses`), solved likewise;
+* ``poses``: the tool poses of a pose CSV at the cycles (:mod:`mrnea.io.posecsv`), solved
+  likewise; as the first move, ``q0`` is the seed of its first pose's inverse kinematics (the
+  program starts at that pose); after another move, its first pose must be where the tool is
+  (``JOIN_POSITION``, ``JOIN_ORIENTATION``);
 * ``dwell``: the last cycle held, rounded up to whole cycles.
+
+A ``[wrench]`` (``program.wrench``) becomes ``f_ext`` at the cycle times (t = 0 at q0) and acts
+at the tool point (the tool frame's origin) unless its ``point`` says otherwise.
 
 The verdict on the Cartesian path (reach, singularities, joint limits, configuration changes)
 is :mod:`mrnea.cartesian.verdict`'s, in ``CartesianPath.findings``.
@@ -25,7 +35,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
+from mrnea.cartesian.blend import chain_poses
 from mrnea.cartesian.path import move_poses
 from mrnea.cartesian.verdict import Finding, findings
 from mrnea.dynamics import forward_kinematics
@@ -33,12 +45,15 @@ from mrnea.errors import ProgramFileError, StateError
 from mrnea.ik import solve_path
 from mrnea.io.moves import Move
 from mrnea.io.program import Program
+from mrnea.io.wrench import wrench_at
 from mrnea.model import Robot
 from mrnea.tool import tool_transform
 from mrnea.trajectory import cycles, quintic, scurve, trapezoidal
 
 __all__ = ["CartesianPath", "solve"]
 
+JOIN_POSITION = 1e-6  # [m]: how far a pose CSV's first pose may be from where the tool is
+JOIN_ORIENTATION = 1e-6  # [rad]: the same for its orientation
 _JOINT_PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic, "scurve": scurve}
 
 
@@ -90,9 +105,38 @@ def _hold(q: NDArray, count: int) -> NDArray:
     return np.repeat(q[None], count, axis=0)
 
 
+def _chains(moves: tuple[Move, ...]) -> list[tuple[Move, ...]]:
+    """The moves in runs that are timed as one: linear moves joined by their blends, every
+    other move alone."""
+    out, run = [], []
+    for mv in moves:
+        run.append(mv)
+        if mv.blend == 0:
+            out.append(tuple(run))
+            run = []
+    return out  # the last move has no blend (io.moves)
+
+
+def _poses_of(move: Move, T: NDArray, where: str) -> NDArray:
+    """The poses of a pose CSV move (its first row included), which must start where the tool
+    is (within ``JOIN_POSITION`` [m] and ``JOIN_ORIENTATION`` [rad])."""
+    P = move.poses
+    gap = float(np.linalg.norm(P[0, :3, 3] - T[:3, 3]))
+    turn = float(np.linalg.norm(Rotation.from_matrix(T[:3, :3].T @ P[0, :3, :3]).as_rotvec()))
+    if gap > JOIN_POSITION or turn > JOIN_ORIENTATION:
+        raise ProgramFileError(
+            f"{where}: [[move]] {move.index} (poses): {move.csv}: line {move.csv_line}: the "
+            f"first pose is {gap * 1e3:.4g} mm and {turn * 1e3:.4g} mrad from where the tool is "
+            f"when the move starts (the previous move's end): a pose CSV after another move "
+            f"continues the path from there (within {JOIN_POSITION:g} m and "
+            f"{JOIN_ORIENTATION:g} rad)")
+    return P
+
+
 def solve(program: Program, robot: Robot) -> Program:
     """``program`` with ``t``, ``q_cmd`` and ``cartesian`` made by inverse kinematics on ``robot``
-    (module docstring); a joint program unchanged.
+    (module docstring); a joint program in the robot's joint order
+    (:meth:`mrnea.io.Program.on`: a program naming its joints), else unchanged.
 
     Raises
     ------
@@ -101,6 +145,7 @@ def solve(program: Program, robot: Robot) -> Program:
         three points on one line) or a tool the robot does not have: the message names the
         file, the move and the key.
     """
+    program = program.on(robot)  # a program naming its joints: its rows in the robot's order
     spec = program.moves
     if spec is None:
         return program
@@ -111,10 +156,16 @@ def solve(program: Program, robot: Robot) -> Program:
         raise ProgramFileError(f"{where}: [program]: {exc}") from None
     dt, q = program.dt, np.array(spec.q0, dtype=float)
     T = forward_kinematics(robot, q, tool=Tt)[-1]
+    start_err, first = np.zeros((1, 2)), spec.moves[0]
+    if first.type == "poses":  # q0 is the seed of the first pose's inverse kinematics
+        res = solve_path(robot, first.poses[:1], q, Tt)
+        q, T = res.q[0], first.poses[0]
+        start_err = np.column_stack([res.position_error, res.orientation_error])
     rows, poses, owner, is_cart, errs = [q[None]], [T[None]], [np.ones(1, np.int64)], \
-        [np.zeros(1, bool)], [np.zeros((1, 2))]
+        [np.full(1, first.type == "poses")], [start_err]
     targets = []
-    for mv in spec.moves:
+    for chain in _chains(spec.moves):
+        mv = chain[-1]
         try:
             if mv.type == "joint":
                 prof = _JOINT_PROFILES[mv.profile]
@@ -122,24 +173,31 @@ def solve(program: Program, robot: Robot) -> Program:
                 qs = qs[1:]
                 Ts = forward_kinematics(robot, qs, tool=Tt)[:, -1] if len(qs) else qs[:, :0]
                 e = np.zeros((len(qs), 2))
-                cart = False
+                own, cart = np.full(len(qs), mv.index, np.int64), False
             else:
-                _, Ts = move_poses(mv, T, dt)
-                Ts = Ts[1:]
+                if len(chain) > 1:
+                    Ts, own, ends = chain_poses(chain, T, dt)
+                    targets += [(m.index, end) for m, end in zip(chain, ends, strict=True)]
+                else:
+                    Ts = _poses_of(mv, T, where) if mv.type == "poses" else \
+                        move_poses(mv, T, dt)[1]
+                    own = np.full(len(Ts), mv.index, np.int64)
+                    targets.append((mv.index, Ts[-1]))
+                Ts, own = Ts[1:], own[1:]
                 res = solve_path(robot, Ts, q, Tt) if len(Ts) else None
                 qs = res.q if res else np.empty((0, robot.n))
                 e = (np.column_stack([res.position_error, res.orientation_error]) if res
                      else np.zeros((0, 2)))
                 cart = True
-                targets.append((mv.index, Ts[-1] if len(Ts) else T))
         except StateError as exc:
-            raise ProgramFileError(f"{where}: [[move]] {mv.index} ({mv.type}): {exc}") from None
+            raise ProgramFileError(f"{where}: [[move]] {chain[0].index} ({chain[0].type}): "
+                                   f"{exc}") from None
         if len(qs):
             q, T = qs[-1], Ts[-1]
         hold = int(cycles(mv.dwell, dt))
         rows += [qs, _hold(q, hold)]
         poses += [Ts, _hold(T, hold)]
-        owner.append(np.full(len(qs) + hold, mv.index, np.int64))
+        owner += [own, np.full(hold, mv.index, np.int64)]
         is_cart += [np.full(len(qs), cart), np.zeros(hold, bool)]
         errs += [e, np.zeros((hold, 2))]
     q_cmd, pose = np.concatenate(rows), np.concatenate(poses)
@@ -154,4 +212,11 @@ def solve(program: Program, robot: Robot) -> Program:
                          targets=tuple(targets), findings=tuple(found), moves=spec.moves)
     for a in (t, q_cmd, pose, move, cart, path.position_error, path.orientation_error):
         a.setflags(write=False)
-    return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path)
+    f_ext, point = None, program.f_ext_point
+    if program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
+        f_ext = wrench_at(*program.wrench, t)
+        point = Tt[:3, 3].copy() if point is None else point
+        for a in (f_ext, point):
+            a.setflags(write=False)
+    return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path, f_ext=f_ext,
+                               f_ext_point=point)

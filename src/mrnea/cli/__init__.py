@@ -7,8 +7,12 @@ lists joints, masses, limits and actuators; ``mrnea fig3`` reproduces the paper'
 ``mrnea retime [ROBOT] PROGRAM --out DIR`` gives a program the fastest timing the robot can make.
 ``mrnea sweep [ROBOT] PROGRAM... --grid GRID.toml`` runs every program on every robot variant of
 a grid, on Dask (docs/sweeps.md).
+``mrnea excite ROBOT --out DIR`` writes an optimised excitation trajectory for identification
+(docs/identification.md).
 ``mrnea size [ROBOT] PROGRAM... --catalogue FILE`` chooses each joint's motor and gearbox from a
 catalogue (docs/sizing.md).
+``mrnea identify ROBOT LOG --out DIR`` identifies the links, friction and rotor inertia from a log
+of the robot's own motion (:mod:`~mrnea.cli.identify`; docs/identification.md).
 
 ROBOT is a built-in name (sdt, puma560), a URDF or a native ``.toml`` robot file. PROGRAM is a
 program ``.toml`` file or a CSV of (time, q1..qn) (docs/programs.md). Bad input ends with one
@@ -24,7 +28,7 @@ command goes in a module
 of its own, imported below.
 """
 
-from mrnea.cli import info, paper, retime, run, size, sweep
+from mrnea.cli import excite, identify, info, paper, retime, run, size, sweep
 from mrnea.cli.base import main
 
-__all__ = ["info", "main", "paper", "retime", "run", "size", "sweep"]
+__all__ = ["excite", "identify", "info", "main", "paper", "retime", "run", "size", "sweep"]

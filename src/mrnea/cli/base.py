@@ -48,7 +48,11 @@ from mrnea.errors import MrneaError, clip, quote
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report an interrupted command
 MAX_LINE = 1000  # characters of an error or warning line (a safety net: messages quote briefly)
-COMPILE_NOTICE = "Compiling mrnea's kernels (first run only, about a minute; cached afterwards)..."
+# "up to a minute": the slowest first run, mrnea demo, compiles for 70 s CPU on a loaded 2-core
+# machine (docs/performance.md, Start-up: 90 s there before the engine cut, which measured
+# 65.6 s on a quieter one)
+COMPILE_NOTICE = ("Compiling mrnea's kernels (first run only, up to a minute; cached "
+                  "afterwards)...")
 
 
 class _CompileNotice(numba_event.Listener):
@@ -218,7 +222,7 @@ EXIT_CODES = {
     "check": "Exit code: 0 achievable, 1 NOT ACHIEVABLE (the verdict), 2 bad input, 130 "
              "interrupted.",
     "retime": "Exit code: 0 retimed and verified achievable, 1 NOT ACHIEVABLE (the "
-              "verification), 2 bad input or no timing found (the error says why), 130 "
+              "verification, or no timing exists: nothing written), 2 bad input, 130 "
               "interrupted (nothing written).",
     "sweep": "Exit code: 0 done (each row holds its own verdict), 2 bad input, 130 interrupted "
              "(the rows done written).",

@@ -83,7 +83,8 @@ no_3d_opt = click.option("--no-3d", "no_3d", is_flag=True,
 
 
 class _Payload(click.ParamType):
-    """``KG[@X,Y,Z]`` or a payload file (:func:`mrnea.io.payload.parse_payload`)."""
+    """``KG[@X,Y,Z]``, ``KG@LINK[:X,Y,Z]`` or a payload file
+    (:func:`mrnea.io.payload.parse_payload`)."""
 
     name = "payload"
 
@@ -126,9 +127,10 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--tip", metavar="LINK", multiple=True,
                      help="Keep the URDF's joints up to this link (a chain); repeated, the "
                           "subtree holding all the tips (default: the whole tree)."),
-        click.option("--payload", type=_Payload(), metavar="KG[@X,Y,Z]|FILE",
-                     help="A payload fixed to the last link: a mass [kg] at a point [m] of the "
-                          "last link's frame, or a TOML file with mass, com and inertia."),
+        click.option("--payload", type=_Payload(), metavar="KG[@[LINK:]X,Y,Z]|FILE",
+                     help="A payload fixed to the last link (or to LINK: KG@LINK[:X,Y,Z]): "
+                          "a mass [kg] at a point [m] of that link's frame, or a TOML file "
+                          "with mass, com, inertia and link."),
         click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
                      help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
         click.option("--package-path", "package_path", multiple=True, metavar="DIR",

@@ -10,7 +10,9 @@ DIR/retimed.toml`` alone reproduces the verification; a payload with an inertia 
 ratios before and after, the verdict). A stop request (Ctrl-C, SIGTERM) ends the command
 within about a second (the retiming calls :func:`mrnea.cli.base.checkpoint` between its solves
 and simulation chunks; the files are written with a checkpoint between each) and writes
-nothing: files this run had already written are removed again. Exit code 130.
+nothing: files this run had already written are removed again. Exit code 130. A program no
+timing makes achievable (:class:`~mrnea.errors.NoTimingError`) is a verdict: one ``NOT ACHIEVABLE
+at any timing:`` line, exit code 1, nothing written.
 
 Also :func:`suggestion`: what ``check`` and ``simulate`` print under a program that is not
 achievable (the command, and the duration uniform scaling would give by Hollerbach's closed-form
@@ -22,8 +24,9 @@ from __future__ import annotations
 import json
 import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import click
 import numpy as np
@@ -42,14 +45,49 @@ from mrnea.cli.options import (
     robot_options,
     units_opt,
 )
-from mrnea.errors import MrneaError, RetimeError
+from mrnea.errors import MrneaError, NoTimingError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
+from mrnea.io.source import parse_number
 from mrnea.io.writer import check_new, create, own_folder
 from mrnea.model import Robot
 
 CSV, PROGRAM, SUMMARY, REPORT, PAYLOAD = ("retimed.csv", "retimed.toml", "summary.json",
                                           "report.html", "payload.toml")
+#: A Cartesian program's retimed timing: its tool poses at the retimed cycles, and the program
+#: of one pose CSV move that runs them (docs/cartesian.md, "Retiming").
+POSES, CARTESIAN = "retimed_poses.csv", "retimed_cartesian.toml"
+
+
+class _JerkLimit(click.ParamType):
+    """``J`` or ``J1,J2,...,Jn``: joint jerk limits [rad/s^3 | m/s^3], each a finite number > 0
+    in the strict grammar of :func:`mrnea.io.source.parse_number` (the count is checked against
+    the robot once it is loaded)."""
+
+    name = "jerk"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        if isinstance(value, tuple):
+            return value
+        out = []
+        for part in str(value).split(","):
+            try:
+                number = parse_number(part.strip())
+            except ValueError as exc:
+                self.fail(f"{exc} (in {value!r})", param, ctx)
+            if not number > 0:
+                self.fail(f"every limit must be > 0, got {value!r}", param, ctx)
+            out.append(number)
+        return tuple(out)
+
+
+def _jerk_limits(jerk: tuple[float, ...] | None, robot: Robot) -> list[float] | None:
+    """``--jerk-limit``'s numbers, one for every joint or one per joint."""
+    if jerk is None or len(jerk) in (1, robot.n):
+        return None if jerk is None else list(jerk)
+    raise MrneaError(f"--jerk-limit: expected one number or {robot.n} (one per joint: "
+                     f"{', '.join(robot.joint_names)}), got {len(jerk)}")
 
 
 def _robot_spec(spec: str) -> str:
@@ -60,11 +98,13 @@ def _robot_spec(spec: str) -> str:
 
 
 def _point_mass(options: RobotOptions) -> str | None:
-    """The payload as ``KG@X,Y,Z`` (shortest reprs), or None when it has an inertia."""
-    mass, com, inertia = options.payload
-    if np.any(inertia):
+    """The payload as ``KG@X,Y,Z`` or ``KG@LINK:X,Y,Z`` (shortest reprs), or None when it has
+    an inertia."""
+    p = options.payload
+    if np.any(p.inertia):
         return None
-    return f"{float(mass)!r}@" + ",".join(repr(float(c)) for c in com)
+    return (f"{float(p.mass)!r}@" + (f"{p.link}:" if p.link is not None else "")
+            + ",".join(repr(float(c)) for c in p.com))
 
 
 def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str, Any]:
@@ -78,11 +118,12 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
     if options.payload is not None:
         keys["payload"] = _point_mass(options) or PAYLOAD
         if keys["payload"] == PAYLOAD:
-            mass, com, inertia = options.payload
+            p = options.payload
             with create(folder / PAYLOAD, force) as fh:
                 fh.write(f"# The payload of the retimed program ({PROGRAM}).\n"
-                         f"mass = {float(mass)!r}\ncom = {[float(c) for c in com]!r}\n"
-                         f"inertia = {np.asarray(inertia, dtype=float).tolist()!r}\n")
+                         f"mass = {float(p.mass)!r}\ncom = {[float(c) for c in p.com]!r}\n"
+                         f"inertia = {np.asarray(p.inertia, dtype=float).tolist()!r}\n"
+                         + (f"link = {json.dumps(p.link)}\n" if p.link is not None else ""))
     if options.gravity is not None:
         keys["gravity"] = [float(g) for g in options.gravity]
     return keys
@@ -99,6 +140,9 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @click.option("--margin", type=FRACTION, default=0.98, show_default=True, metavar="M",
               help="toppra: plan against M x every effort and velocity limit, 0 < M <= 1 "
                    "(lowered until the simulation accepts the result).")
+@click.option("--jerk-limit", "jerk", type=_JerkLimit(), default=None, metavar="J[,J2,...]",
+              help="toppra: joint jerk limits [rad/s^3 | m/s^3], one for every joint or one per "
+                   "joint: the fastest timing found whose jerks stay within them.")
 @click.option("--dt", type=POSITIVE, default=None, metavar="SECONDS",
               help="Cycle time [s] of the retimed program (default the program's; a CSV "
                    "PROGRAM needs it).")
@@ -112,8 +156,8 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @quiet_opt
 @json_opt
 def retime(robot: str | None, program: str | None, out: str, method: str, margin: float,
-           dt: float | None, interpolation: str | None, units: str | None, mode: str,
-           robot_options: RobotOptions,
+           jerk: tuple[float, ...] | None, dt: float | None, interpolation: str | None,
+           units: str | None, mode: str, robot_options: RobotOptions,
            no_3d: bool, force: bool, quiet: bool, as_json: bool) -> None:
     """Retime PROGRAM: keep its path, give it the fastest timing ROBOT can make, verify it.
 
@@ -136,34 +180,98 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         prog = load_program_arg(program_arg)
         spec = _robot_spec(robot_arg or prog.robot)
         options = robot_options.over(prog.options)
+    jerk_limit = _jerk_limits(jerk, run.robot)
+    if jerk_limit is not None and method != "toppra":
+        raise MrneaError("--jerk-limit: only --method toppra takes it")
     t = np.arange(run.q_cmd.shape[0]) * run.dt
-    with own_folder(Path(out)) as folder:
-        paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT)}
-        check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])], force)
-        with compile_notice(quiet):
-            try:
-                res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
-                                     margin=margin, f_ext=run.f_ext, f_ext_point=run.f_ext_point,
-                                     mode=run.mode or mode, checkpoint=checkpoint)
-            except RetimeError as exc:  # about the program: say which file it is
-                raise RetimeError(f"{program_arg}: {exc}") from None
-        _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed", force,
-               not no_3d)
+    tool = None if run.cartesian is None else prog.moves.tool
+    try:
+        with own_folder(Path(out)) as folder:
+            paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
+                                             *((POSES, CARTESIAN) if run.cartesian else ()))}
+            check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])],
+                      force)
+            with compile_notice(quiet):
+                try:
+                    res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
+                                         margin=margin, f_ext=run.f_ext,
+                                         f_ext_point=run.f_ext_point, mode=run.mode or mode,
+                                         checkpoint=checkpoint, jerk_limit=jerk_limit)
+                except NoTimingError:
+                    raise
+                except RetimeError as exc:  # about the program: say which file it is
+                    raise RetimeError(f"{program_arg}: {exc}") from None
+            _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
+                   force, not no_3d, (tool, run.cartesian))
+    except NoTimingError as exc:  # a verdict: nothing written, the new folder removed
+        _no_timing(f"{program_arg}: {exc}", as_json, quiet)
     if as_json:
         click.echo(json.dumps({**res.summary(), "report": str(paths[REPORT])}, indent=2,
                               allow_nan=False))
     elif not quiet:
         click.echo(res.verdict())
         click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
-                   f"{paths[REPORT]}")
+                   f"{paths[REPORT]}" + (f", {paths[POSES]}, {paths[CARTESIAN]}"
+                                         if CARTESIAN in paths else ""))
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
+def _no_timing(why: str, as_json: bool, quiet: bool) -> NoReturn:
+    """End the command on the verdict that no timing of the path is achievable
+    (:class:`~mrnea.errors.NoTimingError`): one ``NOT ACHIEVABLE`` line on stdout (the JSON
+    object ``{"achievable": false, "retimed": false, "verdict": ...}`` with --json), exit 1."""
+    verdict = f"NOT ACHIEVABLE at any timing: {why}"
+    if as_json:
+        click.echo(json.dumps({"achievable": False, "retimed": False, "verdict": verdict},
+                              indent=2, allow_nan=False))
+    elif not quiet:
+        click.echo(verdict)
+    checkpoint()
+    sys.exit(EXIT_NOT_ACHIEVABLE)
+
+
+def _cartesian_program(res: Any, paths: dict[str, Path], tool: Any, force: bool) -> None:
+    """A program of one ``poses`` move running :data:`POSES` from the first retimed row, with
+    the joint program's [program] keys and [wrench] (read back from its file)."""
+    import tomllib
+
+    from mrnea.io.program import save_program
+
+    joint = tomllib.loads(paths[PROGRAM].read_text(encoding="utf-8"))
+    program = {**joint["program"], "q0": res.q_cmd[0],
+               **({"tool": tool} if tool is not None else {})}
+    save_program(paths[CARTESIAN], program, None, joint.get("wrench"),
+                 f"The retimed Cartesian program: its tool poses at the retimed cycles "
+                 f"({POSES}), solved by inverse kinematics from q0.\nRun: mrnea check "
+                 f"{CARTESIAN}", force,
+                 moves=[{"type": "poses", "csv": POSES, "interpolation": "linear"}])
+
+
+def _cartesian_steps(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any,
+                     force: bool) -> list[tuple[Path, Callable[[], Any]]]:
+    """The writes of a Cartesian program's retimed timing (none for a joint program): the
+    tool poses of the retimed rows (forward kinematics of the tool frame) as a pose CSV, and
+    :func:`_cartesian_program`."""
+    if cartesian is None:
+        return []
+    from mrnea.dynamics import forward_kinematics
+    from mrnea.io.posecsv import save_poses
+
+    def poses() -> None:
+        T = forward_kinematics(res.robot, res.q_cmd, tool=cartesian.tool)[:, -1]
+        save_poses(paths[POSES], res.t, T, force)
+
+    return [(paths[POSES], poses),
+            (paths[CARTESIAN], lambda: _cartesian_program(res, paths, tool, force))]
+
+
 def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
-           name: str, force: bool, view3d: bool) -> None:
+           name: str, force: bool, view3d: bool, cartesian: tuple[Any, Any] = (None, None)
+           ) -> None:
     """Write the run's files, a checkpoint before each; a stop request removes the files this
-    run wrote so far (the command leaves all of them or none of its own)."""
+    run wrote so far (the command leaves all of them or none of its own). ``cartesian``: a
+    Cartesian program's (tool spec, CartesianPath), whose retimed timing is written too."""
     from mrnea.report.retime import write_retime_report
 
     payload = folder / PAYLOAD
@@ -173,6 +281,7 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
         (paths[PROGRAM], lambda: res.save_program(
             paths[PROGRAM], spec, CSV, name=name,
             program_keys=_program_keys(options, folder, force), overwrite=force)),
+        *_cartesian_steps(res, paths, *cartesian, force),
         (paths[SUMMARY], lambda: res.save_summary(paths[SUMMARY], force)),
         (paths[REPORT], lambda: write_retime_report(res, paths[REPORT], force, files={
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],

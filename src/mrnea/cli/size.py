@@ -83,6 +83,7 @@ def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: s
         raise SizingError(f"no robot: give ROBOT, or name one in program "
                           f"{programs[0].name!r}")
     for p in programs:
+        p.apply_units(robot)  # a units = "deg" path's prismatic joints in mm
         p.check_path(robot)
     cat = load_catalogue(catalogue)
     wanted = None if joints is None else [j.strip() for j in joints.split(",")]

@@ -3,6 +3,7 @@ the joint torque regressor, base parameters, friction and rotor inertia, physica
 estimates, excitation trajectories. docs/identification.md."""
 
 from mrnea.identify.estimate import IdentificationResult, identify
+from mrnea.identify.excite import Excitation, excitation
 from mrnea.identify.log import Log, derivatives, read_log
 from mrnea.identify.regressor import (
     actuator_parameters,
@@ -13,11 +14,13 @@ from mrnea.identify.regressor import (
 )
 
 __all__ = [
+    "Excitation",
     "IdentificationResult",
     "Log",
     "actuator_parameters",
     "actuator_regressor",
     "derivatives",
+    "excitation",
     "identify",
     "inertial_parameters",
     "read_log",

@@ -91,11 +91,13 @@ def to_log_cholesky(p: NDArray, floor: float) -> NDArray[np.float64]:
                      U[0, 2] / e, *(U[:3, 3] / e)])
 
 
-def is_consistent(p: NDArray, tol: float = 0.0) -> bool:
-    """Mass > 0, the inertia about the centre of mass positive definite, with the triangle
-    inequality ``I_a + I_b >= I_c`` on its principal moments (``tol`` [kg m^2] of slack)."""
+def is_consistent(p: NDArray, rtol: float = 1e-12) -> bool:
+    """Mass > 0, the inertia about the centre of mass positive semi-definite, with the triangle
+    inequality ``I_a + I_b >= I_c`` on its principal moments, each to ``rtol`` times the largest
+    moment (rounding: a flat body, on the boundary, computes its moments a few ulps off)."""
     m, _, inertia_c = split_link_parameters(p)
     if not m > 0:
         return False
     e = np.linalg.eigvalsh((inertia_c + inertia_c.T) / 2)
-    return bool(e[0] > -tol and e[0] + e[1] >= e[2] - tol)
+    tol = rtol * max(abs(e[2]), abs(e[0]))
+    return bool(e[0] >= -tol and e[0] + e[1] >= e[2] - tol)

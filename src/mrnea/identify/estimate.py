@@ -15,7 +15,10 @@ squares, then the physically consistent parameters nearest to them (docs/identif
    theta_prior) / s|^2``, the robot's own (URDF) values as the prior with scales ``s``: the mean
    link mass m, m l and m l^2 (l the mean joint offset, at least 0.1 m) for masses, first and
    second moments and the rotor inertia, 1 N m (s/rad) for friction and offset. Directions the
-   log cannot see stay where the prior put them.
+   log cannot see stay where the prior put them. It starts from the prior's links and, for a
+   drive parameter that is a base parameter of its own (a row of K on drive columns alone), from
+   the least squares estimate: started at a prior a hundred times off, Levenberg-Marquardt
+   stalled far from the data.
 """
 
 from __future__ import annotations
@@ -51,13 +54,15 @@ MAX_NFEV = 300  # evaluations of the consistent fit (step 3)
 
 @dataclass(frozen=True)
 class Prediction:
-    """Measured and predicted efforts (K, n) [N m | N] at ``time`` (K,) [s]; ``rms`` (n,) of
-    their difference, each joint over its rows that were used (moving)."""
+    """Measured and predicted efforts (K, n) [N m | N] at ``time`` (K,) [s]; ``used`` (K, n)
+    bool: the rows of the moving joints (faster than ``min_speed``); ``rms`` (n,) of their
+    difference, each joint over its used rows."""
 
     time: NDArray[np.float64]
     measured: NDArray[np.float64]
     predicted: NDArray[np.float64]
     rms: NDArray[np.float64]
+    used: NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
@@ -71,7 +76,10 @@ class IdentificationResult:
     offsets); theta (15 n,): the consistent full parameters; sigma (n,) [N m | N]: each joint's
     residual standard deviation; condition: the condition number of the base regressor over the
     rows used (columns scaled to unit norm); fit, validation: efforts on the fitted rows and on
-    the held-out ones (or the validation log); offset (n,) [N m | N].
+    the held-out ones (or the validation log); offset (n,) [N m | N]; options: the options used
+    (``cutoff_hz``, ``min_speed``, ``prior_weight``, ``holdout``), ``validation`` (what
+    ``validation`` predicts: ``"log"``, ``"holdout"`` or None) and ``consistent`` (per link: a
+    rigid body, :func:`mrnea.identify.consistent.is_consistent`).
     """
 
     robot: Robot
@@ -178,7 +186,11 @@ def _consistent(robot: Robot, base: BaseParameters, beta: NDArray, info: NDArray
             D[10 * i:10 * i + 10, 10 * i:10 * i + 10] = log_cholesky_jacobian(x[10 * i:10 * i + 10])
         return M @ D
 
-    start = np.where(drive, np.sqrt(np.maximum(prior[10 * n:], 1e-2 * s[10 * n:])), prior[10 * n:])
+    a0 = prior[10 * n:].copy()  # the drives start from the log's estimate where one is theirs
+    for k, c in enumerate(base.columns):
+        if c >= 10 * n and not np.any(base.K[k, :10 * n]):
+            a0[c - 10 * n] = beta[k]
+    start = np.where(drive, np.sqrt(np.maximum(a0, 1e-2 * s[10 * n:])), a0)
     x0 = np.concatenate([*(to_log_cholesky(prior[10 * i:10 * i + 10], floor) for i in range(n)),
                          start])
     sol = scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm",
@@ -203,7 +215,7 @@ def _predict(W: NDArray, beta: NDArray, log: Log, used: NDArray) -> Prediction:
     pred = W @ beta
     rms = np.sqrt(np.where(used, (log.tau - pred) ** 2, 0.0).sum(axis=0)
                   / np.maximum(used.sum(axis=0), 1))
-    return Prediction(log.time, log.tau, pred, rms)
+    return Prediction(log.time, log.tau, pred, rms, used)
 
 
 def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: float = 0.2,
@@ -247,5 +259,6 @@ def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: 
         ident, base, beta, np.sqrt(np.diag(cov)), beta_c, theta, sigma, cond,
         _predict(W[:K_fit], beta, fit_log, used[:K_fit]), val, offset,
         {"cutoff_hz": cutoff_hz, "min_speed": min_speed, "prior_weight": prior_weight,
-         "holdout": holdout, "consistent": [bool(is_consistent(theta[10 * i:10 * i + 10]))
-                                            for i in range(robot.n)]})
+         "holdout": holdout,
+         "validation": "log" if validation is not None else "holdout" if val is not None else None,
+         "consistent": [bool(is_consistent(theta[10 * i:10 * i + 10])) for i in range(robot.n)]})

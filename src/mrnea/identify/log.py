@@ -22,7 +22,7 @@ import numpy as np
 import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import LogFileError, StateError
+from mrnea.errors import LogFileError, StateError, quote
 from mrnea.io.source import read_text
 from mrnea.model import Robot
 
@@ -133,8 +133,12 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         try:
             data[r] = [float(row[c]) for c in cols]
         except (ValueError, IndexError):
-            raise LogFileError(f"{path}: row {r + 2}: expected a number in each of the "
-                               f"{len(rows[0])} columns") from None
+            if len(row) < len(rows[0]):
+                raise LogFileError(f"{path}: row {r + 2}: {len(row)} columns, the header has "
+                                   f"{len(rows[0])}") from None
+            bad_col = next(u for u, c in zip(used, cols, strict=True) if not _is_number(row[c]))
+            raise LogFileError(f"{path}: row {r + 2}: column {bad_col!r}: expected a number, "
+                               f"got {quote(row[header.index(bad_col)])}") from None
         bad = np.flatnonzero(~np.isfinite(data[r]))
         if bad.size:
             raise LogFileError(f"{path}: row {r + 2}: column {used[bad[0]]!r} is NaN or inf")
@@ -144,10 +148,23 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
     n = robot.n
     tau = data[:, 1 + n:1 + 2 * n]
     if torque_constant is not None:
-        kt = np.broadcast_to(np.asarray(torque_constant, dtype=float), (n,))
+        kt = np.asarray(torque_constant, dtype=float).ravel()
+        if kt.size not in (1, n) or not np.all((kt > 0) & np.isfinite(kt)):
+            raise StateError(f"torque constant: expected one number > 0 or {n} (one per joint: "
+                             f"{', '.join(robot.joint_names)}), got {kt.size}: "
+                             f"{quote(kt.tolist())}")
+        kt = np.broadcast_to(kt, (n,))
         tau = tau * kt * robot.gear_ratio
     rates = (data[:, 1 + 2 * n:1 + 3 * n], data[:, 1 + 3 * n:]) if has_rates else (None, None)
     try:
         return Log(data[:, 0], data[:, 1:1 + n], tau, *rates)
     except StateError as exc:
         raise LogFileError(f"{path}: {exc}") from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

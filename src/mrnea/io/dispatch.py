@@ -157,7 +157,8 @@ class RobotOptions:
     actuators : the path of a sidecar actuator file (:func:`apply_actuator_file`), or None.
     tip : the URDF chain's last link, or several (the subtree holding them), or None (the
         whole tree): :func:`mrnea.io.urdf.load_urdf`.
-    payload : a :class:`~mrnea.io.payload.Payload` fixed to the last link, or None.
+    payload : a :class:`~mrnea.io.payload.Payload` fixed to its link (the last by default),
+        or None.
     gravity : (3,) gravity [m/s^2] in base coordinates replacing the robot's, or None.
     package_path : folders where the robot file's ``package://`` mesh names not found at load
         are looked for (:func:`with_package_path`; the command line's ``--package-path``), or

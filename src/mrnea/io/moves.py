@@ -11,26 +11,29 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.io.posecsv import POSE_INTERPOLATIONS, read_poses, resample_poses
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.rigid import rotation_from_rpy
 
-__all__ = ["MOVE_TYPES", "Move", "Moves", "read_moves"]
+__all__ = ["MOVE_KEYS", "MOVE_TYPES", "Move", "Moves", "read_moves"]
 
-MOVE_TYPES = ("joint", "linear", "circular")
+MOVE_TYPES = ("joint", "linear", "circular", "poses")
 JOINT_PROFILES = ("trapezoidal", "quintic", "scurve")
 _COMMON = ("type", "dwell", "blend")
-_KEYS = {
+MOVE_KEYS = {
     "joint": (*_COMMON, "target", "profile", "velocity_limit", "acceleration_limit",
               "jerk_limit"),
     "linear": (*_COMMON, "xyz", "rpy", "quat", "speed", "acceleration", "angular_speed",
                "angular_acceleration", "jerk", "angular_jerk"),
 }
-_KEYS["circular"] = (*_KEYS["linear"], "via")
+MOVE_KEYS["circular"] = (*MOVE_KEYS["linear"], "via")
+MOVE_KEYS["poses"] = (*_COMMON, "csv", "interpolation")
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,7 +47,9 @@ class Move:
     ``limits`` the tool's (speed [m/s], acceleration [m/s^2], jerk [m/s^3], angular speed
     [rad/s], angular acceleration [rad/s^2], angular jerk [rad/s^3]), ``inf`` where not given
     (a jerk: no jerk limit, the trapezoid). ``dwell`` [s] is the hold at the move's end;
-    ``blend`` [m] the radius of the corner into the next move (0: stop there).
+    ``blend`` [m] the radius of the corner into the next move (0: stop there). Pose CSV moves:
+    ``poses`` (N + 1, 4, 4) the tool poses at the move's cycles (:mod:`mrnea.io.posecsv`),
+    ``csv`` the file and ``csv_line`` the line of its first data row (for messages).
     """
 
     index: int
@@ -57,6 +62,9 @@ class Move:
     xyz: NDArray[np.float64] | None = None
     R: NDArray[np.float64] | None = None
     via: NDArray[np.float64] | None = None
+    poses: NDArray[np.float64] | None = None
+    csv: str | None = None
+    csv_line: int = 0
 
     @property
     def label(self) -> str:
@@ -128,7 +136,24 @@ def _orientation(check: TomlCheck, table: Mapping[str, Any], where: str) -> NDAr
     return None
 
 
-def _move(check: TomlCheck, index: int, table: Any, n: int) -> Move:
+def _poses(check: TomlCheck, index: int, table: Mapping[str, Any], where: str, dwell: float,
+           dt: float, base_dir: Path) -> Move:
+    p = Path(check.string(check.require(table, "csv", where), where, "csv")).expanduser()
+    if not p.is_absolute():
+        p = base_dir / p
+    interpolation = table.get("interpolation", "cubic")
+    if interpolation not in POSE_INTERPOLATIONS:
+        raise check.error(where, f"'interpolation' must be one of "
+                                 f"{', '.join(map(repr, POSE_INTERPOLATIONS))}, got "
+                                 f"{interpolation!r}")
+    time, poses, lines = read_poses(p)
+    _, sampled = resample_poses(time, poses, dt, interpolation, str(p))
+    sampled.setflags(write=False)
+    return Move(index, "poses", dwell, 0.0, poses=sampled, csv=str(p), csv_line=lines[0])
+
+
+def _move(check: TomlCheck, index: int, table: Any, n: int, dt: float, base_dir: Path
+          ) -> Move:
     where = f"[[move]] {index}"
     table = check.table(table, "", f"move {index}")
     kind = check.string(check.require(table, "type", where), where, "type")
@@ -136,15 +161,20 @@ def _move(check: TomlCheck, index: int, table: Any, n: int) -> Move:
         raise check.error(where, f"unknown type {kind!r}{did_you_mean(kind, MOVE_TYPES)}; "
                                  f"expected one of {', '.join(map(repr, MOVE_TYPES))}")
     where = f"[[move]] {index} ({kind})"
-    check.check_keys(table, _KEYS[kind], where)
+    check.check_keys(table, MOVE_KEYS[kind], where)
     dwell = check.number(table.get("dwell", 0.0), where, "dwell")
     blend = check.number(table.get("blend", 0.0), where, "blend")
     if dwell < 0 or blend < 0:
         raise check.error(where, f"'{'dwell' if dwell < 0 else 'blend'}' must be >= 0, got "
                                  f"{min(dwell, blend)}")
-    if blend > 0:
-        raise check.error(where, "'blend' > 0 (a rounded corner) is not supported yet; every "
-                                 "move stops at its target (blend = 0)")
+    if blend > 0 and kind != "linear":
+        raise check.error(where, "'blend' > 0 (a rounded corner) joins two linear moves; a "
+                                 f"{kind} move stops at its target (blend = 0)")
+    if blend > 0 and dwell > 0:
+        raise check.error(where, "'blend' > 0 passes the corner without stopping, 'dwell' "
+                                 "stops there: give one of them")
+    if kind == "poses":
+        return _poses(check, index, table, where, dwell, dt, base_dir)
     if kind == "joint":
         target = check.vector(check.require(table, "target", where), where, "target", n)
         profile = table.get("profile", "trapezoidal")
@@ -171,13 +201,32 @@ def _move(check: TomlCheck, index: int, table: Any, n: int) -> Move:
     return Move(index, kind, dwell, blend, xyz=xyz, R=R, via=via, limits=limits)
 
 
-def read_moves(check: TomlCheck, prog: Mapping[str, Any], moves: Any) -> Moves:
+def _check_blend(check: TomlCheck, mv: Move, nxt: Move | None) -> None:
+    """A blend joins a linear move to the next, also linear, neither jerk-limited."""
+    where = f"[[move]] {mv.index} ({mv.type})"
+    if nxt is None or nxt.type != "linear":
+        raise check.error(where, "'blend' > 0 rounds the corner into the next move, which must "
+                                 "be linear" + (f"; move {nxt.index} is {nxt.type}" if nxt
+                                                else "; this is the last move"))
+    for m in (mv, nxt):
+        if np.isfinite(m.limits[2]) or np.isfinite(m.limits[5]):
+            raise check.error(f"[[move]] {m.index} ({m.type})",
+                              "'jerk' and 'angular_jerk' do not apply to moves joined by a "
+                              "'blend' (their timing is the trapezoid, docs/cartesian.md)")
+
+
+def read_moves(check: TomlCheck, prog: Mapping[str, Any], moves: Any, dt: float,
+               base_dir: Path) -> Moves:
     """The :class:`Moves` of a program whose ``[program]`` table is ``prog`` and whose
-    ``[[move]]`` array is ``moves``."""
+    ``[[move]]`` array is ``moves``; ``dt`` [s] the cycle (pose CSVs are resampled to it),
+    ``base_dir`` the folder relative CSV paths resolve against."""
     if not isinstance(moves, list) or not moves:
         raise check.error("", "'move' must be an array of tables ([[move]]), at least one")
     q0 = check.vector(check.require(prog, "q0", "[program]"), "[program]", "q0")
     tool = _tool(check, prog["tool"]) if "tool" in prog else None
-    out = tuple(_move(check, k, m, q0.size) for k, m in enumerate(moves, start=1))
+    out = tuple(_move(check, k, m, q0.size, dt, base_dir) for k, m in enumerate(moves, start=1))
+    for mv, nxt in zip(out, (*out[1:], None), strict=True):
+        if mv.blend > 0:
+            _check_blend(check, mv, nxt)
     q0.setflags(write=False)
     return Moves(tool, q0, out)

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import PathWarning, ProgramFileError, StateError, quote
+from mrnea.io.jointnames import CsvHeader, column_order
 from mrnea.io.source import MAX_CSV_SIZE, as_path, parse_number, read_text
 from mrnea.io.writer import create
 from mrnea.model import Robot
@@ -39,8 +40,8 @@ from mrnea.resources import format_bytes, require_memory
 from mrnea.trajectory import cycles, require_path_memory
 from mrnea.validate import choice, time_step
 
-__all__ = ["CSV_UNITS", "DELIMITERS", "INTERPOLATIONS", "from_csv", "limit_warnings", "read_table",
-           "resample", "save_csv"]
+__all__ = ["CSV_UNITS", "DELIMITERS", "INTERPOLATIONS", "data_lines", "from_csv",
+           "limit_warnings", "read_table", "resample", "save_csv"]
 
 #: The interpolations of a path CSV's rows, by name, and what each one is (the report says it).
 INTERPOLATIONS = {
@@ -87,7 +88,15 @@ def _rows(text: str):
                 yield number, [c.strip(" \t") for c in cells]
 
 
-def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64]]:
+def data_lines(path: Path) -> list[int]:
+    """The line numbers (1-based) of a path CSV's header and data rows, in order: the lines
+    :func:`read_table` reads (not blank, not a ``#`` comment). For messages about a row that
+    :func:`read_table` has returned."""
+    text = read_text(path, "path CSV file", ProgramFileError, MAX_CSV_SIZE)
+    return [number for number, _ in list(_rows(text))[1:]]
+
+
+def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64]]:
     """Header and (R, 1 + n) numeric rows of a path CSV, every cell checked.
 
     The columns are separated by the header row's delimiter: a comma, else a semicolon, else a
@@ -101,7 +110,7 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
 
     Returns
     -------
-    header : the column names.
+    header : the column names, the file and the header's line.
     rows : (R, 1 + n) time [s] and joint positions, R >= 2, time strictly increasing.
 
     Raises
@@ -162,7 +171,8 @@ def read_table(path: Path, n: int | None) -> tuple[list[str], NDArray[np.float64
     if rows < 2:
         raise ProgramFileError(f"{path}: {rows} data row(s) after the header: a path needs "
                                "at least two (time strictly increasing)")
-    return header, np.frombuffer(values, dtype=np.float64).reshape(rows, len(header)).copy()
+    return (CsvHeader(tuple(header), str(path), header_line),
+            np.frombuffer(values, dtype=np.float64).reshape(rows, len(header)).copy())
 
 
 def _check_header(path: Path, line: int, header: list[str], n: int | None,
@@ -215,6 +225,8 @@ def from_csv(
     dt : interpolation cycle [s], finite and > 0.
     n : expected number of joints (columns after the time column); None: any, from the header
         (or ``robot.n``).
+        A header that names the robot's joints is matched by name, in any order
+        (:func:`mrnea.io.jointnames.column_order`); ``q`` is in the robot's joint order.
     interpolation : ``"cubic"`` (default), ``"quintic"`` or ``"linear"`` (:data:`INTERPOLATIONS`).
     robot : the robot the path is for: its joint count is expected, and a
         :class:`mrnea.errors.PathWarning` names each joint whose interpolated path leaves the
@@ -250,7 +262,15 @@ def from_csv(
     if n is not None and (isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1):
         raise StateError(f"n: expected a number of joints >= 1 or None, got {n!r}")
     p = as_path(path, "path", ProgramFileError)
-    _, data = read_table(p, None if n is None else int(n))
+    header, data = read_table(p, None if n is None or robot is not None else int(n))
+    if robot is not None:
+        order = column_order(header, robot)
+        if order is not None:
+            data = data[:, np.r_[0, order]]
+        elif data.shape[1] != n + 1:
+            raise ProgramFileError(f"{p}: line {header.line}: expected {n + 1} columns (time + "
+                                   f"{n} joints), the header row has {data.shape[1]}, and it "
+                                   f"names none of robot {quote(robot.name)}'s joints")
     if units == "deg":
         prismatic = np.zeros(data.shape[1] - 1, dtype=bool) if robot is None else robot.is_prismatic
         data[:, 1:] *= np.where(prismatic, 1e-3, np.pi / 180.0)

@@ -1,19 +1,24 @@
-"""Payloads: a mass rigidly fixed to the last link, given as ``KG[@X,Y,Z]`` or a small TOML file.
+"""Payloads: a mass rigidly fixed to a link (the last by default), given as ``KG[@X,Y,Z]``,
+``KG@LINK[:X,Y,Z]`` or a small TOML file.
 
-The command line's ``--payload`` and a program's ``payload`` key take the same two forms:
+The command line's ``--payload`` and a program's ``payload`` key take the same three forms:
 
 * ``"2.5"`` or ``"2.5@0,0,0.08"``: a point mass [kg] at a point [m] of the last link's frame
   (its origin if no point is given), the frame of ``f_ext_point``;
+* ``"2@left_hand:0,0,0.1"`` or ``"2@left_hand"``: the same on the link named (a branching
+  robot's hand), the point in that link's frame; a link the robot does not have is an error
+  naming it when the robot is loaded;
 * the path of a payload file (any other string), with an inertia too::
 
       mass = 2.5                        # kg
-      com = [0.0, 0.0, 0.08]            # m, last link's frame (default: its origin)
+      com = [0.0, 0.0, 0.08]            # m, the link's frame (default: its origin)
       inertia = { ixx = 0.004, iyy = 0.004, izz = 0.002 }   # kg m^2 about the com (default 0)
+      link = "left_hand"                # default: the last link
 
   ``inertia`` is written as in a robot file's link table (a table, products ``ixy``, ``ixz``,
-  ``iyz`` default 0, or a 3x3 array), in axes parallel to the last link's frame.
+  ``iyz`` default 0, or a 3x3 array), in axes parallel to the link's frame.
 
-:meth:`mrnea.model.Robot.with_payload` merges it into the last link.
+:meth:`mrnea.model.Robot.with_payload` merges it into the link.
 """
 
 from __future__ import annotations
@@ -34,17 +39,19 @@ from mrnea.model import Link
 
 __all__ = ["Payload", "parse_payload", "parse_vector"]
 
-_KEYS = ("mass", "com", "inertia")
+_KEYS = ("mass", "com", "inertia", "link")
 _POINT_MASS = re.compile(r"\s*([^@\s]+)\s*(?:@(.*))?")
 
 
 class Payload(NamedTuple):
     """A payload: ``mass`` [kg], ``com`` (3,) [m] and ``inertia`` (3, 3) [kg m^2] about the com,
-    both in the last link's frame; the arguments of :meth:`mrnea.Robot.with_payload`."""
+    both in the frame of ``link`` (None: the last link); the arguments of
+    :meth:`mrnea.Robot.with_payload`."""
 
     mass: float
     com: NDArray[np.float64]
     inertia: NDArray[np.float64]
+    link: str | None = None
 
 
 def parse_vector(text: str, length: int, what: str, error: type[MrneaError]) -> NDArray:
@@ -66,7 +73,8 @@ def parse_payload(spec: str, base_dir: str | Path | None = None,
 
     Parameters
     ----------
-    spec : the text: a number, optionally ``@`` and three numbers, else a file's path.
+    spec : the text: a number, optionally ``@`` and three numbers or ``@LINK[:X,Y,Z]``, else
+        a file's path.
     base_dir : the folder a relative file path is taken in (a program's folder); None: the
         current folder.
     error : the error raised for a malformed ``KG[@X,Y,Z]`` (the file's errors are
@@ -83,9 +91,16 @@ def parse_payload(spec: str, base_dir: str | Path | None = None,
     if m and (math.isfinite(mass) or m.group(2) is not None):
         if not (math.isfinite(mass) and mass >= 0):
             raise error(f"payload {quote(spec)}: the mass must be a number >= 0 [kg]")
-        com = (np.zeros(3) if m.group(2) is None else
-               parse_vector(m.group(2), 3, f"payload {quote(spec)}: the point after '@'", error))
-        return Payload(mass, com, np.zeros((3, 3)))
+        where, link = m.group(2), None
+        if where is not None and (":" in where or "," not in where):  # KG@LINK[:X,Y,Z]
+            link, _, where = where.partition(":")
+            link, where = link.strip(), where or None
+            if not link:
+                raise error(f"payload {quote(spec)}: no link name between '@' and ':'")
+        com = (np.zeros(3) if where is None else
+               parse_vector(where, 3, f"payload {quote(spec)}: the point after "
+                                      f"'{':' if link else '@'}'", error))
+        return Payload(mass, com, np.zeros((3, 3)), link)
     path = Path(spec).expanduser()
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
@@ -105,8 +120,9 @@ def _read(path: Path) -> Payload:
     com = check.vector(doc.get("com", [0.0, 0.0, 0.0]), "top level", "com", 3)
     inertia = (_inertia(check, doc["inertia"], "top level") if "inertia" in doc
                else np.zeros((3, 3)))
+    link = check.string(doc["link"], "top level", "link") if "link" in doc else None
     try:
         Link("payload", mass, com, inertia)
     except ModelError as exc:
         raise check.error("", str(exc)) from None
-    return Payload(mass, com, inertia)
+    return Payload(mass, com, inertia, link)

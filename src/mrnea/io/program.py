@@ -1,6 +1,7 @@
 """Program files: a robot, a cycle time, a path and an optional external wrench, in TOML.
 
-:func:`load_program` reads one into a :class:`Program` (format and examples: ``docs/programs.md``).
+:func:`load_program` reads one into a :class:`~mrnea.io.program_value.Program` (format and
+examples: ``docs/programs.md``).
 A waypoint path is made by the profiles of :mod:`mrnea.trajectory` (pure NumPy, below ``io``), a
 CSV path by :mod:`mrnea.io.pathcsv`; the robot is a built-in name or a robot file
 (:func:`mrnea.io.dispatch.resolve_robot`). Every problem raises
@@ -12,167 +13,31 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Mapping
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mrnea.errors import MrneaError, ProgramFileError, StateError, quote, shorten
-from mrnea.io.dispatch import (
-    BUILTIN_ROBOTS,
-    RobotOptions,
-    flange_of,
-    load_robot_spec,
-    resolve_robot,
-    same_robot,
-)
-from mrnea.io.moves import Moves, read_moves
-from mrnea.io.pathcsv import INTERPOLATIONS, limit_warnings, read_table, resample
+from mrnea.errors import MrneaError, ProgramFileError, StateError, quote
+from mrnea.io.dispatch import BUILTIN_ROBOTS, RobotOptions, resolve_robot
+from mrnea.io.jointnames import PROFILES, CsvHeader, read_named_path
+from mrnea.io.moves import MOVE_KEYS, read_moves
+from mrnea.io.pathcsv import INTERPOLATIONS, read_table, resample
 from mrnea.io.payload import parse_payload
+from mrnea.io.program_value import Program
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
+from mrnea.io.wrench import WRENCH_KEYS, read_wrench, wrench_at
 from mrnea.io.writer import create
-from mrnea.model import Robot
-from mrnea.trajectory import quintic, scurve, trapezoidal
 
 __all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
            "save_program"]
 
-#: The values of ``[program] mode``, ``[path] profile`` (the trajectory function making each)
-#: and ``[path] units``.
+#: The values of ``[program] mode`` and ``[path] units`` (``[path] profile``: ``PROFILES``).
 MODES = ("hybrid", "paper")
-PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic, "scurve": scurve}
 UNITS = ("rad", "deg")
-
-
-@dataclass(frozen=True, eq=False)
-class Program:
-    """A robot program ready for :func:`mrnea.simulate.simulate`, read by :func:`load_program`.
-
-    Run it with ``simulate(prog.load_robot(), prog.q_cmd, prog.dt, f_ext=prog.f_ext,
-    f_ext_point=prog.f_ext_point)``, adding ``mode=prog.mode`` when the program sets one.
-
-    Attributes
-    ----------
-    robot : a built-in robot name (``sdt``, ``puma560``) or the path of a robot file, resolved
-        relative to the program file's folder; None if the program names no robot (it then
-        runs on a robot given to :meth:`load_robot`).
-    options : what the program changes in its robot (``actuators``, ``tip``, ``payload``,
-        ``gravity``; paths resolved relative to the program file's folder).
-    dt : interpolation cycle [s].
-    t : (K,) cycle times [s] (``k dt`` for waypoint paths, the CSV's clock for CSV paths).
-    q_cmd : (K, n) commanded joint positions [rad | m].
-    f_ext : (K, 6) wrench ``[f; n]`` [N, N m] the end effector exerts on its environment, base
-        frame, one row per cycle; None: no external wrench.
-    f_ext_point : (3,) point [m] where f_ext acts, in the last link's frame (mrnea's link frame
-        n, not the DH frame n of the paper; a program may give it in DH frame n with
-        ``point_frame = "flange"``, converted here); None: the last link frame's origin.
-    mode : ``"hybrid"``, ``"paper"`` or None (the simulator's default).
-    name : the program's name.
-    source : the program file it was read from (for messages).
-    csv : the CSV file of a CSV path (None for waypoints; for messages).
-    interpolation : how a CSV path's rows were resampled to dt (a name of
-        :data:`mrnea.io.pathcsv.INTERPOLATIONS`); None for a waypoint path.
-    csv_rows : (R, 1 + n) the CSV path's rows, time [s] and positions [rad | m]; None for a
-        waypoint path.
-    moves : a Cartesian program's tool, q0 and ``[[move]]`` tables (:class:`mrnea.io.moves.Moves`);
-        None for a joint path. Such a program's ``t`` and ``q_cmd`` are None until
-        :func:`mrnea.cartesian.solve` makes them with the robot (``mrnea.load_program`` does).
-    cartesian : the solved Cartesian path (:class:`mrnea.cartesian.CartesianPath`: the programmed
-        tool pose of every cycle, the move it belongs to, the inverse kinematics' errors and the
-        verdict), kept alongside q_cmd; None for a joint path or before solving.
-
-    The arrays are read-only.
-    """
-
-    robot: str | None
-    dt: float
-    t: NDArray[np.float64] | None
-    q_cmd: NDArray[np.float64] | None
-    f_ext: NDArray[np.float64] | None
-    f_ext_point: NDArray[np.float64] | None
-    mode: Literal["hybrid", "paper"] | None
-    name: str
-    source: str = ""
-    options: RobotOptions = field(default_factory=RobotOptions)
-    csv: str | None = None
-    interpolation: str | None = None
-    csv_rows: NDArray[np.float64] | None = None
-    moves: Moves | None = None
-    cartesian: Any = None
-
-    @property
-    def K(self) -> int:
-        """Number of cycles."""
-        if self.q_cmd is None:
-            raise StateError(f"{self.source or self.name}: a Cartesian program has no cycles "
-                             f"before its inverse kinematics: mrnea.cartesian.solve(program, "
-                             f"robot) (mrnea.load_program solves it)")
-        return int(self.q_cmd.shape[0])
-
-    @property
-    def n(self) -> int:
-        """Number of joints."""
-        return self.moves.n if self.q_cmd is None else int(self.q_cmd.shape[1])
-
-    @property
-    def duration(self) -> float:
-        """``(K - 1) dt`` [s]: from the first to the last cycle."""
-        return (self.K - 1) * self.dt
-
-    def load_robot(self, robot: str | None = None, options: RobotOptions | None = None
-                   ) -> Robot:
-        """The robot to run the program on, with the program's options and ``options`` over them.
-
-        Parameters
-        ----------
-        robot : a robot given besides the program (the command line's ROBOT: a built-in name
-            or a path relative to the current folder); None: the one the program names. When
-            both are given they must be the same robot (the same built-in, or the same file
-            under any path), compared before any option is applied.
-        options : options that replace the program's where they are set (the command line's).
-
-        Raises
-        ------
-        ProgramFileError
-            No robot at all, a ``robot`` other than the program's, or a robot whose joint count
-            differs from the program's (the message names the file and both counts).
-        RobotFileError
-            If the robot file cannot be read.
-        """
-        where = self.source or self.name
-        if robot is not None:
-            source = resolve_robot(robot)
-            if self.robot is not None and not same_robot(source, self.robot):
-                raise ProgramFileError(
-                    f"robot {quote(robot)} is not the robot {where} names ({self.robot}); "
-                    f"give either the program alone or its own robot")
-        elif self.robot is None:
-            raise ProgramFileError(f"{where}: the program names no robot ([program] robot); "
-                                   f"give one (ROBOT PROGRAM on the command line)")
-        else:
-            source = self.robot
-        loaded = load_robot_spec(source, options=(options or RobotOptions()).over(self.options))
-        if loaded.n != self.n:
-            what = (f"its CSV path {self.csv} has {self.n} joint columns" if self.csv else
-                    f"[program] q0 has {self.n} joint values" if self.moves else
-                    f"{self.n} joint values per waypoint")
-            raise ProgramFileError(f"{where}: {what}, robot {shorten(loaded.name)} has "
-                                   f"{loaded.n}")
-        self.check_path(loaded)
-        return loaded
-
-    def check_path(self, robot: Robot) -> None:
-        """A :class:`mrnea.errors.PathWarning` for each joint whose resampled CSV path leaves
-        ``robot``'s position limits although the CSV's rows stay within them
-        (:func:`mrnea.io.pathcsv.limit_warnings`; :meth:`load_robot` calls it). Nothing for a
-        waypoint path."""
-        if self.csv_rows is not None:
-            limit_warnings(robot, self.t, self.q_cmd, self.csv_rows, str(self.interpolation),
-                           self.source or self.name)
 
 
 _TOP_KEYS = ("program", "path", "wrench", "move")
@@ -182,10 +47,6 @@ _MOVE_KEYS = ("tool", "q0")  # [program] keys of a Cartesian program only
 _CSV_KEYS = ("csv", "units", "interpolation")
 _PATH_KEYS = ("profile", "waypoints", "velocity_limit", "acceleration_limit", "jerk_limit",
               "dwell", "csv", "units", "interpolation")
-_WRENCH_KEYS = ("times", "values", "point", "point_frame")
-#: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
-#: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
-POINT_FRAMES = ("link", "flange")
 
 
 def _robot(check: TomlCheck, value: str, base_dir: Path) -> str:
@@ -231,9 +92,9 @@ def _limit(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArra
 
 
 def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
-          ) -> tuple[NDArray, NDArray, str | None, NDArray | None]:
-    """(t, q_cmd, interpolation, CSV rows) of the [path] table (the last two None for
-    waypoints)."""
+          ) -> tuple[NDArray, NDArray, str | None, NDArray | None, CsvHeader | None]:
+    """(t, q_cmd, interpolation, CSV rows, CSV header) of the [path] table (the last three
+    None for waypoints)."""
     where = "[path]"
     check.check_keys(table, _PATH_KEYS, where)
     units = table.get("units", "rad")
@@ -255,11 +116,11 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
             raise check.error(where, f"'interpolation' must be one of "
                                      f"{', '.join(map(repr, INTERPOLATIONS))}, got "
                                      f"{interpolation!r}")
-        _, data = read_table(p, None)
+        header, data = read_table(p, None)
         data[:, 1:] *= scale
         try:
             return (*resample(data[:, 0], data[:, 1:], dt, interpolation, str(p)),
-                    interpolation, data)
+                    interpolation, data, header)
         except StateError as exc:  # too many cycles for dt
             raise check.error(where, f"{quote(str(p))}: {exc}") from None
     if "interpolation" in table:
@@ -294,40 +155,9 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
         raise check.error(where, f"'jerk_limit' applies to profile = \"scurve\" only, not "
                                  f"{profile!r}")
     try:
-        return (*PROFILES[profile](w, dt, vmax, amax, dwell=dwell, **jerk), None, None)
+        return (*PROFILES[profile](w, dt, vmax, amax, dwell=dwell, **jerk), None, None, None)
     except StateError as exc:
         raise check.error(where, str(exc)) from None
-
-
-def _wrench(check: TomlCheck, table: Mapping[str, Any], t: NDArray, robot: str
-            ) -> tuple[NDArray, NDArray | None]:
-    where = "[wrench]"
-    check.check_keys(table, _WRENCH_KEYS, where)
-    times = check.vector(check.require(table, "times", where), where, "times")
-    if np.any(np.diff(times) <= 0):
-        k = int(np.argmax(np.diff(times) <= 0)) + 1
-        raise check.error(where, f"'times' must be strictly increasing: times[{k}] = "
-                                 f"{times[k]} follows {times[k - 1]}")
-    values = check.matrix(check.require(table, "values", where), where, "values", width=6,
-                          rows=times.size)
-    f_ext = np.empty((t.size, 6))
-    for c in range(6):
-        f_ext[:, c] = np.interp(t, times, values[:, c])
-    point = None
-    if "point" in table:
-        point = check.vector(table["point"], where, "point", 3)
-    frame = table.get("point_frame", "link")
-    if frame not in POINT_FRAMES:
-        raise check.error(where, f"'point_frame' must be one of "
-                                 f"{', '.join(map(repr, POINT_FRAMES))}, got {frame!r}")
-    if frame == "flange":  # DH frame n -> the last link's frame: p_link = B_n p_flange
-        B = flange_of(robot)
-        if B is None:
-            raise check.error(where, f"point_frame = 'flange' needs a robot given by a DH table "
-                                     f"(dh = \"standard\" or \"modified\"); {robot} is not")
-        p = np.zeros(3) if point is None else point
-        point = B[:3, :3] @ p + B[:3, 3]
-    return f_ext, point
 
 
 def loads_program(text: str, source: str = "<string>", base_dir: str | Path | None = None
@@ -372,32 +202,65 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         raise check.error("[program]", f"'mode' must be one of {', '.join(map(repr, MODES))}, "
                                        f"got {quote(mode)}")
     if "move" in doc:
-        if "path" in doc or "wrench" in doc:
-            raise check.error("", f"a program of [[move]] tables cannot have a "
-                                  f"[{'path' if 'path' in doc else 'wrench'}] table (its path is "
-                                  f"its moves; a wrench with moves is not supported yet)")
-        moves = read_moves(check, prog, doc["move"])
-        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=None,
-                       mode=mode, name=name, source=source, options=options, moves=moves)
+        if "path" in doc:
+            raise check.error("", "a program of [[move]] tables cannot have a [path] table (its "
+                                  "path is its moves)")
+        moves = read_moves(check, prog, doc["move"], dt, base)
+        wrench = point = None
+        if "wrench" in doc:
+            *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                     robot)
+        return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=point,
+                       mode=mode, name=name, source=source, options=options, moves=moves,
+                       wrench=None if wrench is None else tuple(wrench))
     for key in _MOVE_KEYS:
         if key in prog:
             raise check.error("[program]", f"'{key}' belongs to a program of [[move]] tables "
                                            f"(Cartesian moves), not to a [path]")
     path = check.table(check.require(doc, "path", "top level"), "top level", "path")
-    t, q, interpolation, rows = _path(check, path, dt, base)
+    waypoints = path.get("waypoints")
+    if isinstance(waypoints, list) and waypoints and isinstance(waypoints[0], dict):
+        return _named(check, doc, path, dict(robot=robot, dt=dt, mode=mode, name=name,
+                                             source=source, options=options))
+    t, q, interpolation, rows, header = _path(check, path, dt, base)
     if q.shape[0] < 2:
         raise check.error("[path]", "the program is a single cycle (all waypoints equal and no "
                                     "dwell); give at least two distinct waypoints or a dwell")
     f_ext = point = None
     if "wrench" in doc:
-        f_ext, point = _wrench(check, check.table(doc["wrench"], "top level", "wrench"), t, robot)
+        times, values, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                           robot)
+        f_ext = wrench_at(times, values, t)
     for a in (t, q, f_ext, point, rows):
         if a is not None:
             a.setflags(write=False)
     return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
                    mode=mode, name=name, source=source, options=options,
                    csv=path["csv"] if "csv" in path else None, interpolation=interpolation,
-                   csv_rows=rows)
+                   csv_rows=rows, columns=header, units=path.get("units", "rad"),
+                   _mm_pending=path.get("units") == "deg")
+
+
+def _named(check: TomlCheck, doc: Mapping[str, Any], path: Mapping[str, Any],
+           fields: dict[str, Any]) -> Program:
+    """A program whose waypoints are tables by joint name: its rows are made on a robot
+    (:meth:`Program.on`)."""
+    check.check_keys(path, _PATH_KEYS, "[path]")
+    for key in ("csv", "interpolation"):
+        if key in path:
+            raise check.error("[path]", f"{quote(key)} cannot be used with 'waypoints'")
+    units = path.get("units", "rad")
+    if units not in UNITS:
+        raise check.error("[path]", f"'units' must be one of {', '.join(map(repr, UNITS))}, "
+                                    f"got {quote(units)}")
+    named = read_named_path(check, path, math.pi / 180.0 if units == "deg" else 1.0)
+    wrench = point = None
+    if "wrench" in doc:
+        *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
+                                     fields["robot"])
+    return Program(t=None, q_cmd=None, f_ext=None, f_ext_point=point, named=named,
+                   wrench=None if wrench is None else tuple(wrench), units=units,
+                   _mm_pending=units == "deg", **fields)
 
 
 def load_program(path: str | Path) -> Program:
@@ -427,8 +290,8 @@ def load_program(path: str | Path) -> Program:
 
 
 def _toml_value(v: Any) -> str:
-    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit) or
-    a (nested) list of them."""
+    """A TOML value: a string, a bool, a number (shortest repr: it reads back bit for bit), a
+    (nested) list of them or an inline table."""
     if isinstance(v, np.ndarray):
         v = v.tolist()
     if isinstance(v, str):
@@ -442,21 +305,31 @@ def _toml_value(v: Any) -> str:
         return repr(x) if math.isfinite(x) else ("nan" if x != x else "inf" if x > 0 else "-inf")
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, Mapping):  # an inline table (a tool's xyz and rpy)
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}"
+                               for k, x in v.items()) + "}"
     raise TypeError(f"cannot write {type(v).__name__} to a program file")
 
 
-def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
-                  wrench: Mapping[str, Any] | None = None, comment: str = "") -> str:
+def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any] | None,
+                  wrench: Mapping[str, Any] | None = None, comment: str = "",
+                  moves: Sequence[Mapping[str, Any]] = ()) -> str:
     """The text of a program file (the format :func:`loads_program` reads) from the keys of its
-    ``[program]``, ``[path]`` and optional ``[wrench]`` tables; ``comment``: lines put first as
-    TOML comments. Numbers are written as their shortest repr, so they read back bit for bit.
-    A list of rows (the wrench's values) gets one row per line. A key the table does not know
+    ``[program]``, ``[path]`` (None for a Cartesian program) and optional ``[wrench]`` tables,
+    and a Cartesian program's ``[[move]]`` tables (``moves``, each with its ``type``);
+    ``comment``: lines put first as TOML comments. Numbers are written as their shortest
+    repr, so they read back bit for bit. A list of rows (the wrench's values) gets one row per
+    line. A key the table does not know
     is a StateError (the file would not load)."""
     lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
-    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": _WRENCH_KEYS}
-    for table, keys in (("program", program), ("path", path), ("wrench", wrench)):
+    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": WRENCH_KEYS}
+    tables = [("program", program), ("path", path), ("wrench", wrench),
+              *(("[move]", m) for m in moves)]
+    for table, keys in tables:
         if keys is None:
             continue
+        if table == "[move]":
+            allowed[table] = MOVE_KEYS.get(keys.get("type"), ("type",))
         unknown = [k for k in keys if k not in allowed[table]]
         if unknown:
             raise StateError(f"{table}: unknown key {quote(unknown[0])} for a program file's "
@@ -472,13 +345,14 @@ def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any],
 
 
 def save_program(path: str | os.PathLike[str], program: Mapping[str, Any],
-                 path_table: Mapping[str, Any], wrench: Mapping[str, Any] | None = None,
-                 comment: str = "", overwrite: bool = False) -> Path:
+                 path_table: Mapping[str, Any] | None, wrench: Mapping[str, Any] | None = None,
+                 comment: str = "", overwrite: bool = False,
+                 moves: Sequence[Mapping[str, Any]] = ()) -> Path:
     """Write :func:`dumps_program`'s text to ``path`` through :func:`mrnea.io.writer.create`
     (whole or not at all, never through a link, an existing file replaced only with
     ``overwrite``)."""
     with create(path, overwrite) as fh:
-        fh.write(dumps_program(program, path_table, wrench, comment))
+        fh.write(dumps_program(program, path_table, wrench, comment, moves))
     return Path(path)
 
 

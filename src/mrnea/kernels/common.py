@@ -156,7 +156,7 @@ def put_mat(M, k, A):
 
 
 @nb.njit(**JIT)
-def kinematics(model, q, R, o, z, c, Ic):
+def kinematics(model, q, R, o, z, c, Ic, tree=True):
     """Link poses in base coordinates: fills R, o, z, c, Ic (shapes in the module docstring).
 
     ``T_i = T_{λ(i)} @ origin_i @ motion_i(q_i)``: the parent's pose is carried from the previous
@@ -165,13 +165,14 @@ def kinematics(model, q, R, o, z, c, Ic):
     ``R_i = R_{i-1} (A + sin q_i A[a]x + (1 - cos q_i) A[a]x^2)``, a product of exact rotations,
     so rounding does not compound along the chain. A prismatic joint moves the origin by
     ``z_i q_i``. ``z_i = R_{i-1} (A a)`` (``R_{λ(i)}`` on a tree). Terms of a zero offset are
-    skipped (NOPOS, NOCOM).
+    skipped (NOPOS, NOCOM). ``tree=None`` compiles a serial chain's copy, without the
+    parent look-up (kernels/mrnea.py ``mrnea_ws``); the default runs any tree.
     """
     Rp = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # orientation of the parent (the base)
     op = (0.0, 0.0, 0.0)
     for i in range(q.shape[0]):
         r = i + 1
-        p = parent(model, i)
+        p = i - 1 if tree is None else parent(model, i)
         if p != i - 1:  # a later child: its parent's pose (the base's: the identity)
             if p >= 0:
                 Rp, op = rot(R, p), vec(o, p)

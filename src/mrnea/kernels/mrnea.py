@@ -68,6 +68,7 @@ from mrnea.kernels.layout import (
     NOPOS,
     STASH,
     SUBEND,
+    TREE,
     carries,
     column_stash,
     is_prismatic,
@@ -126,12 +127,27 @@ def mrnea_full(model, q, qd, fext, pe, H, u, ws):
 
 @nb.njit(**JIT)
 def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
-    """:func:`mrnea` (``full``: :func:`mrnea_full`) on the scratch ``ws`` (kernels/layout.py)."""
+    """:func:`mrnea` (``full``: :func:`mrnea_full`) on the scratch ``ws`` (kernels/layout.py).
+
+    A serial chain (the model's TREE flag 0) runs :func:`mrnea_pass` compiled for ``tree=None``:
+    Numba drops the tree's branches from that copy, so a chain runs the operations of the
+    pass before trees, at its speed (the branches left in, never taken, cost a chain 14-19 %
+    of the pass: docs/performance.md section 14).
+    """
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
+    if model[0, TREE]:
+        return mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, True)
+    return mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, None)
+
+
+@nb.njit(**JIT)
+def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
+    """The pass of :func:`mrnea_ws` on finite inputs; ``tree``: None on a serial chain (the
+    tree's branches compiled out), True on a tree."""
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, tree)
     g = (model[0, 0], model[0, 1], model[0, 2])
     # E row k: E_{(i+1)k} (Eqs. 25-26); M row k: column k of n'_ia1 + n'_ia2 (+ n'_ia3) (Eqs. 29-31)
     e, d, E, M = mrnea_buffers(ws, n)
@@ -141,7 +157,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
     # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
-    link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws)
+    link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws, tree)
     # a tree's later children put their sums aside here (docs/notation.md, Trees)
     Sc, Sn = stash_buffers(ws, n)
     SC = column_stash(ws, n)
@@ -157,19 +173,19 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
         p_star = sub(p_next, oi)  # p*_i
         # the first child i + 1 (on a chain, every link but the last has it); on a tree a leaf
         # starts from zero sums (a later child's step cleared them)
-        first = i < n - 1 and parent(model, i + 1) == i
+        first = i < n - 1 and (tree is None or parent(model, i + 1) == i)
         # Sec. IV's simplifications: terms with p*_i = 0 (o_{i+1} = o_i, NOPOS) or l_i = 0
         # (NOCOM) vanish; at i = n-1 the a2, a3 terms do too (E_{(n+1)k} = 0: f_e has no qdd part)
         has_p = first and not model[i + 2, NOPOS]
         has_l = not model[i + 1, NOCOM]
         if has_p:  # a2 (Eq. 25): p*_i x E_{(i+1)k}, k <= i+1 (k in κ(i+1) ∪ {i+1} on a tree)
             for k in range(i + 2):
-                if carries(model, k, i + 1):
+                if tree is None or carries(model, k, i + 1):
                     put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
             if full:  # a3 (Eq. 26): p*_i x E_kk, k >= i+2 (in ν(i+1) on a tree)
                 for k in range(i + 2, int(model[i + 2, SUBEND])):
                     put(M, k, add(vec(M, k), cross(p_star, vec(E, k))))
-        branch = model[i + 1, BRANCH]
+        branch = tree is not None and model[i + 1, BRANCH]
         if branch:  # the later children's columns k in κ(i) ∪ {i}, stashed at o_i
             s0 = int(model[i + 1, STASH])
             k = i
@@ -180,7 +196,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
                 k = parent(model, k)
         # a1 (Eq. 24): d_ik + l_i x e_ik, k <= i (k in κ(i) ∪ {i}); and E_{ik} = E_{(i+1)k} + e_ik
         for k in range(i + 1):
-            if not carries(model, k, i):
+            if tree is not None and not carries(model, k, i):
                 continue
             zk = vec(z, k)
             if is_prismatic(model, k):
@@ -210,7 +226,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
         end = model[i + 1, SUBEND]
         for k in range(n if full else i + 1):
             # h_ik = 0 unless k carries i or i carries k (the latter: the full form only)
-            if carries(model, k, i) if k <= i else k < end:
+            if tree is None or (carries(model, k, i) if k <= i else k < end):
                 H[i, k] = dot(zi, vec(C, k))
             else:
                 H[i, k] = 0.0
@@ -218,7 +234,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
                 H[k, i] = H[i, k]
         u[i] = dot(zi, E_c if prismatic else n_c)
         p_next = oi
-        b = parent(model, i)
+        b = i - 1 if tree is None else parent(model, i)
         if b != i - 1:
             # a later child of b: its sums moved to o_b and put aside until b's step (b's last
             # child opens b's stash: written, not added to), then a leaf starts from zero
@@ -259,4 +275,4 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd, ws):
         return SIZE
     H, L, u, rhs = solve_buffers(ws, q.shape[0])
     status = mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
-    return solve_forward(status, H, u, tau, L, rhs, qdd)
+    return solve_forward(model, status, H, u, tau, L, rhs, qdd)

@@ -61,7 +61,7 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
-def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree=True):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
     centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
 
@@ -69,6 +69,8 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
     that case without the qdd terms. On a tree, the parent's w, wd, a_o are carried from the
     previous link when λ(i) = i - 1, else read back from the scratch ``ws``'s
     ``branch_buffers``, where each link with a second child keeps them (docs/notation.md).
+    ``tree=None`` compiles a serial chain's copy, without those branches (kernels/mrnea.py
+    ``mrnea_ws``); the default runs any tree.
     """
     n = qd.shape[0]
     Wb, WDb, Ab = branch_buffers(ws, n)
@@ -77,7 +79,7 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
     a_o = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
     for i in range(n):
         zi, oi = vec(z, i), vec(o, i)
-        p = parent(model, i)
+        p = i - 1 if tree is None else parent(model, i)
         if p != i - 1:  # a later child: its parent's values (the base's: zero)
             if p >= 0:
                 w, wd, a_o = vec(Wb, p), vec(WDb, p), vec(Ab, p)
@@ -96,7 +98,7 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
             if qdd is not None:
                 wd = add(wd, scale(zi, qdd[i]))
             w = add(w, scale(zi, qd[i]))
-        if model[i + 1, BRANCH]:  # kept for the later children
+        if tree is not None and model[i + 1, BRANCH]:  # kept for the later children
             put(Wb, i, w)
             put(WDb, i, wd)
             put(Ab, i, a_o)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from matplotlib.figure import Figure
 
-from mrnea.describe import describe
+from mrnea.describe import branches, describe
 from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import as_path
@@ -49,6 +49,8 @@ h3 { font-size: 1em; margin: 1.2em 0 0.3em 0; }
 th { background: #f0f0f0; text-align: center; }
 td.l, th.l { text-align: left; }
 tr.sat td { background: #fdecea; }
+tr.branch th { background: #e4ebf3; text-align: left; font-weight: normal; }
+table.kv td { white-space: normal; }
 .scroll { overflow-x: auto; }
 .note { color: #555; font-size: 0.88em; }
 figure { margin: 1em 0 2em 0; }
@@ -113,7 +115,7 @@ class _Html(str):
 def _kv_table(rows: Sequence[tuple[str, str]]) -> str:
     body = "".join(f'<tr><th class="l">{_e(k)}</th><td class="l">'
                    f'{v if isinstance(v, _Html) else _e(v)}</td></tr>' for k, v in rows)
-    return f"<table>{body}</table>"
+    return f'<table class="kv">{body}</table>'
 
 
 def _time(t: float, dt: float) -> str:
@@ -177,9 +179,27 @@ def _head(name: str, unit: str = "") -> str:
     return _e(name) + (f' <span class="u">[{_e(unit)}]</span>' if unit else "")
 
 
-def _table(head: Sequence[str], rows: Sequence[str], ident: str) -> str:
+def _table(head: Sequence[str], rows: Sequence[str], ident: str,
+           groups: Sequence[tuple[str, list[int]]] = ()) -> str:
+    """A per-joint table: one row per joint; ``groups`` (a tree's branches, label and joint
+    indices) put a row naming each branch above its joints."""
+    body = "".join(rows) if not groups else "".join(
+        f'<tr class="branch"><th colspan="{len(head)}">{_e(label)}</th></tr>'
+        + "".join(rows[i] for i in idx) for label, idx in groups)
     return (f'<div class="scroll"><table class="joints" id="{ident}">'
-            f'{_row(head, head=True)}{"".join(rows)}</table></div>')
+            f'{_row(head, head=True)}{body}</table></div>')
+
+
+def _branch_groups(result: SimulationResult) -> list[tuple[str, list[int]]]:
+    """A tree's branches as table groups (``branch shoulder_pitch_l..wrist_l, on waist``);
+    none for a serial chain."""
+    robot = result.robot
+    if robot.is_serial:
+        return []
+    names, parents = robot.joint_names, robot.parents
+    return [(f"branch {names[b[0]]}" + (f"..{names[b[-1]]}" if len(b) > 1 else "")
+             + (f", on {names[parents[b[0]]]}" if parents[b[0]] >= 0 else ", on the base"), b)
+            for b in branches(parents)]
 
 
 def _joints_html(result: SimulationResult, link: bool) -> str:
@@ -194,6 +214,7 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
     use = np.nan_to_num(use, nan=0.0, posinf=0.0)
     tau, q, motor = _unit(units, "tau"), _unit(units, "q"), _unit(units, "motor")
     program, response, loads = [], [], []
+    groups = _branch_groups(result)
     for i, (jd, j) in enumerate(zip(s["joints"], result.robot.joints, strict=True)):
         nsat = int(result.saturated[:, i].sum())
         npos = int(result.position_clamped[:, i].sum())
@@ -229,21 +250,22 @@ def _joints_html(result: SimulationResult, link: bool) -> str:
             fmt_number(jd["peak_reaction_force"]), fmt_number(jd["peak_axial_force"]),
             fmt_number(jd["peak_radial_force"]), fmt_number(jd["peak_reaction_moment"]),
             fmt_number(jd["peak_bending_moment"]))]))
-    return f"""<h3>What the program needs (its own requirement, before any lag)</h3>
+    return (f"""<h3>What the program needs (its own requirement, before any lag)</h3>
 {_table([_head("joint"), _head("type"), _head("peak effort", tau), _head("at t", "s"),
          _head("peak / limit at the program's speed"), _head("that limit", tau),
-         _head("the limit from")], program, "joints-program")}
+         _head("the limit from")], program, "joints-program", groups)}
 <h3>What the simulated robot did</h3>
 {_table([_head("joint"), _head("time saturated", "s"), _head("cycles saturated"),
          _head("cycles clamped (pos / vel)"), _head("peak effort", tau),
          _head("rated limit", tau), _head("peak / rated limit", "%"),
          _head("peak |τ| / limit at speed", "%"), _head("max tracking error", q),
-         _head("at t", "s")], response, "joints-response")}
+         _head("at t", "s")], response, "joints-response", groups)}
 <h3>Motor torques and bearing loads</h3>
 {_table([_head("joint"), _head("peak motor torque", motor), _head("RMS motor torque", motor),
          _head("peak reaction force", "N"), _head("peak axial force", "N"),
          _head("peak radial force", "N"), _head("peak reaction moment", "N m"),
-         _head("peak bending moment", "N m")], loads, "joints-loads")}""" + _tool_html(result, link)
+         _head("peak bending moment", "N m")], loads, "joints-loads", groups)}"""
+            + _tool_html(result, link))
 
 
 def _tool_html(result: SimulationResult, link: bool) -> str:

@@ -87,42 +87,52 @@ def capsule_between(a: ArrayLike, b: ArrayLike, radius: float, joint: int | None
                  frame_z_to(b - a, 0.5 * (a + b)), color, joint)
 
 
-def tip_point(robot: Robot) -> NDArray[np.float64]:
-    """The end-effector point whose path the view draws, in the last link's frame [m]: twice the
-    last link's centre of mass (the far end of a uniform bar from its joint), its origin when the
-    centre of mass is there."""
-    return 2.0 * np.asarray(robot.links[-1].com, dtype=float)
+def tip_point(robot: Robot, link: int = -1) -> NDArray[np.float64]:
+    """The end-effector point whose path the view draws, in link ``link``'s frame [m] (the
+    last link by default): twice its centre of mass (the far end of a uniform bar from its
+    joint), its origin when the centre of mass is there."""
+    return 2.0 * np.asarray(robot.links[link].com, dtype=float)
+
+
+def leaves(robot: Robot) -> list[int]:
+    """The links no joint hangs from: a chain's last link, each branch's tip on a tree."""
+    has_child = set(robot.parents)
+    return [i for i in range(robot.n) if i not in has_child]
 
 
 def fallback(robot: Robot, body: int) -> list[Shape]:
     """Simple shapes of body ``body`` (0: the base, i + 1: link i) from the joints alone.
 
-    A capsule from the body's origin to the next joint's origin (the last link: to
-    :func:`tip_point`; a sphere where they coincide), reddened with the joint that moves the
-    body; a short cylinder (revolute) or a square rail (prismatic) along the axis of the joint
-    the body carries, reddened with that joint; under the base a plinth. Sizes scale with the
-    robot's reach.
+    A capsule from the body's origin to each child joint's origin (a tree's body may carry
+    several; a body carrying none: to :func:`tip_point`; a sphere where they coincide),
+    reddened with the joint that moves the body; a short cylinder (revolute) or a square rail
+    (prismatic) along the axis of each joint the body carries, reddened with that joint; under
+    the base a plinth. Sizes scale with the robot's reach (the longest root-to-tip path).
     """
     offsets = [np.asarray(j.origin[:3, 3], dtype=float) for j in robot.joints]
-    end = tip_point(robot)
-    reach = sum(float(np.linalg.norm(p)) for p in offsets) + float(np.linalg.norm(end))
-    r = 0.035 * (reach if reach > 0 else 1.0)
+    reach = [0.0] * robot.n  # from the base to each joint's child link, along its branch
+    for i, p in enumerate(robot.parents):
+        reach[i] = (0.0 if p < 0 else reach[p]) + float(np.linalg.norm(offsets[i]))
+    longest = max(reach[i] + float(np.linalg.norm(tip_point(robot, i))) for i in leaves(robot))
+    r = 0.035 * (longest if longest > 0 else 1.0)
     moved_by = None if body == 0 else body - 1
     out = []
     if body == 0:
         out.append(Shape("cylinder", (3.0 * r, r), frame_z_to((0, 0, 1.0), (0, 0, -r / 2)),
                          DRIVE_COLOR))
-    nxt = offsets[body] if body < robot.n else end
-    if np.linalg.norm(nxt) > 1e-9:
-        out.append(capsule_between((0, 0, 0), nxt, r, moved_by, LINK_COLOR))
-    elif body > 0:
-        out.append(Shape("sphere", (1.3 * r,), color=LINK_COLOR, joint=moved_by))
-    if body < robot.n:  # the drive of the joint this body carries
-        j = robot.joints[body]
-        frame = frame_z_to(j.origin[:3, :3] @ np.asarray(j.axis), offsets[body])
-        out.append(Shape("box", (1.8 * r, 1.8 * r, 8.0 * r), frame, DRIVE_COLOR, body)
+    carried = [i for i, p in enumerate(robot.parents) if p == body - 1]
+    ends = [offsets[i] for i in carried] or [tip_point(robot, body - 1)] * (body > 0)
+    for nxt in ends:
+        if np.linalg.norm(nxt) > 1e-9:
+            out.append(capsule_between((0, 0, 0), nxt, r, moved_by, LINK_COLOR))
+        elif body > 0:
+            out.append(Shape("sphere", (1.3 * r,), color=LINK_COLOR, joint=moved_by))
+    for i in carried:  # the drive of each joint this body carries
+        j = robot.joints[i]
+        frame = frame_z_to(j.origin[:3, :3] @ np.asarray(j.axis), offsets[i])
+        out.append(Shape("box", (1.8 * r, 1.8 * r, 8.0 * r), frame, DRIVE_COLOR, i)
                    if j.is_prismatic else
-                   Shape("cylinder", (1.6 * r, 3.2 * r), frame, DRIVE_COLOR, body))
+                   Shape("cylinder", (1.6 * r, 3.2 * r), frame, DRIVE_COLOR, i))
     return out
 
 

@@ -29,10 +29,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import StateError
-from mrnea.report.shapes import Shape, robot_shapes, tip_point
+from mrnea.report.shapes import Shape, leaves, robot_shapes, tip_point
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -127,7 +128,8 @@ def pack(Q: NDArray[np.int16]) -> NDArray[np.uint8]:
 
 
 def _bounds(T_all: Sequence[NDArray], shapes: Sequence[Sequence[Shape]],
-            tip: NDArray) -> tuple[list[float], list[float], list[list[float]]]:
+            tips: Sequence[tuple[int, NDArray]]
+            ) -> tuple[list[float], list[float], list[list[float]]]:
     """Low and high corners [m] of a box holding every shape of every body over all frames and
     the tip paths, and 26 support points of that swept volume (the camera fits those)."""
     pts, rad = [], []
@@ -139,8 +141,9 @@ def _bounds(T_all: Sequence[NDArray], shapes: Sequence[Sequence[Shape]],
             pts += new
             rad += [np.full(p.shape[0], r) for p in new]
     for T in T_all:
-        pts.append(T[:, -1, :3, :3] @ tip + T[:, -1, :3, 3])
-        rad.append(np.zeros(pts[-1].shape[0]))
+        for link, tip in tips:
+            pts.append(T[:, link, :3, :3] @ tip + T[:, link, :3, 3])
+            rad.append(np.zeros(pts[-1].shape[0]))
     P, Rr = np.concatenate(pts), np.concatenate(rad)
     D = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0
     D /= np.linalg.norm(D, axis=1, keepdims=True)
@@ -187,7 +190,9 @@ def _shape_json(s: Shape, payload: _Payload, meshes: list[dict]) -> dict[str, An
 def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | None,
                shapes: Sequence[Sequence[Shape]], saturated: ArrayLike,
                joint_names: Sequence[str], clock: tuple[float, float, float],
-               tip: ArrayLike = (0.0, 0.0, 0.0), compress: bool = True) -> dict[str, Any]:
+               tip: ArrayLike = (0.0, 0.0, 0.0), compress: bool = True,
+               targets: ArrayLike | None = None,
+               tips: Sequence[tuple[int, ArrayLike]] | None = None) -> dict[str, Any]:
     """The JSON spec the page embeds.
 
     Parameters
@@ -209,6 +214,13 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
         The end-effector point [m] in the last link's frame whose paths are drawn.
     compress : bool
         gzip the binary payload.
+    targets : (M, 4, 4) array_like or None
+        A Cartesian program's move targets, tool poses in base coordinates: each drawn as a dot
+        at the tool point and a stick along the tool's z axis; in the spec as ``targets``, rows
+        ``[x, y, z, qx, qy, qz, qw]`` (three.js' quaternion order).
+    tips : sequence of (link index, (3,) point [m] in that link's frame), optional
+        Every point whose paths are drawn (a tree: each branch's tip); None: ``tip`` on the
+        last link alone.
     """
     t = np.asarray(t, dtype=np.float64)
     Tr = np.asarray(frames_real, dtype=np.float64)
@@ -223,8 +235,10 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
                          f"{Tr.shape}, frames_cmd {None if Tc is None else Tc.shape}, saturated "
                          f"{sat.shape}, {len(shapes)} shape lists, {len(joint_names)} names")
     tip = np.asarray(tip, dtype=float)
+    traced = ([(n - 1, tip)] if tips is None else
+              [(int(k) % n, np.asarray(p, dtype=float)) for k, p in tips])
     both = [Tr] if Tc is None else [Tr, Tc]
-    box_lo, box_hi, support = _bounds(both, shapes, tip)
+    box_lo, box_hi, support = _bounds(both, shapes, traced)
     origins = np.concatenate([T[..., :3, 3].reshape(-1, 3) for T in both])
     lo, hi = origins.min(axis=0), origins.max(axis=0)
     payload = _Payload()
@@ -236,10 +250,16 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
     shape_json = [[_shape_json(s, payload, meshes) for s in body] for body in shapes]
     raw = b"".join(payload.parts)
     blob = gzip.compress(raw, compresslevel=9, mtime=0) if compress else raw
-    return {"version": 1, "frames": F, "joints": [str(x) for x in joint_names],
+    marks = []
+    if targets is not None and len(targets):
+        Tg = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
+        marks = np.column_stack([Tg[:, :3, 3], Rotation.from_matrix(Tg[:, :3, :3]).as_quat()
+                                 ]).tolist()
+    return {"version": 1, "frames": F, "targets": marks, "joints": [str(x) for x in joint_names],
             "clock": {"t0": float(clock[0]), "t1": float(clock[1]), "dt": float(clock[2])},
             "box": [lo.tolist(), hi.tolist()], "bounds": [box_lo, box_hi], "support": support,
-            "tip": tip.tolist(), "shapes": shape_json, "meshes": meshes, "bin": bins,
+            "tip": tip.tolist(), "tips": [[k, *p.tolist()] for k, p in traced],
+            "shapes": shape_json, "meshes": meshes, "bin": bins,
             "gzip": compress, "raw_bytes": len(raw),
             "payload": base64.b64encode(blob).decode("ascii")}
 
@@ -249,7 +269,9 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     :func:`frame_indices` from :func:`mrnea.forward_kinematics` of ``q`` (real) and ``q_cmd``
     (the ghost), the pooled saturation flags, the robot's shapes and the slider on the cycle
     clock. The end-effector paths are those of a Cartesian program's tool point (its commanded
-    path is the programmed Cartesian path), else of :func:`tip_point`."""
+    path is the programmed Cartesian path), else of :func:`tip_point` of every branch's last
+    link (:func:`~mrnea.report.shapes.leaves`: a tree's tips); the program's move targets are
+    marked."""
     robot = result.robot
     idx = frame_indices(result.t, robot.n)
     real = forward_kinematics(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
@@ -257,4 +279,7 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     t = result.t
     return scene_data(t[idx], real, cmd, robot_shapes(robot), pool_flags(result.saturated, idx),
                       robot.joint_names, (float(t[0]), float(t[-1]), float(result.dt)),
-                      tip_point(robot) if result.tool_point is None else result.tool_point)
+                      tip_point(robot) if result.tool_point is None else result.tool_point,
+                      targets=result.tool_targets,
+                      tips=None if result.tool_point is not None else
+                      [(i, tip_point(robot, i)) for i in leaves(robot)])

@@ -47,6 +47,7 @@ CSS = """
 .mv3d-legend i.sat { background: #d62728; }
 .mv3d-legend i.tr { height: 0; border-radius: 0; border-top: 2px solid #1f77b4; }
 .mv3d-legend i.tc { height: 0; border-radius: 0; border-top: 2px dashed #595959; }
+.mv3d-legend i.tg { background: #c51b8a; width: 0.75em; border-radius: 50%; }
 .mv3d-legend .mv3d-axes { color: #666; }
 .mv3d-sat { position: absolute; right: 0.7em; top: 0.6em; color: #fff; background: #d62728;
             border-radius: 4px; padding: 0.2em 0.6em; font-weight: bold; font-size: 0.9em; }
@@ -76,9 +77,13 @@ _LEGEND = """<div class="mv3d-legend">
 <div><i class="sat"></i>drive saturated</div>
 <div><i class="tr"></i>end-effector path, real</div>
 <div><i class="tc"></i>end-effector path, commanded</div>
-<div class="mv3d-axes">base axes <b style="color:#e0301e">x</b> <b style="color:#2ca02c">y</b>
-<b style="color:#1f5fd6">z</b> · <span class="mv3d-grid"></span></div>
+{targets}<div class="mv3d-axes">base axes <b style="color:#e0301e">x</b>
+<b style="color:#2ca02c">y</b> <b style="color:#1f5fd6">z</b> ·
+<span class="mv3d-grid"></span></div>
 </div>"""
+
+
+_TARGETS = '<div><i class="tg"></i>move targets (tool point, z axis)</div>\n'
 
 
 @cache
@@ -121,7 +126,7 @@ def scene_html(spec: dict[str, Any], element_id: str = "view3d") -> str:
 <div class="mv3d-stage">
 <canvas aria-label="3D view: the robot as it really moves and, translucent, as the program
 commands it. Drag to orbit, wheel to zoom, right-drag to pan."></canvas>
-{_LEGEND}
+{_LEGEND.format(targets=_TARGETS if spec.get("targets") else "")}
 <div class="mv3d-sat" aria-live="polite"></div>
 <div class="mv3d-hint">drag: orbit · wheel: zoom · right-drag: pan</div>
 <div class="mv3d-nogl-msg">This browser gives the page no WebGL, so the 3D view is off; the

@@ -38,6 +38,7 @@ def retime(
     f_ext_point: ArrayLike | None = None,
     *,
     acceleration_limit: ArrayLike | None = None,
+    jerk_limit: ArrayLike | None = None,
     grid: int | None = None,
     mode: Literal["hybrid", "paper"] | None = None,
     checkpoint: Callable[[], None] | None = None,
@@ -73,6 +74,12 @@ def retime(
         Joint acceleration limits (n,) or one for all [rad/s^2 | m/s^2] (toppra; the robot
         model has none): the retimed program's accelerations, formed as the simulation forms
         them, stay within them.
+    jerk_limit : array_like, optional (keyword)
+        Joint jerk limits (n,) or one for all [rad/s^3 | m/s^3] (toppra): the fastest timing
+        found whose joint jerks stay within them, below the time-optimal one and within every
+        other limit (:mod:`mrnea.retime.jerk`, docs/retime.md "Jerk limits"); the rows' third
+        differences over dt^3 (:func:`mrnea.retime.jerk.jerks`, the program at rest before and
+        after) are within them, and planned at ``margin`` x them.
     grid : int, optional (keyword)
         Grid intervals per moving piece (default: half its rows, clipped to [200, 1000]).
     mode : ``"hybrid"`` or ``"paper"``, optional (keyword)
@@ -93,11 +100,14 @@ def retime(
 
     Raises
     ------
+    NoTimingError
+        (a RetimeError) No timing exists: the path cannot be followed at any speed (a pose the
+        robot cannot hold against gravity or the wrench: the message names the joint, the
+        program instant and the ratio of need to limit), it leaves the position limits, or no
+        margin down to 0.5 (no scale factor) gives a program the simulation accepts.
     RetimeError
-        The path cannot be followed at any speed (a pose the robot cannot hold against gravity
-        or the wrench: the message names the joint, the program instant and the ratio of need
-        to limit), it leaves the position limits, or no margin down to 0.5 gives a program the
-        simulation accepts.
+        The program never moves, no limit binds, the cycle is too coarse for the path, or a
+        dwell needs more than ``margin`` x its limit.
     StateError
         A bad argument.
 
@@ -115,11 +125,17 @@ def retime(
         acc = validate.per_joint(acceleration_limit, "acceleration_limit", robot.n)
         if not np.all(acc > 0):
             raise StateError(f"acceleration_limit: must be > 0, got {acc.tolist()}")
+    jerk = None
+    if jerk_limit is not None:
+        jerk = validate.per_joint(jerk_limit, "jerk_limit", robot.n)
+        if not np.all(jerk > 0):
+            raise StateError(f"jerk_limit: must be > 0, got {jerk.tolist()}")
     if grid is not None and (isinstance(grid, bool) or not isinstance(grid, numbers.Integral)
                              or grid < 10):
         raise StateError(f"grid: expected an int >= 10, got {grid!r}")
-    if method == "scale" and acc is not None:
-        raise StateError("acceleration_limit: only method 'toppra' takes it")
+    for name, value in (("acceleration_limit", acc), ("jerk_limit", jerk)):
+        if method == "scale" and value is not None:
+            raise StateError(f"{name}: only method 'toppra' takes it")
     job.checkpoint()
     _check_holds(job, margin if method == "toppra" else 1.0)
     job.checkpoint()
@@ -134,13 +150,14 @@ def retime(
         paths = _pieces(job, grid, timed=False)
         phase = _phase(job, paths, {j: np.full(v[1].s.size, 1.0 / f) for j, v in paths.items()})
         return _result(job, Q, FE, PE, sim, "scale", used, phase, [log], f, log["estimate"])
-    m, phase, Q, FE, PE, sim, logs = _retime_toppra(job, margin, acc, grid)
-    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None, margin)
+    m, phase, Q, FE, PE, sim, logs = _retime_toppra(job, margin, acc, jerk, grid)
+    return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None, margin, jerk)
 
 
 def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: Any,
             method: str, margin: float, phase: tuple, log: list, factor: float | None,
-            estimate: float | None, margin_asked: float | None = None) -> RetimeResult:
+            estimate: float | None, margin_asked: float | None = None,
+            jerk: NDArray | None = None) -> RetimeResult:
     M = Q.shape[0]
     return RetimeResult(
         t=np.arange(M) * job.dt, q_cmd=Q, f_ext=FE, f_ext_point=PE, dt=job.dt, mode=job.mode,
@@ -149,7 +166,7 @@ def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: A
         factor=factor, estimate=estimate, phase=phase, original_q_cmd=job.q,
         original_dt=job.program_dt, original_f_ext=job.f_ext,
         original_f_ext_point=job.f_ext_point, log=log, timings=job.timings,
-        margin_asked=margin_asked)
+        margin_asked=margin_asked, jerk_limit=jerk)
 
 
 def _check_holds(job: Job, margin: float) -> None:
@@ -195,14 +212,15 @@ def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
     return out
 
 
-def _retime_toppra(job: Job, margin: float, acc: NDArray | None, grid: int | None) -> tuple:
+def _retime_toppra(job: Job, margin: float, acc: NDArray | None, jerk: NDArray | None,
+                   grid: int | None) -> tuple:
     """The toppra method: every piece's path coefficients, then the margin search of
     :mod:`mrnea.retime.search` (TOPP-RA per piece, held at the cycle resolution, verified)."""
     from mrnea.retime.search import search
 
     paths = _pieces(job, grid)
     logs: list[dict] = []
-    best = search(job, paths, margin, acc, logs)
+    best = search(job, paths, margin, acc, logs, jerk)
     return (best.margin, _phase(job, paths, best.speeds, acc), best.Q, best.FE, best.PE,
             best.sim, logs)
 

@@ -24,16 +24,17 @@ from numpy.typing import NDArray
 
 from mrnea import validate
 from mrnea.achievable import MODES
-from mrnea.errors import RetimeError, StateError
+from mrnea.errors import NoTimingError, RetimeError, StateError
 from mrnea.io.program import Program
 from mrnea.model import Robot
 from mrnea.retime.path import at_clock, pieces, polyline_error
 from mrnea.simulate import SimulationResult, simulate
 
-TIMINGS = ("coefficients", "rows", "toppra", "sampling", "verification")
+TIMINGS = ("coefficients", "rows", "toppra", "jerk", "sampling", "verification")
 """What :attr:`Job.timings` splits a retiming's time into (seconds each): the splines and the
 one batched mRNEA call per piece (scale: the Hollerbach coefficients), the constraint rows and
-their linearisation, the TOPP-RA solves (toppra's set-up included), the sampling of the profile
+their linearisation, the TOPP-RA solves (toppra's set-up included), the jerk-limited linear
+programs (0 without a jerk limit), the sampling of the profile
 at dt with the wrench, and the verifying simulations."""
 
 PATH_TOL = 1e-3  # rad | m: how far the retimed rows, joined by straight lines, may leave the path
@@ -112,7 +113,7 @@ class Job:
         if out.any():
             i = int(np.argmax(out))
             k = int(np.argmax((q[:, i] < lower[i]) | (q[:, i] > upper[i])))
-            raise RetimeError(f"joint '{robot.joint_names[i]}' (joint {i + 1}) leaves its "
+            raise NoTimingError(f"joint '{robot.joint_names[i]}' (joint {i + 1}) leaves its "
                               f"position limits [{lower[i]:.4g}, {upper[i]:.4g}] at t = "
                               f"{k * pdt:.4g} s of the program ({q[k, i]:.4g}); no timing "
                               "can fix that")

@@ -83,6 +83,8 @@ class RetimeResult:
     timings : seconds spent (:data:`mrnea.retime.job.TIMINGS`).
     margin_asked : toppra: the planning margin asked; ``margin`` is below it only where no plan
         at it verified (the highest that verifies, to 0.1 %: :mod:`mrnea.retime.search`).
+    jerk_limit : toppra: the joint jerk limits (n,) [rad/s^3 | m/s^3] the timing keeps, or None
+        (:mod:`mrnea.retime.jerk`).
     """
 
     t: NDArray
@@ -107,6 +109,7 @@ class RetimeResult:
     log: list[dict[str, Any]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     margin_asked: float | None = None
+    jerk_limit: NDArray | None = None
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -156,9 +159,10 @@ class RetimeResult:
         ``achievable``, ``margin`` (:class:`RetimeResult`), ``dt``, ``original_dt``, ``cycles``,
         ``mode``, ``factor`` and ``scale_estimate`` (scale, else null), ``moving_pieces``,
         ``dwells``, ``toppra_solves`` (toppra), ``margin_asked`` (toppra, else null),
-        ``margins_tried`` (every margin planned, highest first), ``verdict``, ``timings``
-        [s]; per joint ``peak_effort_ratio_before`` and ``_after`` (:meth:`effort_ratios`) and
-        the time of each; ``worst_joint_before`` / ``_after``.
+        ``margins_tried`` (every margin planned, highest first), ``jerk_limit`` (per joint
+        [rad/s^3 | m/s^3], else null), ``verdict``, ``timings`` [s]; per joint
+        ``peak_effort_ratio_before`` and ``_after`` (:meth:`effort_ratios`) and the time of each;
+        ``worst_joint_before`` / ``_after``.
         """
         if "summary" in self._cache:
             return self._cache["summary"]
@@ -190,6 +194,7 @@ class RetimeResult:
             "margin_asked": self.margin_asked,
             "margins_tried": sorted({float(lg["margin"]) for lg in self.log if "margin" in lg},
                                     reverse=True),
+            "jerk_limit": None if self.jerk_limit is None else self.jerk_limit.tolist(),
             "verdict": self.simulation.verdict(),
             "timings": {k: float(v) for k, v in self.timings.items()},
             "worst_joint_before": names[int(np.argmax(before.max(axis=0)))],

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.actuators import coulomb_effort, effort_limit_branches, effort_limits_at
-from mrnea.errors import RetimeError
+from mrnea.errors import NoTimingError, RetimeError
 from mrnea.model import Robot
 from mrnea.retime.path import PathCoefficients, friction_pair
 
@@ -227,9 +227,10 @@ def holding_need(robot: Robot, c: NDArray, sign: NDArray, moving: NDArray) -> ND
 
 
 def static_check(robot: Robot, need: NDArray, t: NDArray, margin: float) -> None:
-    """Raise :class:`RetimeError` where a joint's holding effort ``need`` (K, n) at the program
-    instants ``t`` (K,) exceeds its limit (no timing can make the path), or its planning limit
-    ``margin`` x limit (no timing within the margin)."""
+    """Raise :class:`~mrnea.errors.NoTimingError` where a joint's holding effort ``need`` (K, n)
+    at the program instants ``t`` (K,) exceeds its limit (no timing can make the path), or
+    :class:`RetimeError` where it exceeds its planning limit ``margin`` x limit (no timing
+    within the margin: the margin asked is the fault)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(need > 0, need / robot.effort_limit, 0.0)
     k, i = np.unravel_index(np.argmax(ratio), ratio.shape)
@@ -242,7 +243,7 @@ def static_check(robot: Robot, need: NDArray, t: NDArray, margin: float) -> None
              f"{need[k, i]:.4g} {unit} to hold its pose against gravity, the wrench and "
              f"friction, {r:.3f} times its limit {j.effort_limit:.4g} {unit}")
     if r > 1:
-        raise RetimeError(f"the path cannot be followed at any speed: {where}")
+        raise NoTimingError(f"the path cannot be followed at any speed: {where}")
     raise RetimeError(f"no timing keeps the path within the planning margin {margin:g}: {where}"
                       f"; pass a margin above {r:.3f}")
 

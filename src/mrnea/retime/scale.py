@@ -42,7 +42,7 @@ from mrnea.actuators import (
     effort_limits_at,
     program_requirement,
 )
-from mrnea.errors import RetimeError, StateError
+from mrnea.errors import NoTimingError, RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
 from mrnea.retime.path import friction_pair, piece_rows, piece_spline
@@ -124,9 +124,11 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = 
 
     Raises
     ------
-    RetimeError
+    NoTimingError
         A pose the robot cannot hold or move through slowly (names the joint, the instant and
-        the ratio of need to limit), or no limit binds at any speed.
+        the ratio of need to limit), or no factor makes the program achievable.
+    RetimeError
+        No limit binds at any speed.
     """
     validate.require_robot(robot)
     dt = validate.time_step(dt)
@@ -224,7 +226,7 @@ def retime_scale(job: Job) -> tuple[float, float, tuple, dict]:
                 break
             f *= STEP
     if hi is None:
-        raise RetimeError(f"scale: no factor up to {f:.4g} makes the program achievable; the "
+        raise NoTimingError(f"scale: no factor up to {f:.4g} makes the program achievable; the "
                           f"last try: {run(lo)[4].verdict()}")
     lo = hi / STEP if lo is None else lo
     while hi / lo > 1 + TOL:

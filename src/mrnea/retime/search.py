@@ -13,7 +13,10 @@ and its acceleration against an acceleration limit). Where a cycle exceeds them 
 r, the planning limits of the grid points its rows span (the intervals from the row before to
 the row after) are divided by 1 + :data:`OVERSHOOT` (r - 1) + :data:`SLACK` and the pieces solved
 again, up to :data:`CYCLE_ROUNDS` times. The limits elsewhere keep m: a local correction, not a
-global one.
+global one. With jerk limits (:mod:`mrnea.retime.jerk`) the rows' jerks are checked the same
+way and the jerk limits tightened on their own where a cycle exceeds them (tightening the
+effort limits for a jerk excess made TOPP-RA infeasible where a pose needs most of its limit to
+be held); a plan verifies only if its rows keep the jerk limits (:func:`within_jerk`).
 
 Only then is the plan simulated. If the simulation still refuses it, the next margin comes from
 the program's own requirement over the true limits (what the verdict reports as
@@ -36,7 +39,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.actuators import program_requirement
-from mrnea.errors import RetimeError
+from mrnea.errors import NoTimingError
+from mrnea.retime.jerk import jerk_profile, jerks, sample_smooth
 from mrnea.retime.job import Job, accelerations
 from mrnea.retime.path import piece_rows
 from mrnea.retime.rows import Limits, static_check
@@ -59,7 +63,7 @@ class Plan:
     program instant ``clock`` (M,), the path speed per piece ``speeds``, the verifying
     simulation ``sim`` (None if not simulated), whether it verified ``ok``, and ``own``: the
     largest ratio of the program's own requirement to the true limits (effort at speed,
-    velocity, acceleration limit)."""
+    velocity, acceleration limit, jerk limit)."""
 
     margin: float
     Q: NDArray
@@ -104,6 +108,16 @@ def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
     return r.max(axis=1)
 
 
+def jerk_ratios(Q: NDArray, dt: float, jerk: NDArray | None) -> NDArray:
+    """(M,) per cycle, the largest ratio over joints of the rows' jerk
+    (:func:`mrnea.retime.jerk.jerks`, each third difference counted at both middle rows it
+    spans) to the jerk limit (n,); zeros without one. Unscaled."""
+    if jerk is None:
+        return np.zeros(Q.shape[0])
+    r = (np.abs(jerks(Q, dt)) / jerk).max(axis=1)
+    return np.maximum(r[:-1], r[1:])
+
+
 def _tighten(job: Job, paths: dict[int, tuple], local: dict[int, NDArray], clock: NDArray,
              over: NDArray) -> bool:
     """Multiply the planning limits of the grid points under each cycle that exceeded them
@@ -132,9 +146,13 @@ def _tighten(job: Job, paths: dict[int, tuple], local: dict[int, NDArray], clock
 
 
 def _solve_all(job: Job, paths: dict[int, tuple], m: float, local: dict[int, NDArray],
-               acc: NDArray | None, logs: list) -> tuple:
+               acc: NDArray | None, jerk: NDArray | None, jlocal: dict[int, NDArray],
+               logs: list) -> tuple:
     """Every moving piece solved at margin m x its local factors, sampled at dt, assembled:
-    (Q, FE, PE, clock, speeds)."""
+    (Q, FE, PE, clock, speeds). With jerk limits (n,) the time-optimal profile is the upper
+    envelope of the jerk-limited one (:mod:`mrnea.retime.jerk`), planned at the margin x the
+    jerk limits x their own local factors ``jlocal``."""
+    from mrnea.retime.rows import velocity_cap
     from mrnea.retime.toppra import sample_profile, toppra_profile
 
     base = Limits.of(job.robot, m, acc)
@@ -144,12 +162,21 @@ def _solve_all(job: Job, paths: dict[int, tuple], m: float, local: dict[int, NDA
         static_check(job.robot, need, job.clock[k0] + pc.s, m)
         lim = replace(base, margin=m * local[j][:, None]) if np.any(local[j] < 1) else base
         t0 = time.perf_counter()
-        sd, log = toppra_profile(pc, lim, job.dt, job.checkpoint)
+        stage: list = []
+        sd, log = toppra_profile(pc, lim, job.dt, job.checkpoint, stage)
         t1 = time.perf_counter()
         job.timings["toppra"] += log["solver_time"]
         job.timings["rows"] += t1 - t0 - log["solver_time"]
-        retimed[j] = piece_rows(spline, sample_profile(pc.s, sd, job.dt, job.robot.n),
-                                job.q[k0], job.q[k1])
+        if jerk is None:
+            s_t = sample_profile(pc.s, sd, job.dt, job.robot.n)
+        else:
+            job.checkpoint()
+            sd, sdd = jerk_profile(pc, spline(pc.s, 3), stage[0], velocity_cap(pc, lim), sd,
+                                   (m * jlocal[j])[:, None] * jerk)
+            s_t = sample_smooth(pc.s, sd, sdd, job.dt, job.robot.n)
+            job.timings["jerk"] += time.perf_counter() - t1
+            t1 = time.perf_counter()
+        retimed[j] = piece_rows(spline, s_t, job.q[k0], job.q[k1])
         job.check_resolution(j, spline, *retimed[j], largest_acceleration(pc, sd))
         job.timings["sampling"] += time.perf_counter() - t1
         speeds[j] = sd
@@ -168,45 +195,64 @@ def largest_acceleration(pc: Any, sd: NDArray) -> NDArray:
 
 
 def plan_at(job: Job, paths: dict[int, tuple], m: float, acc: NDArray | None,
-            logs: list) -> Plan:
+            jerk: NDArray | None, logs: list) -> Plan:
     """The plan at margin m held at the cycle resolution (module docstring), verified."""
     local = {j: np.ones(pc.s.size) for j, (_, pc, _) in paths.items()}
+    jlocal = {j: np.ones(pc.s.size) for j, (_, pc, _) in paths.items()}
     for rounds in range(CYCLE_ROUNDS + 1):
-        Q, FE, PE, clock, speeds = _solve_all(job, paths, m, local, acc, logs)
+        Q, FE, PE, clock, speeds = _solve_all(job, paths, m, local, acc, jerk, jlocal, logs)
         t0 = time.perf_counter()
         over = cycle_ratios(job, Q, FE, PE, acc) / m
+        overj = jerk_ratios(Q, job.dt, jerk) / m  # the jerk limits are tightened on their own
         job.timings["verification"] += time.perf_counter() - t0
-        if over.max() <= 1 or rounds == CYCLE_ROUNDS or not _tighten(job, paths, local, clock,
-                                                                      over):
+        if max(over.max(), overj.max()) <= 1 or rounds == CYCLE_ROUNDS:
+            break
+        changed = [_tighten(job, paths, loc, clock, r) for loc, r in ((local, over),
+                                                                       (jlocal, overj))]
+        if not any(changed):
             break
     sim = job.verify(Q, FE, PE)
     acc_ok = acc is None or np.all(np.abs(accelerations(Q, job.dt)) <= acc)
+    acc_ok = acc_ok and (jerk is None or within_jerk(Q, job.dt, jerk))
     # the program's own requirement over the true limits: the last round's, of this plan
     return Plan(m, Q, FE, PE, clock, speeds, sim, bool(sim.achievable and acc_ok),
-                float(over.max() * m), rounds)
+                float(max(over.max(), overj.max()) * m), rounds)
+
+
+def within_jerk(Q: NDArray, dt: float, jerk: NDArray) -> bool:
+    """Whether the jerks of rows Q (:func:`mrnea.retime.jerk.jerks`) are within the limits
+    (n,), to the rounding of a third difference: 8 x the rows' largest rounding error over
+    dt^3 (the rows are written exactly, as their shortest reprs)."""
+    tol = 8 * np.finfo(float).eps * np.max(np.abs(Q), axis=0) / dt ** 3
+    return bool(np.all(np.abs(jerks(Q, dt)) <= jerk + tol))
 
 
 def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None,
-           logs: list) -> Plan:
+           logs: list, jerk: NDArray | None = None) -> Plan:
     """The fastest verified plan at the highest margin <= ``margin`` that verifies, to
     :data:`SEARCH_TOL` (module docstring).
 
     Raises
     ------
-    RetimeError
+    NoTimingError
         No margin down to :data:`MIN_MARGIN` verifies (quoting the last verdict).
     """
-    first = plan_at(job, paths, margin, acc, logs)
+    first = plan_at(job, paths, margin, acc, jerk, logs)
     if first.ok:
         return first
     hi, best, last = first, None, first
     m = margin
     while best is None:  # step down by the program's own overshoot
         if m <= MIN_MARGIN:
-            raise RetimeError(f"no planning margin down to {MIN_MARGIN} gives a program the "
+            if last.sim.achievable:  # the simulation accepted it: a kinematic limit failed
+                raise NoTimingError(f"no planning margin down to {MIN_MARGIN} gives a program "
+                                  "whose rows keep the acceleration and jerk limits (the ends "
+                                  "of the moving pieces: docs/retime.md, Jerk limits); give "
+                                  "larger limits")
+            raise NoTimingError(f"no planning margin down to {MIN_MARGIN} gives a program the "
                               f"simulation accepts; the last one: {last.sim.verdict()}")
         m = max(MIN_MARGIN, _lattice(m * min(1 - SEARCH_TOL, 1 / max(last.own, 1 + 1e-9))))
-        last = plan_at(job, paths, m, acc, logs)
+        last = plan_at(job, paths, m, acc, jerk, logs)
         if last.ok:
             best = last
         else:
@@ -218,7 +264,7 @@ def search(job: Job, paths: dict[int, tuple], margin: float, acc: NDArray | None
             mid, probe = min(mid, _lattice(lo.margin * (1 + SEARCH_TOL))), False
         if mid <= lo.margin or mid >= hi.margin:
             break
-        p = plan_at(job, paths, mid, acc, logs)
+        p = plan_at(job, paths, mid, acc, jerk, logs)
         if p.ok:
             lo = p
             best = p if p.rows <= best.rows else best

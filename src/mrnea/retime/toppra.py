@@ -77,9 +77,10 @@ def _stage_rows(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArra
 
 
 def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
-           stage: tuple[NDArray, NDArray, NDArray] | None) -> tuple[NDArray, int]:
+           stage: tuple[NDArray, NDArray, NDArray] | None) -> tuple[NDArray, int, tuple]:
     """TOPP-RA rest to rest: the path speed sd at every grid point s, with no stall (below),
-    and the number of stall repairs (caps applied, over all re-solves).
+    the number of stall repairs (caps applied, over all re-solves) and the stage rows
+    ``(A, B, C)`` it solved (:func:`_stage_rows`).
 
     TOPP-RA's forward pass takes the largest path acceleration from the largest controllable
     x_i = sd_i^2; that is time-optimal only while a larger x_i never lowers the largest
@@ -114,7 +115,7 @@ def _solve(s: NDArray, rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray,
                 + 2 * (s[i + 1] - s[i]) / (top + sd[i + 1]))
         stalls = i[now - best > STALL_COST * duration_of(s, sd)]
         if stalls.size == 0 or attempts == STALL_REPAIRS:
-            return sd, repaired
+            return sd, repaired, (A, B, C)
         attempts, repaired = attempts + 1, repaired + stalls.size
         xmax = xmax.copy()
         for i in stalls:
@@ -200,8 +201,8 @@ def duration_of(s: NDArray, sd: NDArray) -> float:
 
 
 def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0,
-                   checkpoint: Callable[[], None] | None = None
-                   ) -> tuple[NDArray, dict[str, Any]]:
+                   checkpoint: Callable[[], None] | None = None,
+                   rows_out: list | None = None) -> tuple[NDArray, dict[str, Any]]:
     """The time-optimal path speed sd (N + 1,) of a piece under the full actuator model.
 
     Without viscous friction and torque-speed curves one solve is exact. Otherwise: a relaxed
@@ -221,19 +222,23 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0,
     profile [s]), ``relaxed`` (the relaxation's), ``solver_time`` [s] (TOPP-RA alone),
     ``solver_failures`` (rounds seidel failed; the last good profile is kept),
     ``stalls_repaired`` (grid points where TOPP-RA's forward pass stalled, :func:`_solve`).
-    ``checkpoint`` is called before each solve (:func:`mrnea.retime`).
+    ``checkpoint`` is called before each solve (:func:`mrnea.retime`). ``rows_out``, if given,
+    receives the stage rows ``(A, B, C)`` the returned profile was solved with (the jerk-limited
+    profile of :mod:`mrnea.retime.jerk` keeps to them).
     """
     vcap = velocity_cap(pc, lim)
     stage = acceleration_rows(pc, lim)
     log: dict[str, Any] = {"safe": [], "solver_time": 0.0, "solver_failures": 0,
                            "stalls_repaired": 0}
+    solved: list[tuple[NDArray, tuple]] = []  # each profile solved and its stage rows
 
     def solve(rows: tuple[NDArray, NDArray, NDArray], xmax: NDArray) -> NDArray:
         if checkpoint is not None:
             checkpoint()
         t0 = time.perf_counter()
         try:
-            sd, repaired = _solve(pc.s, rows, xmax, stage)
+            sd, repaired, stage_rows = _solve(pc.s, rows, xmax, stage)
+            solved.append((sd, stage_rows))
             log["stalls_repaired"] += repaired
             return sd
         finally:
@@ -245,6 +250,8 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0,
         if coulomb:  # exact again with friction both ways near the reversals
             sd = solve(constraint_rows(near_reversals(pc, sd, dt), lim, None), vcap)
         log["safe"].append(duration_of(pc.s, sd))
+        if rows_out is not None:
+            rows_out.append(next(r for p, r in solved if p is sd))
         return sd, log
     with np.errstate(divide="ignore"):
         cap = np.min(steady_speed(lim) / np.abs(pc.qs), axis=1) ** 2
@@ -275,7 +282,10 @@ def toppra_profile(pc: PathCoefficients, lim: Limits, dt: float = 0.0,
         if abs(t - t_lin) < TOL * t and consistent:
             break
         t_lin = t
-    return (sd if best is None else best), log
+    sd = sd if best is None else best
+    if rows_out is not None:
+        rows_out.append(next(r for p, r in solved if p is sd))
+    return sd, log
 
 
 def sample_profile(s: NDArray, sd: NDArray, dt: float, n: int) -> NDArray:

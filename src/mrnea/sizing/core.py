@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.actuators import program_requirement
+from mrnea.cartesian import solve
 from mrnea.errors import SizingError, listing, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
@@ -149,7 +150,7 @@ def _is_pair(p: object) -> bool:
             and not isinstance(p[1], bool))
 
 
-def _cases(programs: object) -> list[Case]:
+def _cases(programs: object, robot: Robot) -> list[Case]:
     if isinstance(programs, (str, Path, Program, Case)) or _is_pair(programs):
         programs = [programs]
     if not isinstance(programs, Sequence) or not programs:
@@ -160,6 +161,7 @@ def _cases(programs: object) -> list[Case]:
         if isinstance(p, (str, Path)):
             p = training_program() if str(p) == DEMO_PROGRAM else load_program(p)
         if isinstance(p, Program):
+            p = solve(p, robot)  # joints by name, Cartesian moves: the robot's joint path
             out.append(Case(p.name, np.asarray(p.q_cmd), p.dt, p.f_ext, p.f_ext_point))
         elif isinstance(p, Case):
             out.append(p)
@@ -325,7 +327,7 @@ def size_drives(
     if not names:
         raise SizingError("joints: no joint to size")
     sized = [robot.joint_names.index(nm) for nm in names]
-    cases = _cases(programs)
+    cases = _cases(programs, robot)
     for c in cases:
         if c.q_cmd.ndim != 2 or c.q_cmd.shape[1] != robot.n:
             raise SizingError(f"{c.name}: q_cmd has shape {c.q_cmd.shape}, the robot has "

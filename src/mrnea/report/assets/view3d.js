@@ -8,7 +8,8 @@
 (function () {
   "use strict";
   const THREE = globalThis.MRNEA_THREE;
-  const C = { real: 0x5b7fa6, sat: 0xd62728, ghost: 0x9aa3ad, trace: 0x1f77b4, traceCmd: 0x595959 };
+  const C = { real: 0x5b7fa6, sat: 0xd62728, ghost: 0x9aa3ad, trace: 0x1f77b4, traceCmd: 0x595959,
+              target: 0xc51b8a };
 
   function bytesFromBase64(s) {
     const bin = atob(s);
@@ -177,21 +178,23 @@
     const ghost = cmd ? buildRobot(spec, meshes, buf, true) : null;
     if (ghost) ghost.groups.forEach((g) => { g.renderOrder = 1; scene.add(g); });
 
-    // end-effector traces: the tip point (last link frame) at every frame
-    const tip = new THREE.Vector3().fromArray(spec.tip);
-    function tracePoints(P) {
+    // end-effector traces: each tip point (a tree: every branch's; [link, x, y, z], the point in
+    // that link's frame) at every frame
+    const tips = spec.tips || [[n - 1, ...spec.tip]];
+    function tracePoints(P, link, tip) {
       const pts = new Float32Array(3 * F), v = new THREE.Vector3(), q = new THREE.Quaternion();
       for (let k = 0; k < F; k++) {
-        const o = (k * n + n - 1) * 7;
+        const o = (k * n + link) * 7;
         q.set(P[o + 3], P[o + 4], P[o + 5], P[o + 6]);
         v.copy(tip).applyQuaternion(q).add(new THREE.Vector3(P[o], P[o + 1], P[o + 2]));
         v.toArray(pts, 3 * k);
       }
       return pts;
     }
-    function trace(P, color, dashed) {
+    function trace(P, color, dashed, [link, ...xyz]) {
       const geo = new THREE.BufferGeometry();
-      geo.setAttribute("position", new THREE.BufferAttribute(tracePoints(P), 3));
+      const tip = new THREE.Vector3().fromArray(xyz);
+      geo.setAttribute("position", new THREE.BufferAttribute(tracePoints(P, link, tip), 3));
       const full = new THREE.Line(geo, new THREE.LineBasicMaterial({ color, transparent: true,
                                                                        opacity: 0.25 }));
       const done = new THREE.Line(geo.clone(), dashed
@@ -201,8 +204,22 @@
       scene.add(full, done);
       return done.geometry;
     }
-    const traceReal = trace(real, C.trace, false);
-    const traceCmd = cmd ? trace(cmd, C.traceCmd, true) : null;
+    const traces = tips.map((tp) => trace(real, C.trace, false, tp))
+      .concat(cmd ? tips.map((tp) => trace(cmd, C.traceCmd, true, tp)) : []);
+
+    // the target poses of a Cartesian program's moves: a dot at the tool point and a stick
+    // along the tool's z axis (its approach direction)
+    (spec.targets || []).forEach((a) => {
+      const g = new THREE.Group();
+      g.position.set(a[0], a[1], a[2]);
+      g.quaternion.set(a[3], a[4], a[5], a[6]);
+      const mat = new THREE.MeshBasicMaterial({ color: C.target });
+      g.add(new THREE.Mesh(new THREE.SphereGeometry(cell / 14, 16, 8), mat));
+      const stick = new THREE.BufferGeometry().setFromPoints(
+        [new THREE.Vector3(0, 0, 0), new THREE.Vector3(0, 0, cell / 2)]);
+      g.add(new THREE.Line(stick, new THREE.LineBasicMaterial({ color: C.target })));
+      scene.add(g);
+    });
 
     // camera: from the front right and above, at the distance where the box the motion sweeps
     // (every shape over every frame) just fits the canvas; refitted on resize until the user moves it
@@ -265,8 +282,7 @@
       const [k, f] = frameAt(t);
       pose(realRobot.groups, real, k, f);
       if (ghost) pose(ghost.groups, cmd, k, f);
-      traceReal.setDrawRange(0, k + 1);
-      if (traceCmd) traceCmd.setDrawRange(0, k + 1);
+      for (const tr of traces) tr.setDrawRange(0, k + 1);
       const names = [];
       for (let j = 0; j < n; j++) {
         const on = sat[k * n + j] !== 0;
