@@ -26,6 +26,7 @@ from mrnea.retime.scale import retime_scale
 
 METHODS = {"toppra": "toppra", "scale": "scale"}
 GRID = (200, 1000)  # default grid intervals per moving piece: half its rows, clipped to this
+JERK_GRID = 600  # ... with jerk limits clipped to [this, GRID[1]] (docs/retime.md "Jerk limits")
 
 
 def retime(
@@ -81,7 +82,8 @@ def retime(
         differences over dt^3 (:func:`mrnea.retime.jerk.jerks`, the program at rest before and
         after) are within them, and planned at ``margin`` x them.
     grid : int, optional (keyword)
-        Grid intervals per moving piece (default: half its rows, clipped to [200, 1000]).
+        Grid intervals per moving piece (default: half its rows, clipped to [200, 1000]; with
+        ``jerk_limit`` to [600, 1000], docs/retime.md "Jerk limits").
     mode : ``"hybrid"`` or ``"paper"``, optional (keyword)
         The verifying simulation's mode; default the program's, else ``"hybrid"``.
     checkpoint : callable, optional (keyword)
@@ -184,14 +186,15 @@ def _check_holds(job: Job, margin: float) -> None:
     static_check(job.robot, need, job.clock[rows], margin)
 
 
-def _piece(job: Job, j: int, s: NDArray | None, grid: int | None) -> tuple:
+def _piece(job: Job, j: int, s: NDArray | None, grid: int | None, lo: int = GRID[0]) -> tuple:
     """Moving piece j: (spline, path coefficients, holding need) on the grid ``s`` (None: its
-    default grid, :func:`mrnea.retime.path.grid_points`)."""
+    default grid, :func:`mrnea.retime.path.grid_points`, of ``grid`` intervals or half its rows
+    clipped to [lo, GRID[1]])."""
     k0, k1 = job.runs[j][1:]
     qp = job.q[k0:k1 + 1]
     spline = piece_spline(qp, job.program_dt)
     if s is None:
-        N = int(grid) if grid else int(np.clip(qp.shape[0] // 2, *GRID))
+        N = int(grid) if grid else int(np.clip(qp.shape[0] // 2, lo, GRID[1]))
         knots = np.arange(qp.shape[0]) * job.program_dt
         s = grid_points(knots, qp, N, spline(knots, 2))
     pc = path_coefficients(job.robot, spline, s, *job.wrench_at(job.clock[k0] + s))
@@ -199,14 +202,15 @@ def _piece(job: Job, j: int, s: NDArray | None, grid: int | None) -> tuple:
     return spline, pc, holding_need(job.robot, pc.c, pc.sign, moving)
 
 
-def _pieces(job: Job, grid: int | None, timed: bool = True) -> dict[int, tuple]:
-    """Every moving piece j: :func:`_piece`; its time counts as the retiming's
-    ``coefficients`` if ``timed``."""
+def _pieces(job: Job, grid: int | None, timed: bool = True,
+            lo: int = GRID[0]) -> dict[int, tuple]:
+    """Every moving piece j: :func:`_piece` (``grid``, ``lo``); its time counts as the
+    retiming's ``coefficients`` if ``timed``."""
     t0 = time.perf_counter()
     out = {}
     for j, _, _ in job.moving:
         job.checkpoint()
-        out[j] = _piece(job, j, None, grid)
+        out[j] = _piece(job, j, None, grid, lo)
     if timed:
         job.timings["coefficients"] += time.perf_counter() - t0
     return out
@@ -218,7 +222,8 @@ def _retime_toppra(job: Job, margin: float, acc: NDArray | None, jerk: NDArray |
     :mod:`mrnea.retime.search` (TOPP-RA per piece, held at the cycle resolution, verified)."""
     from mrnea.retime.search import search
 
-    paths = _pieces(job, grid)
+    # the jerk-limited profile loses most at the pieces' rests, less on a finer grid
+    paths = _pieces(job, grid, lo=GRID[0] if jerk is None else JERK_GRID)
     logs: list[dict] = []
     best = search(job, paths, margin, acc, logs, jerk)
     return (best.margin, _phase(job, paths, best.speeds, acc), best.Q, best.FE, best.PE,
