@@ -185,16 +185,19 @@ def test_bad_options_one_line_exit_2(tmp_path, args, match):
     assert not any((tmp_path / "x" / f).exists() for f in FILES)
 
 
-def test_unfollowable_path_one_line_exit_2(tmp_path):
-    """A drive too weak to hold the pose (a sidecar file, --actuators): one error line naming
-    the joint, the instant and the ratio; nothing written (a real process: no traceback)."""
+def test_unfollowable_path_is_a_verdict_exit_1(tmp_path):
+    """A drive too weak to hold the pose (a sidecar file, --actuators): no timing exists, a
+    verdict (exit 1), one NOT ACHIEVABLE line naming the joint and the ratio to its limit;
+    nothing written, no error line (a real process: no traceback). The number itself is checked
+    against Pinocchio's gravity torque in test_exit_codes.py."""
     (tmp_path / "weak.toml").write_text("[joint2]\neffort_limit = 10.0\n")
     done = mrnea_cmd("retime", str(EXAMPLES / "puma_pick.toml"), "--actuators",
                      str(tmp_path / "weak.toml"), "--out", str(tmp_path / "out"))
-    assert done.returncode == 2
-    errors = [x for x in done.stderr.splitlines() if x.startswith("mrnea: error:")]
-    assert len(errors) == 1 and "cannot be followed at any speed" in errors[0]
-    assert "joint 'joint2'" in done.stderr and "times its limit 10" in done.stderr
+    assert done.returncode == 1
+    assert "mrnea: error:" not in done.stderr
+    verdicts = [x for x in done.stdout.splitlines() if x.startswith("NOT ACHIEVABLE")]
+    assert len(verdicts) == 1 and "cannot be followed at any speed" in verdicts[0]
+    assert "joint 'joint2'" in verdicts[0] and "times its limit 10" in verdicts[0]
     assert "Traceback" not in done.stderr + done.stdout
     assert not any((tmp_path / "out" / f).exists() for f in FILES)
 
