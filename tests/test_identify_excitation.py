@@ -1,11 +1,16 @@
-"""Identification of a known UR5 along an optimised excitation trajectory (issue 28).
+"""Identification of a known UR5 and a known Puma 560 along optimised excitation trajectories
+(issue 28).
 
-The truth: the UR5 (example-robot-data's URDF) with its links changed as
+The truths: the UR5 (example-robot-data's URDF) with its links changed as
 ``examples/puma_identify.py`` changes the Puma's (masses x1.1, centres of mass moved by
 (10, -5, 8) mm, inertias about the centre of mass x1.2 plus the smallest isotropic term that keeps
 each a rigid body, plus 1e-4 kg m^2) and drives with viscous friction, asymmetric Coulomb friction
-and rotor inertia; the prior is the UR5 with uniform drives. The motion: ``mrnea.excitation`` of
-the prior (small settings, fixed seed), its closed form commanded to the truth and simulated by
+and rotor inertia, the prior being the UR5 with uniform drives; and the Puma 560 of
+``examples/puma_identify_truth.toml`` (written by ``examples/puma_identify.py``: the links changed
+the same way, viscous friction x1.3, Coulomb friction x1.2 moving up and x0.8 moving down, rotor
+inertia x0.9), the prior being the built-in ``puma560``. The motion, per robot:
+``mrnea.excitation`` of the prior (small settings, fixed seed), its closed form commanded to the
+truth and simulated by
 ``mrnea.simulate`` at a 1 ms cycle for two periods, logged every 10th cycle (100 Hz) with
 positions quantised to 1e-5 rad and Gaussian noise of 0.5 % of each joint's largest effort.
 
@@ -21,10 +26,13 @@ Independent checks:
 * the identified robot, through Pinocchio's ``rnea`` plus the drive law written out, predicts the
   truth's efforts (the same) on a different trajectory within the noise;
 * every identified link is a rigid body (mass > 0, inertia about the centre of mass positive
-  definite with the triangle inequality).
+  definite with the triangle inequality). The built-in Puma's link 1 (the prior's, and so the
+  truth's) has mass 0, not a rigid body: the check is on the identified robot only.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -41,14 +49,15 @@ V, A = 2.0, 10.0  # [rad/s], [rad/s^2] the excitation's limits
 CYCLE, EVERY = 0.001, 10  # [s] the simulation's cycle; the log keeps every 10th (100 Hz)
 QUANTUM, NOISE = 1e-5, 0.005  # [rad]; a fraction of each joint's largest effort
 COM_SHIFT = np.array([0.010, -0.005, 0.008])  # [m]
+PUMA_TRUTH = Path(__file__).resolve().parents[1] / "examples" / "puma_identify_truth.toml"
 
 
-def _prior() -> Robot:
+def _ur5_prior() -> Robot:
     return mrnea.load_urdf(erd_path("ur_description/urdf/ur5_robot.urdf")).with_actuators(
         gear_ratio=100.0, rotor_inertia=4e-5, viscous_friction=2.0, coulomb_friction=3.0)
 
 
-def _truth(prior: Robot) -> Robot:
+def _ur5_truth(prior: Robot) -> Robot:
     links = []
     for lk in prior.links:
         inertia = 1.2 * np.asarray(lk.inertia)
@@ -119,10 +128,17 @@ def _random_series(robot: Robot, rng: np.random.Generator):
     return c, s * a, s * b
 
 
-def _case():
+def _robots(name: str) -> tuple[Robot, Robot]:
+    """prior, truth of ``name`` (module docstring)."""
+    if name == "ur5":
+        prior = _ur5_prior()
+        return prior, _ur5_truth(prior)
+    return mrnea.robots.puma560(), mrnea.io.load_robot_spec(str(PUMA_TRUTH))
+
+
+def _case(name: str):
     """prior, truth, the excitation, the noise level per joint [N m], the identification."""
-    prior = _prior()
-    truth = _truth(prior)
+    prior, truth = _robots(name)
     exc = excitation(prior, base_frequency=F, harmonics=L, dt=DT, velocity_limit=V,
                      acceleration_limit=A, candidates=8, starts=1, maxiter=30, seed=5)
     t = np.arange(round(2 / (F * CYCLE)) + 1) * CYCLE  # two periods, 1 ms
@@ -136,9 +152,10 @@ def _case():
     return prior, truth, exc, noise, identify(prior, log)
 
 
-@pytest.fixture(scope="module")
-def case():
-    return _case()
+@pytest.fixture(scope="module",
+                params=["ur5", pytest.param("puma560", marks=pytest.mark.slow)])  # ~70 s
+def case(request):
+    return _case(request.param)
 
 
 def test_excitation_condition_far_below_random_series(case) -> None:
