@@ -300,6 +300,31 @@ class PinChain:
         return out
 
 
+def pinocchio_base_condition(pc: PinChain, robot: Robot, q, qd, qdd) -> float:
+    """The condition number of the column-scaled base regressor stacked over the rows of (q, qd,
+    qdd): Pinocchio's ``computeJointTorqueRegressor`` (link columns in mrnea's order) beside the
+    drive columns written out here (G^2 J_m qdd, F_v qd, F+ [qd > 0], -F- [qd < 0], offset),
+    the base columns chosen by :func:`mrnea.identify.base.base_parameters` (the independent
+    check of what ``mrnea.excitation`` and ``identify`` report)."""
+    import pinocchio as pin
+
+    from mrnea.identify.base import base_parameters
+
+    n = robot.n
+    blocks = np.concatenate([np.arange(10 * (i - 1), 10 * i) for i in pc.ids])
+    rows = []
+    for k in range(q.shape[0]):
+        Y = np.asarray(pin.computeJointTorqueRegressor(pc.model, pc.data, pc.config(q[k]),
+                                                       pc.vel(qd[k]), pc.vel(qdd[k])))
+        drive = np.zeros((n, 5 * n))
+        for j in range(n):
+            v = qd[k, j]
+            drive[j, 5 * j:5 * j + 5] = [qdd[k, j], v, float(v > 0), -float(v < 0), 1.0]
+        rows.append(np.hstack([Y[pc.iv][:, blocks], drive]))
+    W = np.vstack(rows)[:, base_parameters(robot).columns]
+    return float(np.linalg.cond(W / np.linalg.norm(W, axis=0)))
+
+
 def pin_from_urdf(path: Path, robot: Robot):
     """Pinocchio's model of a URDF, reduced to ``robot``'s joints: every other moving joint is
     locked at its neutral position (q = 0), as :func:`mrnea.load_urdf` freezes it."""

@@ -20,10 +20,17 @@ import time
 
 import numpy as np
 import pytest
-from conftest import PinChain, environment, mrnea_cli, one_error_line, pin_from_urdf, random_chain
+from conftest import (
+    PinChain,
+    environment,
+    mrnea_cli,
+    one_error_line,
+    pin_from_urdf,
+    pinocchio_base_condition,
+    random_chain,
+)
 
 import mrnea
-from mrnea.identify.base import base_parameters
 from mrnea.identify.excite import excitation
 from mrnea.io import load_program
 
@@ -83,25 +90,10 @@ def test_efforts_within_margin_by_pinocchio(optimised, puma, tmp_path) -> None:
 
 
 def test_condition_equals_numpy_cond_of_pinocchio_stack(optimised, puma, tmp_path) -> None:
-    import pinocchio as pin
-
     exc = optimised
     pc = PinChain(puma, pin_from_urdf(puma.to_urdf(tmp_path / "puma.urdf"), puma))
     t = np.arange(round(1 / (F * DT))) * DT  # one period's cycles
-    q, qd, qdd = _closed_form(exc, t)
-    n = puma.n
-    blocks = np.concatenate([np.arange(10 * (i - 1), 10 * i) for i in pc.ids])
-    rows = []
-    for k in range(len(t)):
-        Y = np.asarray(pin.computeJointTorqueRegressor(pc.model, pc.data, pc.config(q[k]),
-                                                       pc.vel(qd[k]), pc.vel(qdd[k])))
-        drive = np.zeros((n, 5 * n))
-        for j in range(n):
-            v = qd[k, j]
-            drive[j, 5 * j:5 * j + 5] = [qdd[k, j], v, float(v > 0), -float(v < 0), 1.0]
-        rows.append(np.hstack([Y[pc.iv][:, blocks], drive]))
-    W = np.vstack(rows)[:, base_parameters(puma).columns]
-    ref = np.linalg.cond(W / np.linalg.norm(W, axis=0))
+    ref = pinocchio_base_condition(pc, puma, *_closed_form(exc, t))
     assert abs(exc.condition - ref) <= 1e-9 * ref
 
 

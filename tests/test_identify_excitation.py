@@ -36,11 +36,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PinChain, erd_path, to_pinocchio
+from conftest import PinChain, erd_path, pinocchio_base_condition, to_pinocchio
 
 import mrnea
 from mrnea.identify import Log, actuator_parameters, identify, inertial_parameters
-from mrnea.identify.base import base_parameters
 from mrnea.identify.excite import excitation
 from mrnea.model import Link, Robot
 
@@ -88,24 +87,7 @@ def _drive_law(r: Robot, qd, qdd) -> np.ndarray:
 
 
 def _pinocchio_condition(robot: Robot, q, qd, qdd) -> float:
-    """numpy's cond of the stacked base regressor (Pinocchio's rigid body, drives written out),
-    columns scaled to unit norm."""
-    import pinocchio as pin
-
-    pc = PinChain(robot, to_pinocchio(robot))
-    n = robot.n
-    blocks = np.concatenate([np.arange(10 * (i - 1), 10 * i) for i in pc.ids])
-    rows = []
-    for k in range(q.shape[0]):
-        Y = np.asarray(pin.computeJointTorqueRegressor(pc.model, pc.data, pc.config(q[k]),
-                                                       pc.vel(qd[k]), pc.vel(qdd[k])))
-        drive = np.zeros((n, 5 * n))
-        for j in range(n):
-            v = qd[k, j]
-            drive[j, 5 * j:5 * j + 5] = [qdd[k, j], v, float(v > 0), -float(v < 0), 1.0]
-        rows.append(np.hstack([Y[pc.iv][:, blocks], drive]))
-    W = np.vstack(rows)[:, base_parameters(robot).columns]
-    return float(np.linalg.cond(W / np.linalg.norm(W, axis=0)))
+    return pinocchio_base_condition(PinChain(robot, to_pinocchio(robot)), robot, q, qd, qdd)
 
 
 def _random_series(robot: Robot, rng: np.random.Generator):
