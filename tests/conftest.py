@@ -300,6 +300,16 @@ class PinChain:
         return out
 
 
+def sines_trajectory(robot: Robot) -> tuple[np.ndarray, ...]:
+    """t, q, qd, qdd [s, rad, rad/s, rad/s^2] of a 10 s sum of sines about the middle of each
+    joint's range (amplitude 0.4 rad, 0.1-0.27 Hz), sampled every 20 ms: the other trajectory an
+    identified robot's efforts are predicted on, in closed form."""
+    t = np.arange(0.0, 10.0, 0.02)
+    w = 2 * np.pi * np.array([0.1, 0.13, 0.17, 0.21, 0.23, 0.27, 0.31])[:robot.n]
+    q = (robot.lower + robot.upper) / 2 + 0.4 * np.sin(np.outer(t, w))
+    return t, q, 0.4 * w * np.cos(np.outer(t, w)), -0.4 * w ** 2 * np.sin(np.outer(t, w))
+
+
 def pinocchio_base_condition(pc: PinChain, robot: Robot, q, qd, qdd) -> float:
     """The condition number of the column-scaled base regressor stacked over the rows of (q, qd,
     qdd): Pinocchio's ``computeJointTorqueRegressor`` (link columns in mrnea's order) beside the

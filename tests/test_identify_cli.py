@@ -33,7 +33,14 @@ import numpy as np
 import pandas as pd
 import pytest
 from chromium_cdp import Browser, ChromiumUnavailable
-from conftest import PinChain, environment, mrnea_cli, one_error_line, to_pinocchio
+from conftest import (
+    PinChain,
+    environment,
+    mrnea_cli,
+    one_error_line,
+    sines_trajectory,
+    to_pinocchio,
+)
 
 import mrnea
 from mrnea.identify.output import schema_path
@@ -358,11 +365,7 @@ def test_the_example_predicts_the_truth_through_pinocchio(puma):
     ident = mrnea.io.load_robot_spec(str(puma / "identified_robot.toml"))
     log = pd.read_csv(EXAMPLES / "puma_identify_log.csv")
     noise = 0.005 * np.abs(log.filter(like="tau_").to_numpy()).max(axis=0)  # the script's
-    t = np.arange(0.0, 10.0, 0.02)
-    mid = (truth_robot.lower + truth_robot.upper) / 2
-    w = 2 * np.pi * np.array([0.1, 0.13, 0.17, 0.21, 0.23, 0.27])
-    q = mid + 0.4 * np.sin(np.outer(t, w))
-    qd, qdd = 0.4 * w * np.cos(np.outer(t, w)), -0.4 * w ** 2 * np.sin(np.outer(t, w))
+    _, q, qd, qdd = sines_trajectory(truth_robot)
 
     def model(r: Robot) -> np.ndarray:
         pin = PinChain(r, to_pinocchio(r))

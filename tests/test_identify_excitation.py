@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PinChain, erd_path, pinocchio_base_condition, to_pinocchio
+from conftest import PinChain, erd_path, pinocchio_base_condition, sines_trajectory, to_pinocchio
 
 import mrnea
 from mrnea.identify import Log, actuator_parameters, identify, inertial_parameters
@@ -165,11 +165,7 @@ def test_base_parameters_and_friction_within_three_standard_errors(case) -> None
 
 def test_predicts_the_truth_through_pinocchio_and_is_consistent(case) -> None:
     _, truth, _, noise, res = case
-    t = np.arange(0.0, 10.0, 0.02)
-    mid = (truth.lower + truth.upper) / 2
-    w = 2 * np.pi * np.array([0.1, 0.13, 0.17, 0.21, 0.23, 0.27])
-    q = mid + 0.4 * np.sin(np.outer(t, w))
-    qd, qdd = 0.4 * w * np.cos(np.outer(t, w)), -0.4 * w ** 2 * np.sin(np.outer(t, w))
+    _, q, qd, qdd = sines_trajectory(truth)
 
     def model(r: Robot) -> np.ndarray:
         pin = PinChain(r, to_pinocchio(r))
