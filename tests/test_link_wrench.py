@@ -1,0 +1,126 @@
+"""Wrenches on any named link (issue 25): ``f_ext={link: [f; n]}`` with points in each link's
+frame, on two tree robots (the torso with two arms of examples/, Baxter of example-robot-data).
+Oracle: Pinocchio's model of the same URDF (``pinocchio.buildModelFromUrdf``), its ``rnea`` and
+``aba`` with ``fext``, a force per joint built here from Pinocchio's own link poses
+(``data.oMi``): ours is what the link exerts on its environment, in base coordinates, at a
+point of the link; Pinocchio's the force applied to the body, in the joint's local frame, about
+its origin, so body i receives ``-[R^T f; R^T n + p x R^T f]``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import PinChain, erd_path, pin_from_urdf, rel_err
+
+import mrnea
+from mrnea.errors import StateError
+
+pin = pytest.importorskip("pinocchio")
+
+URDF = Path(__file__).resolve().parents[1] / "examples" / "waist_two_arms.urdf"
+BAXTER = ("baxter_description/urdf/baxter.urdf",
+          ("head", "right_wrist", "left_wrist", "r_gripper_l_finger", "l_gripper_l_finger"))
+
+
+def _robot(which: str):
+    if which == "waist":
+        robot = mrnea.load_urdf(URDF)
+        return robot, pin_from_urdf(URDF, robot), ("hand_l", "upper_arm_r")
+    path = erd_path(BAXTER[0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = mrnea.load_urdf(path, tip=BAXTER[1])
+    return robot, pin_from_urdf(path, robot), ("left_wrist", "right_lower_elbow")
+
+
+def _pin_fext(pc: PinChain, robot, q, f_ext: dict, f_ext_point: dict) -> list:
+    pin.forwardKinematics(pc.model, pc.data, pc.config(q))
+    out = [pin.Force.Zero() for _ in range(pc.model.njoints)]
+    for link, w in f_ext.items():
+        jid = pc.ids[robot.link_names.index(link)]
+        R = pc.data.oMi[jid].rotation
+        f, n = R.T @ w[:3], R.T @ w[3:]
+        out[jid] = pin.Force(-f, -(n + np.cross(f_ext_point.get(link, np.zeros(3)), f)))
+    return out
+
+
+def _states(robot, rng):
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    return rng.uniform(lo, hi), rng.normal(0, 1, robot.n), rng.normal(0, 2, robot.n)
+
+
+@pytest.mark.parametrize("which", ["waist", "baxter"])
+def test_wrenches_on_two_links_equal_pinocchio(which) -> None:
+    robot, model, links = _robot(which)
+    assert all(link in robot.link_names for link in links)
+    pc = PinChain(robot, model)
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        q, qd, qdd = _states(robot, rng)
+        f_ext = {link: rng.normal(0, 20, 6) for link in links}
+        f_pt = {links[0]: rng.normal(0, 0.1, 3)}  # the second at its link's origin
+        fext = _pin_fext(pc, robot, q, f_ext, f_pt)
+        conf, v = pc.config(q), pc.vel(qd)
+        tau = mrnea.inverse_dynamics(robot, q, qd, qdd, f_ext, f_pt)
+        ref = pc.ours(pin.rnea(model, pc.data, conf, v, pc.vel(qdd), fext))
+        assert rel_err(tau, ref) < 1e-10
+        # the wrench is not a no-op: without it the efforts differ
+        assert rel_err(mrnea.inverse_dynamics(robot, q, qd, qdd), ref) > 1e-3
+        _, u = mrnea.mass_matrix_and_bias(robot, q, qd, f_ext, f_pt)
+        u_ref = pc.ours(pin.rnea(model, pc.data, conf, v, np.zeros(model.nv), fext))
+        assert rel_err(u, u_ref) < 1e-10
+        trq = rng.normal(0, 10, robot.n)
+        qdd_ref = pc.ours(pin.aba(model, pc.data, conf, v, pc.vel(trq), fext))
+        for method in ("mrnea", "walker_orin", "crba", "aba"):
+            qdd_ours = mrnea.forward_dynamics(robot, q, qd, trq, f_ext, f_pt, method=method)
+            assert rel_err(qdd_ours, qdd_ref) < 1e-10, method
+
+
+def test_a_batch_and_a_simulation_take_wrenches_by_link() -> None:
+    """A batch of states with a wrench per state equals its states one by one; a simulation's
+    simulation with a per-cycle wrench by link, holding a pose, applies Pinocchio's rnea."""
+    robot, model, links = _robot("waist")
+    pc = PinChain(robot, model)
+    rng = np.random.default_rng(9)
+    Q = np.stack([_states(robot, rng)[0] for _ in range(3)])
+    W = {links[0]: rng.normal(0, 20, (3, 6)), links[1]: rng.normal(0, 20, 6)}
+    P = {links[0]: [0.0, 0.0, 0.1]}
+    out = mrnea.inverse_dynamics(robot, Q, np.zeros(robot.n), np.zeros(robot.n), W, P)
+    for b in range(3):
+        f_b = {links[0]: W[links[0]][b], links[1]: W[links[1]]}
+        ref = pc.ours(pin.rnea(model, pc.data, pc.config(Q[b]), np.zeros(robot.n),
+                               np.zeros(robot.n), _pin_fext(pc, robot, Q[b], f_b, P)))
+        assert rel_err(out[b], ref) < 1e-10
+    # a held pose, frictionless drives that can hold it: every cycle's effort is gravity plus
+    # the wrenches
+    stiff = robot.with_actuators(viscous_friction=0.0, coulomb_friction=0.0, rotor_inertia=0.0,
+                                 effort_limit=1e6)
+    q0, K = Q[0], 4
+    f_ext = {links[0]: np.tile(W[links[0]][0], (K, 1)), links[1]: W[links[1]]}
+    res = mrnea.simulate(stiff, np.tile(q0, (K, 1)), 0.01, f_ext=f_ext, f_ext_point=P,
+                         reactions=False)
+    f_0 = {links[0]: W[links[0]][0], links[1]: W[links[1]]}
+    ref = pc.ours(pin.rnea(model, pc.data, pc.config(q0), np.zeros(robot.n), np.zeros(robot.n),
+                           _pin_fext(pc, robot, q0, f_0, P)))
+    for k in range(K):
+        assert rel_err(res.tau[k], ref) < 1e-10
+
+
+def test_wrong_wrenches_by_link_are_one_error_naming_them() -> None:
+    robot, _, _ = _robot("waist")
+    z = np.zeros(robot.n)
+    with pytest.raises(StateError, match=r"no link named 'hand_x'.*did you mean 'hand_"):
+        mrnea.inverse_dynamics(robot, z, z, z, {"hand_x": np.ones(6)})
+    with pytest.raises(StateError, match=r"f_ext_point: a point for link 'hand_r'"):
+        mrnea.inverse_dynamics(robot, z, z, z, {"hand_l": np.ones(6)}, {"hand_r": [0, 0, 1]})
+    with pytest.raises(StateError, match=r"f_ext_point: with the wrench given by link name"):
+        mrnea.inverse_dynamics(robot, z, z, z, {"hand_l": np.ones(6)}, [0, 0, 1])
+    with pytest.raises(StateError, match=r"f_ext\['hand_l'\]: expected shape \(6,\)"):
+        mrnea.inverse_dynamics(robot, z, z, z, {"hand_l": np.ones(5)})
+    with pytest.raises(StateError, match=r"f_ext\['hand_l'\]: contains NaN"):
+        mrnea.forward_dynamics(robot, z, z, z, {"hand_l": [np.nan, 0, 0, 0, 0, 0]})
