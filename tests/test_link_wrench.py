@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PinChain, erd_path, pin_from_urdf, rel_err
+from conftest import PinChain, erd_path, mrnea_cli, one_error_line, pin_from_urdf, rel_err
 
 import mrnea
 from mrnea.errors import StateError
@@ -124,3 +124,118 @@ def test_wrong_wrenches_by_link_are_one_error_naming_them() -> None:
         mrnea.inverse_dynamics(robot, z, z, z, {"hand_l": np.ones(5)})
     with pytest.raises(StateError, match=r"f_ext\['hand_l'\]: contains NaN"):
         mrnea.forward_dynamics(robot, z, z, z, {"hand_l": [np.nan, 0, 0, 0, 0, 0]})
+
+
+# --- programs, payloads and the command line ------------------------------------------------------
+
+HOLD = {"shoulder_pitch_l": 0.3, "elbow_l": 0.5, "shoulder_roll_r": -0.4, "elbow_r": 0.6}
+W_L, P_L = [1.0, -2.0, 3.0, 0.1, 0.2, -0.3], [0.0, 0.0, 0.05]
+W_R = [-2.0, 1.0, 0.5, 0.0, 0.3, 0.0]
+
+
+def _hold_program(folder: Path, wrenches: str, extra: str = "") -> Path:
+    import shutil
+
+    shutil.copy(URDF, folder / URDF.name)
+    names = ", ".join(f"{k} = {v}" for k, v in HOLD.items())
+    path = folder / "hold.toml"
+    path.write_text(f'[program]\nrobot = "{URDF.name}"\ndt = 0.01\n{extra}\n[path]\n'
+                    f'profile = "trapezoidal"\nwaypoints = [{{{names}}}]\nvelocity_limit = 1\n'
+                    f'acceleration_limit = 1\ndwell = 0.05\n\n{wrenches}')
+    return path
+
+
+TWO_WRENCHES = (f'[[wrench]]\nlink = "hand_l"\ntimes = [0.0, 0.05]\nvalues = [{W_L}, {W_L}]\n'
+                f'point = {P_L}\n\n[[wrench]]\nlink = "upper_arm_r"\ntimes = [0.0]\n'
+                f'values = [{W_R}]\n')
+
+
+def _pin_with_masses(masses) -> tuple:
+    """Pinocchio's model of the URDF with point masses (joint, kg, com) added to those bodies."""
+    robot = mrnea.load_urdf(URDF)
+    model = pin_from_urdf(URDF, robot)
+    for joint, mass, com in masses:
+        jid = model.getJointId(joint)
+        model.inertias[jid] = model.inertias[jid] + pin.Inertia(mass, np.asarray(com, float),
+                                                                np.zeros((3, 3)))
+    return robot, model
+
+
+def test_several_payloads_equal_pinocchio_with_their_inertias(tmp_path) -> None:
+    from mrnea.io import RobotOptions, load_robot_spec, parse_payload
+
+    (tmp_path / "box.toml").write_text('mass = 1.5\ncom = [0.0, 0.01, 0.02]\nlink = "forearm_r"\n'
+                                       'inertia = { ixx = 0.01, iyy = 0.02, izz = 0.03 }\n')
+    loads = (parse_payload("2@hand_l:0.1,0,0.05"), parse_payload("0.7@upper_arm_r"),
+             parse_payload(str(tmp_path / "box.toml")))
+    robot = load_robot_spec(str(URDF), options=RobotOptions(payload=loads))
+    bare, model = _pin_with_masses([("wrist_l", 2.0, [0.1, 0, 0.05]),
+                                    ("shoulder_roll_r", 0.7, [0, 0, 0])])
+    jid = model.getJointId("elbow_r")
+    model.inertias[jid] = model.inertias[jid] + pin.Inertia(1.5, np.array([0.0, 0.01, 0.02]),
+                                                            np.diag([0.01, 0.02, 0.03]))
+    pc = PinChain(robot, model)
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        q, qd, qdd = _states(robot, rng)
+        ref = pc.ours(pin.rnea(model, pc.data, pc.config(q), pc.vel(qd), pc.vel(qdd)))
+        assert rel_err(mrnea.inverse_dynamics(robot, q, qd, qdd), ref) < 1e-10
+        assert rel_err(mrnea.inverse_dynamics(bare, q, qd, qdd), ref) > 1e-3
+    # a program's list of payloads is the same robot
+    prog = _hold_program(tmp_path, "", 'payload = ["2@hand_l:0.1,0,0.05", "0.7@upper_arm_r", '
+                                       '"box.toml"]')
+    assert mrnea.load_program(prog).load_robot().links == robot.links
+
+
+def test_a_program_names_its_wrenches_links(tmp_path) -> None:
+    prog = mrnea.load_program(_hold_program(tmp_path, TWO_WRENCHES))
+    robot = prog.load_robot()
+    prog = prog.on(robot)
+    assert set(prog.f_ext) == {"hand_l", "upper_arm_r"}
+    assert np.array_equal(prog.f_ext["hand_l"], np.tile(W_L, (prog.K, 1)))
+    assert np.array_equal(prog.f_ext_point["hand_l"], P_L) and "upper_arm_r" not in prog.f_ext_point
+    # one [wrench] table without 'link' keeps its meaning: the last link
+    one = mrnea.load_program(_hold_program(tmp_path, f"[wrench]\ntimes = [0.0]\n"
+                                                     f"values = [{W_R}]\n")).on(robot)
+    assert one.f_ext.shape == (one.K, 6)
+    # ... and with 'link' it is that link's
+    named = mrnea.load_program(_hold_program(tmp_path, f'[wrench]\nlink = "hand_r"\n'
+                                                       f'times = [0.0]\nvalues = [{W_R}]\n'))
+    assert set(named.on(robot).f_ext) == {"hand_r"}
+
+
+@pytest.mark.parametrize(("wrenches", "words"), [
+    (TWO_WRENCHES.replace('"upper_arm_r"', '"upper_arm_x"'),
+     ("hold.toml", "[wrench] 'link'", "'upper_arm_x'", "did you mean 'upper_arm_")),
+    (TWO_WRENCHES.replace('"upper_arm_r"', '"hand_l"'),
+     ("hold.toml", "[[wrench]] 2", "second wrench on link 'hand_l'")),
+])
+def test_a_wrong_wrench_link_is_one_error_line(tmp_path, wrenches, words) -> None:
+    res = mrnea_cli("check", _hold_program(tmp_path, wrenches))
+    one_error_line(res, *words)
+
+
+def test_cli_two_payloads_and_two_wrenches_equal_pinocchio(tmp_path) -> None:
+    """``mrnea simulate`` with two --payload options and a program with two [[wrench]] tables,
+    holding a pose: each cycle's drive efforts (cycles.csv) equal Pinocchio's rnea at rest with
+    the two masses in its model and the two wrenches in its fext."""
+    import csv
+
+    prog = _hold_program(tmp_path, TWO_WRENCHES)
+    res = mrnea_cli("simulate", prog, "--payload", "0.5@hand_l:0.02,0,0.05", "--payload",
+                    "0.3@forearm_r", "--out", tmp_path / "out")
+    assert res.returncode == 0, res.stderr
+    robot, model = _pin_with_masses([("wrist_l", 0.5, [0.02, 0, 0.05]),
+                                     ("elbow_r", 0.3, [0, 0, 0])])
+    pc = PinChain(robot, model)
+    q = np.array([HOLD.get(j, 0.0) for j in robot.joint_names])
+    f_ext = {"hand_l": np.array(W_L), "upper_arm_r": np.array(W_R)}
+    fext = _pin_fext(pc, robot, q, f_ext, {"hand_l": np.array(P_L)})
+    ref = pc.ours(pin.rnea(model, pc.data, pc.config(q), np.zeros(robot.n), np.zeros(robot.n),
+                           fext))
+    with open(tmp_path / "out" / "cycles.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) >= 5
+    for row in rows:
+        tau = np.array([float(row[f"tau_{j} [N m]"]) for j in robot.joint_names])
+        assert rel_err(tau, ref) < 1e-10
