@@ -131,6 +131,10 @@ def per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray[np.
     K rows."""
     if x is None:
         return np.zeros((K, width))
+    if isinstance(x, Mapping):
+        raise StateError(f"{name}: wrenches on named links are taken by the dynamics "
+                         f"functions, simulate, check and sweep, not yet here (retime, "
+                         f"sizing, the drive requirement); give the last link's wrench")
     a = array(x, name, width)
     if a.ndim == 1:
         return np.ascontiguousarray(np.broadcast_to(a, (K, width)))
