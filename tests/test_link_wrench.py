@@ -239,3 +239,28 @@ def test_cli_two_payloads_and_two_wrenches_equal_pinocchio(tmp_path) -> None:
     for row in rows:
         tau = np.array([float(row[f"tau_{j} [N m]"]) for j in robot.joint_names])
         assert rel_err(tau, ref) < 1e-10
+
+
+def test_retime_refuses_wrenches_on_named_links_in_one_line(tmp_path) -> None:
+    res = mrnea_cli("retime", _hold_program(tmp_path, TWO_WRENCHES), "--out", tmp_path / "rt")
+    one_error_line(res, "wrenches on named links", "retime")
+    assert not (tmp_path / "rt").exists()
+
+
+def test_a_sweep_time_scaling_moves_each_links_wrench(tmp_path) -> None:
+    """``time_scaled`` (a sweep's ``time_scale``) keeps each link's wrench: a ramp on the left
+    hand is stretched with the path (its value at the new rows is the ramp's at the program
+    instant they map to), the right arm's constant stays."""
+    from mrnea.sweep.variants import time_scaled
+
+    ramp = ('[[wrench]]\nlink = "hand_l"\ntimes = [0.0, 0.05]\n'
+            'values = [[0, 0, 0, 0, 0, 0], [5, 0, 0, 0, 0, 0]]\n\n'
+            f'[[wrench]]\nlink = "upper_arm_r"\ntimes = [0.0]\nvalues = [{W_R}]\n')
+    prog = mrnea.load_program(_hold_program(tmp_path, ramp))
+    prog = prog.on(prog.load_robot())
+    slow = time_scaled(prog, 2.0)
+    assert set(slow.f_ext) == {"hand_l", "upper_arm_r"}
+    assert np.array_equal(slow.f_ext["upper_arm_r"], np.tile(W_R, (slow.K, 1)))
+    # program instant of new row k: t_k / 2; the ramp's fx there: 5 min(t_k / 2 / 0.05, 1)
+    expected = 5 * np.minimum(slow.t / 2 / 0.05, 1.0)
+    assert np.allclose(slow.f_ext["hand_l"][:, 0], expected, rtol=0, atol=1e-12)
