@@ -68,6 +68,19 @@ def test_an_unknown_or_mixed_delimiter_is_one_error_naming_them(tmp_path: Path) 
                    "separated by semicolon", "comma")
 
 
+
+def test_a_decimal_comma_is_one_error_naming_both_delimiters(tmp_path: Path) -> None:
+    """A European controller log: semicolons between the columns and decimal commas. The error
+    names the cell, the comma it holds and the semicolon the header uses."""
+    header, rows = sdt_rows()
+    path = tmp_path / "euro.csv"
+    text = ";".join(header) + "\n" + "".join(
+        ";".join(f"{v:.4f}".replace(".", ",") for v in r) + "\n" for r in rows[:5])
+    path.write_text(text)
+    one_error_line(mrnea_cli("check", "sdt", path, "--dt", "0.01"), "euro.csv", "line 2",
+                   "column 1", "the cell holds a comma", "separated by semicolon",
+                   "decimal point")
+
 def test_degrees_with_units_deg_check_as_radians(tmp_path: Path) -> None:
     deg = puma_move([30.0, 60.0, -120.0, 0.0, -60.0, 30.0])
     rad = deg.copy()

@@ -153,8 +153,15 @@ def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64
                 except ValueError as exc:
                     where = (f"{path}: line {line} (data row {rows + 1}), column {col + 1} "
                              f"({quote(header[col])})")
-                    raise ProgramFileError(f"{where}: {exc}" if cell else f"{where}: empty cell"
-                                           ) from None
+                    # a decimal comma under a semicolon header, or a header and rows that
+                    # disagree: name the delimiter expected and the one the cell holds
+                    held = [name for d, name in DELIMITERS.items()
+                            if d != delimiter and d != " " and d in cell]
+                    hint = (f" (the cell holds a {held[0]}; columns are separated by "
+                            f"{DELIMITERS[delimiter]} as in the header (line {header_line}), and "
+                            "numbers use a decimal point)" if held else "")
+                    raise ProgramFileError(f"{where}: {exc}{hint}" if cell
+                                           else f"{where}: empty cell") from None
                 if col == 0 and rows and v <= last_time:
                     raise ProgramFileError(
                         f"{path}: line {line} (data row {rows + 1}), column 1 "
