@@ -17,6 +17,9 @@ import numpy as np
 import pytest
 from conftest import mrnea_cli, one_error_line
 
+import mrnea
+from mrnea.errors import PathWarning
+from mrnea.io.pathcsv import from_csv
 from mrnea.model import Joint, Link, Robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -103,9 +106,14 @@ def test_degrees_read_as_radians_get_a_hint_and_no_retime(tmp_path: Path) -> Non
     warning = [ln for ln in res.stderr.splitlines() if ln.startswith("mrnea: warning:")]
     assert len(warning) == 1 and "look like degrees" in warning[0]
     assert "--units deg" in warning[0] and "'joint2' starts at 45" in warning[0]
+    assert "units=" not in warning[0]  # the command line's words only
     assert "Retime it" not in res.stdout
     assert ("No timing can make it achievable: joint 'joint2' starts at 45 rad, outside its "
             "position limits [-0.7854, 3.927] rad") in res.stdout
+    with pytest.warns(PathWarning, match="look like degrees") as caught:  # the library's words
+        from_csv(path, 0.008, robot=mrnea.robots.puma560())
+    said = str(caught[0].message)
+    assert said.endswith('pass units="deg"') and "--units" not in said, said
 
 
 def test_a_path_leaving_the_limits_gets_no_retime(tmp_path: Path) -> None:

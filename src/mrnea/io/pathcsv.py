@@ -371,12 +371,11 @@ def degree_hint(robot: Robot, rows: NDArray, source: str) -> None:
     if outside.size == 0 or values.size == 0 or values.max() > 360.0 or values.max() <= 2 * np.pi:
         return
     i = int(outside[0])
-    warnings.warn(
-        f"{source}: the joint columns look like degrees (every value within ±360, up to "
-        f"{values.max():.4g}); read in rad, joint '{robot.joint_names[i]}' starts at "
-        f"{q0[i]:.4g}, outside its limits [{robot.lower[i]:.4g}, {robot.upper[i]:.4g}]: if the "
-        "file is in degrees (mm for prismatic joints), pass --units deg (Python: units=\"deg\")",
-        PathWarning, stacklevel=3)
+    said = (f"{source}: the joint columns look like degrees (every value within ±360, up to "
+            f"{values.max():.4g}); read in rad, joint '{robot.joint_names[i]}' starts at "
+            f"{q0[i]:.4g}, outside its limits [{robot.lower[i]:.4g}, {robot.upper[i]:.4g}]: if "
+            "the file is in degrees (mm for prismatic joints), pass ")
+    warnings.warn(PathWarning(said + 'units="deg"', cli=said + "--units deg"), stacklevel=3)
 
 
 def limit_warnings(robot: Robot, t: NDArray, q: NDArray, rows: NDArray, interpolation: str,
