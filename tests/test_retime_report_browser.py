@@ -9,7 +9,8 @@ retimed program).
   from the cruise to the braking (two jumps), never back and forth.
 * The page reads at 800 and 1400 px in headless Chromium: no sideways scroll, figures at least at
   0.7 of their pixels (before, at 800 px the figures shrank to 0.4 and their text was unreadable),
-  one duration stated with why the simulation lasts a cycle longer, each figure's caption.
+  one duration stated with why the simulation lasts a cycle longer, each figure's caption, the
+  3D view's time marked on the effort-ratio figure where that time is.
 """
 
 from __future__ import annotations
@@ -102,6 +103,16 @@ LAYOUT = """(() => ({
 }))()"""
 
 
+MARKER = """(async () => {
+  const fig = document.querySelector("figure[id$='-effort_ratio']");
+  const img = fig.querySelector('img'), line = fig.querySelector('.mv3d-tline');
+  const [x0, x1, , , a, b] = JSON.parse(fig.dataset.xaxes)[0];
+  const t = await mrneaView3d.time();
+  const want = (x0 + (t - a) / (b - a) * (x1 - x0)) * img.clientWidth;
+  return [line.getBoundingClientRect().left - img.getBoundingClientRect().left + 1, want, t];
+})()"""
+
+
 @pytest.mark.parametrize("width", [800, 1400])
 def test_the_retime_report_reads_at_800_and_1400_px(retimed, width: int) -> None:
     res, report = retimed
@@ -110,7 +121,7 @@ def test_the_retime_report_reads_at_800_and_1400_px(retimed, width: int) -> None
     except ChromiumUnavailable as exc:
         pytest.skip(f"no Chromium for the browser tests: {exc}")
     with b:
-        page = b.open(report.as_uri())
+        page = b.open(report.as_uri() + "#t=1.2")
         assert page.evaluate("mrneaView3d.ready.then(a => a !== null)"), "no WebGL"
         page.next_frames(2)
         got = page.evaluate(LAYOUT)
@@ -127,4 +138,6 @@ def test_the_retime_report_reads_at_800_and_1400_px(retimed, width: int) -> None
         assert [float(s) for s in said] == [pytest.approx(first_last, abs=5e-4)], verdict
         assert (f"({rows} rows; simulated as {rows} cycles of {res.dt:g} s, "
                 f"{rows * res.dt:.4g} s)") in verdict
+        have, want, t = page.evaluate(MARKER)  # the 3D view's time marked on the figure
+        assert t == pytest.approx(1.2, abs=res.dt) and abs(have - want) <= 2.0, (have, want)
         (Path(report).parent / f"retime-{width}.png").write_bytes(page.screenshot(None))
