@@ -26,7 +26,6 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea import compiled, cycles, validate
 from mrnea.achievable import MODES
@@ -425,6 +424,8 @@ def simulate(
 
 def _tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> None:
     """The real motion's tool errors against the programmed pose, for ``rows``."""
+    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
+
     T = forward_kinematics(res.robot, res.q[rows], tool=path.tool)[:, -1]
     P = path.pose[rows]
     res.tool_position_error[rows] = np.linalg.norm(T[:, :3, 3] - P[:, :3, 3], axis=1)

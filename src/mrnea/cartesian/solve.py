@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea.cartesian.blend import chain_poses
 from mrnea.cartesian.path import move_poses
@@ -120,6 +119,8 @@ def _chains(moves: tuple[Move, ...]) -> list[tuple[Move, ...]]:
 def _poses_of(move: Move, T: NDArray, where: str) -> NDArray:
     """The poses of a pose CSV move (its first row included), which must start where the tool
     is (within ``JOIN_POSITION`` [m] and ``JOIN_ORIENTATION`` [rad])."""
+    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
+
     P = move.poses
     gap = float(np.linalg.norm(P[0, :3, 3] - T[:3, 3]))
     turn = float(np.linalg.norm(Rotation.from_matrix(T[:3, :3].T @ P[0, :3, :3]).as_rotvec()))
