@@ -28,8 +28,8 @@ from typing import Any
 
 from mrnea.errors import SweepError, quote
 
-__all__ = ["CONNECT_TIMEOUT", "HTTP_TIMEOUT", "WORKER_ENVIRON", "WORKER_MALLOC",
-           "check_scheduler", "client",
+__all__ = ["CONNECT_TIMEOUT", "HTTP_TIMEOUT", "WORKER_CONFIG", "WORKER_ENVIRON",
+           "WORKER_MALLOC", "check_scheduler", "client",
            "quiet", "spawning"]
 
 #: glibc settings of the LocalCluster's workers (:func:`spawning`): trim at 128 MB, arrays of
@@ -39,6 +39,11 @@ WORKER_MALLOC = {"MALLOC_TRIM_THRESHOLD_": 134217728, "MALLOC_MMAP_THRESHOLD_": 
 #: thread pool of one thread (a worker runs one task at a time, each on one thread; a pool of
 #: the machine's size, started by a retime's parallel kernels, only competes for the cores).
 WORKER_ENVIRON = {**WORKER_MALLOC, "NUMBA_NUM_THREADS": 1}
+#: The LocalCluster's workers' Dask settings (:func:`spawning`): no statistical profiler. It
+#: samples every thread's stack each 10 ms on the worker's event-loop thread (about 2 % of a
+#: core per worker, measured: docs/performance.md section 12) for a dashboard this cluster
+#: does not have; on a machine whose cores are all busy that CPU comes out of the runs.
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 #: Seconds a scheduler address has to accept the connection and answer as a Dask scheduler,
 #: all told (a scheduler answers in milliseconds).
 CONNECT_TIMEOUT = 10
@@ -73,6 +78,8 @@ def spawning() -> Iterator[None]:
       environment override its config, and an earlier cluster of this process (a user's,
       started without these settings) leaves distributed's ``MALLOC_TRIM_THRESHOLD_=65536``
       there.
+    * Dask's statistical profiler off in the workers (:data:`WORKER_CONFIG`; the Nanny hands
+      its worker the configuration it was created under).
     """
     import dask
 
@@ -83,7 +90,8 @@ def spawning() -> Iterator[None]:
         key = "distributed.nanny.pre-spawn-environ"
         for name in WORKER_ENVIRON:
             os.environ.pop(name, None)
-        with dask.config.set({key: {**dask.config.get(key), **WORKER_ENVIRON}}):
+        with dask.config.set({key: {**dask.config.get(key), **WORKER_ENVIRON},
+                              **WORKER_CONFIG}):
             yield
     finally:
         os.environ.clear()
