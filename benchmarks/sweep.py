@@ -36,6 +36,7 @@ import argparse
 import contextlib
 import importlib
 import logging
+import math
 import multiprocessing
 import os
 import platform
@@ -45,6 +46,7 @@ import time
 import numba
 import numpy as np
 import pandas as pd
+import psutil
 from distributed import Client, LocalCluster
 
 from mrnea.robots import sdt
@@ -161,15 +163,16 @@ def _reference_process(k: int, w: int, n: int, barrier, results) -> None:
     mine = list(range(k, len(cases), w))
     run_case(robot, program, cases[0])  # the kernels loaded
     barrier.wait()
-    t0 = time.time()
+    t0, cpu = time.time(), time.process_time()
     rows = {i: run_case(robot, program, cases[i]) for i in mine}
-    results.put((t0, time.time(), rows))
+    results.put((t0, time.time(), time.process_time() - cpu, rows))
 
 
-def reference(w: int, n: int) -> tuple[float, dict]:
+def reference(w: int, n: int) -> tuple[float, dict, float]:
     """The machine's limit at W workers: W independent processes each running the serial loop
     (on 1/W of the variants) at the same time, in the environment mrnea's cluster gives its
-    workers. Returns (variants per second from the first start to the last end, the rows)."""
+    workers. Returns (variants per second from the first start to the last end, the rows,
+    CPU seconds of the processes per variant)."""
     ctx = multiprocessing.get_context("spawn")
     barrier, results = ctx.Barrier(w), ctx.Queue()
     environ = dict(os.environ)
@@ -186,7 +189,33 @@ def reference(w: int, n: int) -> tuple[float, dict]:
     for p in procs:
         p.join()
     rows = {k: r for *_, part in got for k, r in part.items()}
-    return len(rows) / (max(e for _, e, _ in got) - min(s for s, _, _ in got)), rows
+    wall = max(e for _, e, _, _ in got) - min(s for s, _, _, _ in got)
+    return len(rows) / wall, rows, sum(c for _, _, c, _ in got) / len(rows)
+
+
+class CpuMeter:
+    """A sweep's ``progress`` callback: the CPU seconds of this process (client, and a
+    LocalCluster's scheduler) and of all its descendants (nannies, workers) from the first call
+    (the run phase starts) to the call with every row done: what a sweep's run phase costs the
+    machine, Dask's processes and threads included."""
+
+    def __init__(self) -> None:
+        self.start: float | None = None
+        self.cpu = math.nan
+
+    @staticmethod
+    def _now() -> float:
+        total = time.process_time()
+        for child in psutil.Process().children(recursive=True):
+            with contextlib.suppress(psutil.Error):
+                total += sum(child.cpu_times()[:2])
+        return total
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.start is None:
+            self.start = self._now()
+        elif done == total and math.isnan(self.cpu):
+            self.cpu = self._now() - self.start
 
 
 def _spread(values: list[float]) -> str:
@@ -203,8 +232,9 @@ def scaling(workers: list[int], n: int, rounds: int, say) -> None:
     warm-up are fixed costs, reported apart: run-phase throughput). Each round's ratios are
     taken within the round; the table gives their median and range, the targets' ratios:
     own / serial at W = 1 (the 1-process reference is the serial loop, in a process of its
-    own), own / reference and plain / reference at every W. Rows checked equal to the
-    reference's."""
+    own), own / reference and plain / reference at every W. Beside them, the CPU per variant
+    of each (all processes: :class:`CpuMeter`), which a machine shared with other jobs does
+    not change as it changes throughput. Rows checked equal to the reference's."""
     robot, program = sdt(), training_program()
     grid = grid_of(n)
     keys, cases = check_grid(robot, grid)
@@ -212,50 +242,58 @@ def scaling(workers: list[int], n: int, rounds: int, say) -> None:
     say(f"Scaling: {len(cases)} SDT variants x {program.name} ({program.K} cycles), "
         f"{rounds} round(s) per worker count, the three configurations in a rotated order "
         "each round. Run-phase variants/s (start and warm-up apart); ratios taken within "
-        "each round: median (min-max) over the rounds.")
+        "each round: median (min-max) over the rounds. CPU per variant: all the processes' "
+        "CPU in the run phase (the reference's processes; a cluster's workers, nannies, "
+        "scheduler and client) per variant.")
     say()
     say("| W | reference (W serial loops) | mrnea's cluster | plain LocalCluster as client= "
         "| **own / serial** (W = 1) | **own / reference** | **plain / reference** "
-        "| rows = serial | load |")
-    say("|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+        "| CPU per variant [ms]: ref, own, plain | rows = serial | load |")
+    say("|---:|---:|---:|---:|---:|---:|---:|---|---:|---|")
     for w in workers:
         rates: dict[str, list[float]] = {"ref": [], "own": [], "plain": []}
+        cpus: dict[str, list[float]] = {"ref": [], "own": [], "plain": []}
         loads: list[float] = []
         same = True
         for r in range(rounds):
             ref_df = None
-            got: dict[str, float] = {}
             dfs = []
             order = ["ref", "own", "plain"]
             for name in order[r % 3:] + order[:r % 3]:
+                meter = CpuMeter()
                 if name == "ref":
-                    got["ref"], rows = reference(w, n)
+                    rate, rows, cpu = reference(w, n)
                     ref_df = _frame(keys, [program.name], jobs, rows, False)
-                elif name == "own":
-                    dfs.append(sweep(robot, program, grid, workers=w, progress=False))
-                    got["own"] = len(dfs[-1]) / dfs[-1].attrs["seconds"]["run"]
                 else:
-                    with cluster_quiet(), Client(LocalCluster(
-                            n_workers=w, threads_per_worker=1, dashboard_address=":0")) as c:
-                        dfs.append(sweep(robot, program, grid, client=c, progress=False))
-                    got["plain"] = len(dfs[-1]) / dfs[-1].attrs["seconds"]["run"]
+                    if name == "own":
+                        df = sweep(robot, program, grid, workers=w, progress=meter)
+                    else:
+                        with cluster_quiet(), Client(LocalCluster(
+                                n_workers=w, threads_per_worker=1, dashboard_address=":0")) as c:
+                            df = sweep(robot, program, grid, client=c, progress=meter)
+                    rate, cpu = len(df) / df.attrs["seconds"]["run"], meter.cpu / len(df)
+                    dfs.append(df)
+                rates[name].append(rate)
+                cpus[name].append(cpu)
             same = same and all(df.equals(ref_df) for df in dfs)
             loads.append(os.getloadavg()[0])
-            for k, v in got.items():
-                rates[k].append(v)
-            print(f"  W={w} round {r + 1}: reference {got['ref']:.1f}, own {got['own']:.1f}, "
-                  f"plain {got['plain']:.1f} variants/s; own / ref {got['own'] / got['ref']:.2f}, "
-                  f"plain / ref {got['plain'] / got['ref']:.2f} ({load()})", flush=True)
+            got = {k: v[-1] for k, v in rates.items()}
+            print(f"  W={w} round {r + 1}: variants/s reference {got['ref']:.1f}, own "
+                  f"{got['own']:.1f}, plain {got['plain']:.1f}; own / ref "
+                  f"{got['own'] / got['ref']:.2f}, plain / ref {got['plain'] / got['ref']:.2f};"
+                  f" CPU per variant {', '.join(f'{1e3 * v[-1]:.1f}' for v in cpus.values())}"
+                  f" ms ({load()})", flush=True)
         own_ref = [o / f for o, f in zip(rates["own"], rates["ref"], strict=True)]
         plain_ref = [p / f for p, f in zip(rates["plain"], rates["ref"], strict=True)]
+        cpu = ", ".join(f"{1e3 * statistics.median(v):.1f}" for v in cpus.values())
         say(f"| {w} | {statistics.median(rates['ref']):.1f} | "
             f"{statistics.median(rates['own']):.1f} | {statistics.median(rates['plain']):.1f} | "
             f"{_spread(own_ref) if w == 1 else '-'} | {_spread(own_ref)} | {_spread(plain_ref)} "
-            f"| {same} | {min(loads):.1f}-{max(loads):.1f} |")
+            f"| {cpu} | {same} | {min(loads):.1f}-{max(loads):.1f} |")
     per_run, g = gil_share(robot, program, grid)
     say()
-    say("(variants/s: medians over the rounds; load: the 1-minute load average after each "
-        "round.)")
+    say("(variants/s and CPU: medians over the rounds; load: the 1-minute load average after "
+        "each round.)")
     say(f"Python per run: {1e3 * per_run:.1f} ms of CPU per run, {100 * g:.0f} % of it outside "
         "the compiled simulation kernel.")
 
