@@ -391,3 +391,27 @@ def test_the_programmed_acceleration_is_the_programs_own_with_its_unit(
     assert float(m.group(1)) == pytest.approx(np.abs(A[:, 3]).max(), rel=1e-3)
     assert np.abs(A[:, 3]).max() == pytest.approx(0.5 / DT, rel=0.02)
     assert np.abs(saturating.qdd_des[:, 3] - A[:, 3]).max() > 1.0  # the catch-up: another line
+
+
+def test_the_report_writes_the_figures_it_embeds(tmp_path) -> None:
+    """write_report(png_folder=) writes each figure once: the files are plot_result's, byte for
+    byte, and the page embeds the same bytes."""
+    import base64
+
+    import mrnea
+    from mrnea.report import FIGURES, plot_result, write_report
+    from mrnea.trajectory import quintic
+
+    robot = mrnea.robots.puma560()
+    _, q_cmd = quintic([np.zeros(6), np.full(6, 0.3)], dt=0.01, velocity_limit=1.0,
+                       acceleration_limit=2.0)
+    res = mrnea.simulate(robot, q_cmd, dt=0.01)
+    plot_result(res, tmp_path / "alone")
+    page = write_report(res, tmp_path / "r" / "report.html", view3d=False,
+                        png_folder=tmp_path / "r").read_text()
+    for name in FIGURES:
+        png = (tmp_path / "r" / f"{name}.png").read_bytes()
+        assert png == (tmp_path / "alone" / f"{name}.png").read_bytes()
+        assert base64.b64encode(png).decode("ascii") in page
+    with pytest.raises(mrnea.MrneaError, match=r"motion\.png"):
+        write_report(res, tmp_path / "r" / "other.html", png_folder=tmp_path / "r")
