@@ -116,6 +116,39 @@ def test_a_kept_mimic_joint_is_refused_naming_it() -> None:
     assert arm.n == 7 and arm.is_serial
 
 
+@pytest.mark.parametrize("rel", ["baxter_description/urdf/baxter.urdf",
+                                 "pr2_description/urdf/pr2.urdf"])
+def test_every_tip_the_mimic_refusal_suggests_loads(rel) -> None:
+    """The refusal's advice works: each candidate tip it lists (all of them, and all together)
+    loads, and its path crosses no ``<mimic>`` joint of the file (Pinocchio's URDF model: the
+    joints supporting the candidate's frame; the file's ``<mimic>`` elements read here with
+    ElementTree). Baxter has a mimic finger in each gripper, PR2 several: a candidate must avoid
+    them all, not only the one the message names."""
+    import xml.etree.ElementTree as ET
+
+    import pinocchio as pin
+
+    path = erd_path(rel)
+    with pytest.raises(RobotFileError, match="<mimic>") as info:
+        mrnea.load_urdf(path)
+    msg = str(info.value)
+    listed = msg.split("heaviest chain first: ")[1]
+    shown = [t.strip() for t in listed.split(" and ")[0].split(",")]
+    assert len(shown) == 10
+    mimics = {j.get("name") for j in ET.parse(path).getroot().iter("joint")
+              if j.find("mimic") is not None}
+    full = pin.buildModelFromUrdf(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # visuals left out of the 3D view
+        for tip in shown:
+            support = {full.names[i] for i in full.supports[full.frames[full.getFrameId(tip)]
+                                                             .parentJoint]}
+            assert not support & mimics, tip
+            robot = mrnea.load_urdf(path, tip=tip)
+            assert set(robot.joint_names) == support - {"universe"}, tip
+        assert mrnea.load_urdf(path, tip=shown).n > 0
+
+
 def test_a_program_keeps_several_tips(tmp_path) -> None:
     """A program's ``tip`` may list links (the subtree holding them), as --tip repeated."""
     from mrnea.io import RobotOptions, load_robot_spec
