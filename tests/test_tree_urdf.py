@@ -207,3 +207,53 @@ def test_jacobian_of_a_named_link_equals_pinocchios_frame_jacobian() -> None:
                           mrnea.jacobian(robot, Q[0], P[0]))
     with pytest.raises(StateError, match="link: 'left_hand' is not a link of robot"):
         mrnea.jacobian(robot, Q[0], link="left_hand")
+
+
+@pytest.mark.parametrize("rel", ["pr2_description/urdf/pr2.urdf",
+                                 "talos_data/robots/talos_reduced.urdf",
+                                 "baxter_description/urdf/baxter.urdf"])
+def test_several_tips_keep_the_subtree_pinocchio_supports(rel) -> None:
+    """Several tips (``load_urdf(tip=[...])``; ``--tip`` repeated on the command line) keep the
+    union of the root-to-tip paths: for random sets of 1-4 links whose paths cross no
+    ``<mimic>``, the kept joints are the union of Pinocchio's ``supports`` of each link's
+    frame, depth first with siblings in file order, each with Pinocchio's parent joint. The
+    command line's ``info --json`` with the same ``--tip``s lists the same joints."""
+    import json
+    import xml.etree.ElementTree as ET
+
+    import pinocchio as pin
+    from conftest import mrnea_cli
+
+    path = erd_path(rel)
+    full = pin.buildModelFromUrdf(str(path))
+    mimics = {j.get("name") for j in ET.parse(path).getroot().iter("joint")
+              if j.find("mimic") is not None}
+
+    def support(frame: str) -> set[int]:
+        return {i for i in full.supports[full.frames[full.getFrameId(frame)].parentJoint]
+                if i > 0}
+
+    links = [f.name for f in full.frames if f.type == pin.FrameType.BODY and support(f.name)
+             and not {full.names[i] for i in support(f.name)} & mimics]
+    rng = np.random.default_rng(25)
+    sets = [list(rng.choice(links, size=k, replace=False)) for k in (1, 2, 2, 3, 4, 4)]
+    # depth first from the root, a joint's children in the order of the file's <joint>
+    # elements (Pinocchio orders siblings by name: its ids give the tree, not the order)
+    line = {j.get("name"): k for k, j in enumerate(ET.parse(path).getroot().iter("joint"))}
+
+    def depth_first(kept: set[int], parent: int = 0) -> list[int]:
+        kids = sorted((i for i in kept if full.parents[i] == parent),
+                      key=lambda i: line[full.names[i]])
+        return [x for i in kids for x in (i, *depth_first(kept, i))]
+
+    for tips in sets:
+        ids = depth_first(set().union(*map(support, tips)))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # visuals left out of the 3D view
+            robot = mrnea.load_urdf(path, tip=tips)
+        assert robot.joint_names == tuple(full.names[i] for i in ids), tips
+        names = [None if full.parents[i] == 0 else full.names[full.parents[i]] for i in ids]
+        assert [None if p < 0 else robot.joint_names[p] for p in robot.parents] == names, tips
+    res = mrnea_cli("info", path, "--json", *[a for t in tips for a in ("--tip", t)])
+    assert res.returncode == 0, res.stderr
+    assert [j["name"] for j in json.loads(res.stdout)["joints"]] == list(robot.joint_names)

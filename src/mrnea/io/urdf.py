@@ -413,7 +413,8 @@ def load_urdf(
                 raise rd.error(f"the path from root link {quote(base)} to tip link {quote(t)} "
                                "has no moving joint")
             kept.update(on_path)
-    # depth first, children in file order (``order``): Robot's order, and Pinocchio's
+    # depth first, children in file order (``order``): Robot's order (Pinocchio's URDF parser
+    # orders a link's children by joint name instead: tests compare by name)
     chain_path = [parent_joint[name] for name in order[1:] if parent_joint[name].name in kept]
     chain = {j.name: i + 1 for i, j in enumerate(chain_path)}  # joint -> body index (1..n)
     for j in chain_path:
