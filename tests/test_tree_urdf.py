@@ -97,6 +97,8 @@ def test_frames_and_jacobians_equal_pinocchio(case) -> None:
             Jp[:3] += np.cross(Jp[3:].T, oMi.rotation @ pe).T
             assert link_jacobian_ws(m, q, t, pe, J, ws) == OK
             assert rel_err(J, Jp) <= TOL
+            # the public function, the link by name (any branch)
+            assert rel_err(mrnea.jacobian(robot, q, pe, link=robot.link_names[t]), Jp) <= TOL
 
 
 def test_whole_tree_order_is_depth_first_in_file_order() -> None:
