@@ -207,8 +207,42 @@ def test_jacobian_of_a_named_link_equals_pinocchios_frame_jacobian() -> None:
     # the last link's, as without ``link``
     assert np.array_equal(mrnea.jacobian(robot, Q[0], P[0], link=robot.link_names[-1]),
                           mrnea.jacobian(robot, Q[0], P[0]))
-    with pytest.raises(StateError, match="link: 'left_hand' is not a link of robot"):
-        mrnea.jacobian(robot, Q[0], link="left_hand")
+    with pytest.raises(StateError, match="link: 'nowhere' is neither a link of robot 'baxter'"
+                                         r".*nor a frame fixed to one \(its frames: .*left_hand"):
+        mrnea.jacobian(robot, Q[0], link="nowhere")
+
+
+@pytest.mark.parametrize("name", ["baxter", "talos-upper", "pr2"])
+def test_jacobian_of_every_named_frame_equals_pinocchios(name) -> None:
+    """``mrnea.jacobian(robot, q, point, link=FRAME)`` for every frame a tree robot keeps on its
+    links (``Link.frames``: the URDF links merged by fixed joints, e.g. Baxter's ``left_hand``,
+    its cameras): Pinocchio's ``computeFrameJacobian`` of the frame of that name in
+    ``LOCAL_WORLD_ALIGNED``, at the frame's origin and at a point given in the frame's axes."""
+    import pinocchio as pin
+
+    rel, tips, _ = TREES[name]
+    path = erd_path(rel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = mrnea.load_urdf(path, tip=tips)
+    pc = PinChain(robot, pin_from_urdf(path, robot))
+    frames = [f.name for lk in robot.links for f in lk.frames]
+    assert len(frames) >= 5
+    rng = np.random.default_rng(12)
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    for q in rng.uniform(lo, hi, size=(2, robot.n)):
+        p = rng.normal(0, 0.1, 3)
+        for f in frames:
+            fid = pc.model.getFrameId(f)
+            assert fid < len(pc.model.frames), f
+            Jo = np.array(pin.computeFrameJacobian(pc.model, pc.data, pc.config(q), fid,
+                                                   pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
+            pin.updateFramePlacements(pc.model, pc.data)
+            assert rel_err(mrnea.jacobian(robot, q, link=f), Jo) <= TOL, f
+            Jp = Jo.copy()
+            Jp[:3] += np.cross(Jp[3:].T, pc.data.oMf[fid].rotation @ p).T
+            assert rel_err(mrnea.jacobian(robot, q, p, link=f), Jp) <= TOL, f
 
 
 @pytest.mark.parametrize("rel", ["pr2_description/urdf/pr2.urdf",
