@@ -352,9 +352,11 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
     q : (n,) or (B, n) joint positions [rad | m].
     point : (3,) or (B, 3) [m], in the last link's frame (``link``'s); None: its origin.
     link : None (the last link), or the name of any link of the robot (``robot.link_names``;
-        on a tree, any branch's): the point is fixed to that link, and column k is zero unless
-        joint k carries it. Pinocchio's ``getFrameJacobian`` of a frame at the point on that
-        link, ``LOCAL_WORLD_ALIGNED``.
+        on a tree, any branch's) or of a frame fixed to one (``Link.frames``: a URDF link
+        merged by a fixed joint, a TCP): the point is fixed to that link, given in that link's
+        (or frame's) axes and origin, and column k is zero unless joint k carries it.
+        Pinocchio's ``getFrameJacobian`` of a frame at the point on that link,
+        ``LOCAL_WORLD_ALIGNED``.
 
     Returns
     -------
@@ -389,14 +391,21 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
 
 def _link_jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None,
                    link: str) -> NDArray[np.float64]:
-    """:func:`jacobian` of a point of the named link, state by state (``link_jacobian_ws``)."""
+    """:func:`jacobian` of a point of the named link or frame, state by state
+    (``link_jacobian_ws``); a frame's point is moved into its link's frame first."""
     validate.require_robot(robot)
-    if link not in robot.link_names:
-        raise StateError(f"link: {link!r} is not a link of robot '{robot.name}' (its links: "
-                         f"{', '.join(robot.link_names)})")
+    frames = {f.name: (t, f.origin) for t, lk in enumerate(robot.links) for f in lk.frames}
+    if link not in robot.link_names and link not in frames:
+        raise StateError(f"link: {link!r} is neither a link of robot '{robot.name}' (its links: "
+                         f"{', '.join(robot.link_names)}) nor a frame fixed to one"
+                         + (f" (its frames: {', '.join(frames)})" if frames else ""))
     batched, q, p = validate.kinematics_inputs(robot, q, point)
     m, _, ws, _ = compiled.of(robot)
-    t = robot.link_names.index(link)
+    if link in robot.link_names:
+        t = robot.link_names.index(link)
+    else:  # the point in the frame's axes -> the link's
+        t, origin = frames[link]
+        p = np.ascontiguousarray(p @ origin[:3, :3].T + origin[:3, 3])
     Q, P = np.atleast_2d(q), np.atleast_2d(p)
     J = np.empty((Q.shape[0], 6, robot.n))
     status = np.array([link_jacobian_ws(m, Q[b], t, P[b], J[b], ws) for b in range(len(Q))])
