@@ -45,7 +45,7 @@ from mrnea.errors import ProgramFileError, StateError
 from mrnea.ik import solve_path
 from mrnea.io.moves import Move
 from mrnea.io.program import Program
-from mrnea.io.wrench import wrench_at
+from mrnea.io.wrench import LinkWrenches, wrench_at, wrenches_on
 from mrnea.model import Robot
 from mrnea.tool import tool_transform
 from mrnea.trajectory import cycles, quintic, scurve, trapezoidal
@@ -213,7 +213,9 @@ def solve(program: Program, robot: Robot) -> Program:
     for a in (t, q_cmd, pose, move, cart, path.position_error, path.orientation_error):
         a.setflags(write=False)
     f_ext, point = None, program.f_ext_point
-    if program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
+    if isinstance(program.wrench, LinkWrenches):  # on named links; at the TCP by default
+        f_ext, point = wrenches_on(program.wrench, robot, t, where, Tt[:3, 3].copy())
+    elif program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
         f_ext = wrench_at(*program.wrench, t)
         point = Tt[:3, 3].copy() if point is None else point
         for a in (f_ext, point):
