@@ -16,7 +16,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea.errors import MrneaError, SingularMassMatrixError, StateError, quote
 from mrnea.kernels.status import CYCLE_LIMIT, NONFINITE, OK, OVERFLOW
 from mrnea.model import Robot
 
@@ -105,9 +105,14 @@ def array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
 
 
 def per_joint(x: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
-    """A value per joint, (n,): one number for every joint or n numbers (:func:`array`)."""
-    scalar = np.ndim(x) == 0
-    a = array(np.atleast_1d(x) if scalar else x, name, 1 if scalar else n)
+    """A value per joint, (n,): one number for every joint (a scalar or a sequence of one) or n
+    numbers (:func:`array`)."""
+    try:
+        shape = np.shape(x)
+    except (TypeError, ValueError):  # a ragged nesting
+        raise StateError(f"{name}: not a numeric array: {quote(x)}") from None
+    scalar = shape in ((), (1,))
+    a = array(np.ravel(x) if scalar else x, name, 1 if scalar else n)
     if a.ndim != 1:
         raise StateError(f"{name}: expected one number or ({n},), got shape {a.shape}")
     return np.full(n, a[0]) if scalar else a

@@ -271,7 +271,7 @@ def from_csv(
     p = as_path(path, "path", ProgramFileError)
     header, data = read_table(p, None if n is None or robot is not None else int(n))
     if robot is not None:
-        order = column_order(header, robot)
+        order = column_order(header, robot, units)
         if order is not None:
             data = data[:, np.r_[0, order]]
         elif data.shape[1] != n + 1:

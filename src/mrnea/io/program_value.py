@@ -199,7 +199,7 @@ class Program:
         """A CSV path's column of each of ``robot``'s joints where its header names them."""
         if self.columns is None:
             return None
-        return column_order(self.columns, robot)
+        return column_order(self.columns, robot, self.units)
 
     def on(self, robot: Robot) -> Program:
         """This program with its path in ``robot``'s joint order: a path of waypoint tables
