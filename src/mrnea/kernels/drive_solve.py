@@ -227,8 +227,20 @@ def solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, ta
         fast = fast and not _over(tau_req[i], Llo[i], Lhi[i])
     if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
         return OK
+    if update:
+        return _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd,
+                                   tau, phi, tau_req, sat, stuck, ws)
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, update)
+                       tau_req, sat, stuck, ws, False)
+
+
+@nb.njit(**JIT)
+def _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
+                        tau_req, sat, stuck, ws):
+    """Steps 1-4 with the factor updated, as a call of its own: the code compiled into the
+    cycle loop (update = False, a constant there) stays that of the refactorising way alone."""
+    return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
+                       tau_req, sat, stuck, ws, True)
 
 
 @nb.njit(**INTO)
