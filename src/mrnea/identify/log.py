@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import LogFileError, StateError, quote
@@ -85,6 +84,8 @@ def derivatives(time: ArrayLike, q: ArrayLike, cutoff_hz: float = CUTOFF_HZ
     if not 0 < cutoff_hz < fs / 2:
         raise StateError(f"cutoff: the filter's cut-off {cutoff_hz} Hz must be in (0, {fs / 2:g})"
                          f" Hz, half the log's sample rate {fs:g} Hz")
+    import scipy.signal  # here: scipy.signal (and scipy.stats) would add ~0.5 s to every command
+
     sos = scipy.signal.butter(FILTER_ORDER, cutoff_hz, fs=fs, output="sos")
     qf = scipy.signal.sosfiltfilt(sos, q, axis=0)
     qd = np.gradient(qf, t, axis=0)
