@@ -28,19 +28,23 @@ import json, sys, time
 from numba.core import event
 
 events = []
+stack = []  # per open compile: [start time, seconds of its direct children]
 
 class Record(event.Listener):
     def on_start(self, ev):
-        self.t0 = getattr(self, "t0", [])
-        self.t0.append(time.perf_counter())
+        stack.append([time.perf_counter(), 0.0])
     def on_end(self, ev):
-        t = time.perf_counter() - self.t0.pop()
+        t0, children = stack.pop()
+        t = time.perf_counter() - t0
+        if stack:
+            stack[-1][1] += t
         d = ev.data or {}
         disp = d.get("dispatcher")
         name = getattr(getattr(disp, "py_func", None), "__qualname__", str(disp))
         mod = getattr(getattr(disp, "py_func", None), "__module__", "")
         events.append({"kernel": f"{mod}.{name}", "signature": str(d.get("args")),
-                       "seconds": round(t, 3), "nested": len(self.t0)})
+                       "seconds": round(t, 3), "self_s": round(t - children, 3),
+                       "nested": len(stack)})
 
 event.register("numba:compile", Record())
 from mrnea.cli import main
