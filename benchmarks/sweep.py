@@ -1,10 +1,12 @@
 """Benchmark (not a test): the throughput of a design sweep, and what Dask costs per task.
 
 Usage: ``python benchmarks/sweep.py [--n 1000] [--rounds 3] [--out benchmarks/results/sweep.md]``;
-``python benchmarks/sweep.py --n 384 --rounds 2 --scaling 1 2 4 8 16`` for the scaling table
-only (issue 29): at each worker count W, the machine's own limit (W independent processes each
+``python benchmarks/sweep.py --n 125 --rounds 7 --scaling 1 2`` for the scaling table only
+(issue 29): at each worker count W, the machine's own limit (W independent processes each
 running the serial loop on 1/W of the grid at the same time), mrnea's own cluster and a plain
-``Client(LocalCluster(n_workers=W, threads_per_worker=1))`` passed as ``client=``.
+``Client(LocalCluster(n_workers=W, threads_per_worker=1))`` passed as ``client=``, and the
+issue's ratios (own / serial at W = 1, own / reference and plain / reference at each W) as the
+median and range of per-round ratios.
 
 About n SDT variants (cabin-yaw gear ratio x yaw motor torque limit x payload, n^(1/3) values
 each) of the demo's training profile (8401 cycles at 5 ms), run
@@ -34,6 +36,7 @@ import argparse
 import contextlib
 import importlib
 import logging
+import math
 import multiprocessing
 import os
 import platform
@@ -43,12 +46,14 @@ import time
 import numba
 import numpy as np
 import pandas as pd
+import psutil
 from distributed import Client, LocalCluster
 
 from mrnea.robots import sdt
 from mrnea.robots.sdt_profile import training_program
 from mrnea.sweep import check_grid, sweep
 from mrnea.sweep.cluster import WORKER_ENVIRON, spawning
+from mrnea.sweep.cluster import quiet as cluster_quiet
 from mrnea.sweep.engine import _frame
 from mrnea.sweep.rows import run_case
 
@@ -158,15 +163,16 @@ def _reference_process(k: int, w: int, n: int, barrier, results) -> None:
     mine = list(range(k, len(cases), w))
     run_case(robot, program, cases[0])  # the kernels loaded
     barrier.wait()
-    t0 = time.time()
+    t0, cpu = time.time(), time.process_time()
     rows = {i: run_case(robot, program, cases[i]) for i in mine}
-    results.put((t0, time.time(), rows))
+    results.put((t0, time.time(), time.process_time() - cpu, rows))
 
 
-def reference(w: int, n: int) -> tuple[float, dict]:
+def reference(w: int, n: int) -> tuple[float, dict, float]:
     """The machine's limit at W workers: W independent processes each running the serial loop
     (on 1/W of the variants) at the same time, in the environment mrnea's cluster gives its
-    workers. Returns (variants per second from the first start to the last end, the rows)."""
+    workers. Returns (variants per second from the first start to the last end, the rows,
+    CPU seconds of the processes per variant)."""
     ctx = multiprocessing.get_context("spawn")
     barrier, results = ctx.Barrier(w), ctx.Queue()
     environ = dict(os.environ)
@@ -183,58 +189,111 @@ def reference(w: int, n: int) -> tuple[float, dict]:
     for p in procs:
         p.join()
     rows = {k: r for *_, part in got for k, r in part.items()}
-    return len(rows) / (max(e for _, e, _ in got) - min(s for s, _, _ in got)), rows
+    wall = max(e for _, e, _, _ in got) - min(s for s, _, _, _ in got)
+    return len(rows) / wall, rows, sum(c for _, _, c, _ in got) / len(rows)
+
+
+class CpuMeter:
+    """A sweep's ``progress`` callback: the CPU seconds of this process (client, and a
+    LocalCluster's scheduler) and of all its descendants (nannies, workers) from the first call
+    (the run phase starts) to the call with every row done: what a sweep's run phase costs the
+    machine, Dask's processes and threads included."""
+
+    def __init__(self) -> None:
+        self.start: float | None = None
+        self.cpu = math.nan
+
+    @staticmethod
+    def _now() -> float:
+        total = time.process_time()
+        for child in psutil.Process().children(recursive=True):
+            with contextlib.suppress(psutil.Error):
+                total += sum(child.cpu_times()[:2])
+        return total
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.start is None:
+            self.start = self._now()
+        elif done == total and math.isnan(self.cpu):
+            self.cpu = self._now() - self.start
+
+
+def _spread(values: list[float]) -> str:
+    """Median (min-max) of per-round ratios."""
+    return f"{statistics.median(values):.2f} ({min(values):.2f}-{max(values):.2f})"
 
 
 def scaling(workers: list[int], n: int, rounds: int, say) -> None:
-    """At each worker count W (1, 2, 4... as the machine has the cores): the reference (W
-    independent serial loops), mrnea's own cluster (``workers=W``) and a plain
-    ``Client(LocalCluster(n_workers=W, threads_per_worker=1))`` passed as ``client=``, kept
-    over the rounds, and another started afresh each round (as mrnea's own is), alternated in
-    rounds; run-phase throughput, rows checked equal to the reference's; each round printed
-    (not in ``--out``)."""
+    """At each worker count W (1, 2, 4... as the machine has the cores), in ``rounds`` rounds,
+    each round's three measurements in a rotated order (a load that drifts falls on each in
+    turn): the reference (W independent serial loops), mrnea's own cluster (``workers=W``)
+    and a plain ``Client(LocalCluster(n_workers=W, threads_per_worker=1))`` passed as
+    ``client=``; both clusters started afresh each round, before their sweep (start and
+    warm-up are fixed costs, reported apart: run-phase throughput). Each round's ratios are
+    taken within the round; the table gives their median and range, the targets' ratios:
+    own / serial at W = 1 (the 1-process reference is the serial loop, in a process of its
+    own), own / reference and plain / reference at every W. Beside them, the CPU per variant
+    of each (all processes: :class:`CpuMeter`), which a machine shared with other jobs does
+    not change as it changes throughput. Rows checked equal to the reference's."""
     robot, program = sdt(), training_program()
     grid = grid_of(n)
     keys, cases = check_grid(robot, grid)
     jobs = [(k, (0, 1.0), case) for k, case in enumerate(cases)]
     say(f"Scaling: {len(cases)} SDT variants x {program.name} ({program.K} cycles), "
-        f"{rounds} round(s) per worker count, alternated: reference, own cluster, plain "
-        f"LocalCluster. Run-phase variants/s (start and warm-up apart).")
+        f"{rounds} round(s) per worker count, the three configurations in a rotated order "
+        "each round. Run-phase variants/s (start and warm-up apart); ratios taken within "
+        "each round: median (min-max) over the rounds. CPU per variant: all the processes' "
+        "CPU in the run phase (the reference's processes; a cluster's workers, nannies, "
+        "scheduler and client) per variant.")
     say()
     say("| W | reference (W serial loops) | mrnea's cluster | plain LocalCluster as client= "
-        "| plain, started afresh | own / ref | plain / ref | fresh / ref | own / serial "
-        "| rows = serial | load |")
-    say("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    serial_rate = None
+        "| **own / serial** (W = 1) | **own / reference** | **plain / reference** "
+        "| CPU per variant [ms]: ref, own, plain | rows = serial | load |")
+    say("|---:|---:|---:|---:|---:|---:|---:|---|---:|---|")
     for w in workers:
-        best: dict[str, float] = {"ref": 0.0, "own": 0.0, "plain": 0.0, "fresh": 0.0}
+        rates: dict[str, list[float]] = {"ref": [], "own": [], "plain": []}
+        cpus: dict[str, list[float]] = {"ref": [], "own": [], "plain": []}
+        loads: list[float] = []
         same = True
-        with Client(LocalCluster(n_workers=w, threads_per_worker=1)) as plain:
-            for _ in range(rounds):
-                rate, rows = reference(w, n)
-                best["ref"] = max(best["ref"], rate)
-                ref_df = _frame(keys, [program.name], jobs, rows, False)
-                own = sweep(robot, program, grid, workers=w, progress=False)
-                best["own"] = max(best["own"], len(own) / own.attrs["seconds"]["run"])
-                user = sweep(robot, program, grid, client=plain, progress=False)
-                best["plain"] = max(best["plain"], len(user) / user.attrs["seconds"]["run"])
-                with Client(LocalCluster(n_workers=w, threads_per_worker=1)) as afresh:
-                    new = sweep(robot, program, grid, client=afresh, progress=False)
-                best["fresh"] = max(best["fresh"], len(new) / new.attrs["seconds"]["run"])
-                same = same and all(df.equals(ref_df) for df in (own, user, new))
-                rates = [len(df) / df.attrs["seconds"]["run"] for df in (own, user, new)]
-                print(f"  W={w}: reference {rate:.1f}, own, plain, fresh "
-                      f"{', '.join(f'{r:.1f}' for r in rates)} variants/s ({load()})",
-                      flush=True)
-        if serial_rate is None and w == 1:
-            serial_rate = best["ref"]
-        per_serial = f"{best['own'] / serial_rate:.2f}" if serial_rate else "-"
-        say(f"| {w} | {best['ref']:.1f} | {best['own']:.1f} | {best['plain']:.1f} | "
-            f"{best['fresh']:.1f} | {best['own'] / best['ref']:.2f} | "
-            f"{best['plain'] / best['ref']:.2f} | {best['fresh'] / best['ref']:.2f} | "
-            f"{per_serial} | {same} | {load()} |")
+        for r in range(rounds):
+            ref_df = None
+            dfs = []
+            order = ["ref", "own", "plain"]
+            for name in order[r % 3:] + order[:r % 3]:
+                meter = CpuMeter()
+                if name == "ref":
+                    rate, rows, cpu = reference(w, n)
+                    ref_df = _frame(keys, [program.name], jobs, rows, False)
+                else:
+                    if name == "own":
+                        df = sweep(robot, program, grid, workers=w, progress=meter)
+                    else:
+                        with cluster_quiet(), Client(LocalCluster(
+                                n_workers=w, threads_per_worker=1, dashboard_address=":0")) as c:
+                            df = sweep(robot, program, grid, client=c, progress=meter)
+                    rate, cpu = len(df) / df.attrs["seconds"]["run"], meter.cpu / len(df)
+                    dfs.append(df)
+                rates[name].append(rate)
+                cpus[name].append(cpu)
+            same = same and all(df.equals(ref_df) for df in dfs)
+            loads.append(os.getloadavg()[0])
+            got = {k: v[-1] for k, v in rates.items()}
+            print(f"  W={w} round {r + 1}: variants/s reference {got['ref']:.1f}, own "
+                  f"{got['own']:.1f}, plain {got['plain']:.1f}; own / ref "
+                  f"{got['own'] / got['ref']:.2f}, plain / ref {got['plain'] / got['ref']:.2f};"
+                  f" CPU per variant {', '.join(f'{1e3 * v[-1]:.1f}' for v in cpus.values())}"
+                  f" ms ({load()})", flush=True)
+        own_ref = [o / f for o, f in zip(rates["own"], rates["ref"], strict=True)]
+        plain_ref = [p / f for p, f in zip(rates["plain"], rates["ref"], strict=True)]
+        cpu = ", ".join(f"{1e3 * statistics.median(v):.1f}" for v in cpus.values())
+        say(f"| {w} | {statistics.median(rates['ref']):.1f} | "
+            f"{statistics.median(rates['own']):.1f} | {statistics.median(rates['plain']):.1f} | "
+            f"{_spread(own_ref) if w == 1 else '-'} | {_spread(own_ref)} | {_spread(plain_ref)} "
+            f"| {cpu} | {same} | {min(loads):.1f}-{max(loads):.1f} |")
     per_run, g = gil_share(robot, program, grid)
     say()
+    say("(variants/s and CPU: medians over the rounds; load: the 1-minute load average after "
+        "each round.)")
     say(f"Python per run: {1e3 * per_run:.1f} ms of CPU per run, {100 * g:.0f} % of it outside "
         "the compiled simulation kernel.")
 

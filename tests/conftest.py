@@ -379,6 +379,15 @@ def environment(**extra: str) -> dict[str, str]:
 
 
 @pytest.fixture(scope="session")
+def demo_run(tmp_path_factory) -> tuple[subprocess.CompletedProcess, Path]:
+    """``mrnea demo --out DIR --no-3d`` run once as a real process for the session (the full
+    demo: 8401 cycles, every file): (the process, DIR). Tests read its output and must not
+    change DIR (copy it first)."""
+    out = tmp_path_factory.mktemp("demo_run") / "d"
+    return mrnea_cli("demo", "--out", out, "--no-3d"), out
+
+
+@pytest.fixture(scope="session")
 def scheduler_address(tmp_path_factory):
     """A scheduler and one single-threaded worker, each a process of its own (as a real
     cluster's are), started from the command line; the tests reach it through its address."""

@@ -17,7 +17,7 @@ import itertools
 import numpy as np
 
 from mrnea import Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
+from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle, solve_cycle_by
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 CODE = {"hybrid": HYBRID, "paper": PAPER}
@@ -46,9 +46,10 @@ def cycle_terms(robot: Robot, q, qd, f_ext=None, f_ext_point=None):
             u + robot.viscous_friction * np.asarray(qd, float))
 
 
-def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str):
+def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None):
     """The compiled cycle solve with its own outputs and scratch; the effort box
-    -Llo <= tau <= Lhi.
+    -Llo <= tau <= Lhi. ``update``: None, the factorisation solve_cycle picks by n; True or
+    False, H_FF's factor updated or made afresh at every step (``solve_cycle_by``).
 
     Returns (status, v, qdd, tau, phi, tau_req, sat, stuck)."""
     args = [np.ascontiguousarray(a, dtype=float) for a in (Ha, ua, qd, v_des)]
@@ -56,8 +57,11 @@ def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str):
     n = args[2].shape[0]
     out = [np.empty(n) for _ in range(5)]
     flags = [np.empty(n, dtype=np.bool_) for _ in range(2)]
-    status = solve_cycle(*args, float(dt), *lim, CODE[mode], *out, *flags,
-                         entry_scratch(n, ACHIEVABLE))
+    ws = entry_scratch(n, ACHIEVABLE)
+    if update is None:
+        status = solve_cycle(*args, float(dt), *lim, CODE[mode], *out, *flags, ws)
+    else:
+        status = solve_cycle_by(*args, float(dt), *lim, CODE[mode], *out, *flags, ws, update)
     return (status, *out, *flags)
 
 
@@ -157,3 +161,43 @@ def enumerate_solutions(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode, tol=1e-9)
     ok &= np.all(~phi_unknown | tau_unknown | ((phi >= -Fn - te) & (phi <= Fp + te)), axis=1)
     ok &= np.all(~both | ((h >= -lo_b - Fp - te) & (h <= hi_b + Fn + te)), axis=1)  # tau - phi
     return [(v[p], tau[p], phi[p], combos[p]) for p in np.flatnonzero(ok)], tau_req
+
+
+def law_violation(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, v) -> float:
+    """How far a new velocity v is from satisfying the drive law, from v alone: the largest
+    distance of h = H_a (v - qd) / dt + u'_a (= tau - phi, Eq. 42) from the set of efforts the
+    law allows at v, over the joints, relative to the problem's effort scale. The law's sets, per
+    joint: drive (HYBRID) tau = Lhi below the program, -Llo above, [-Llo, Lhi] on it, v = v_des
+    when unlimited; (PAPER) tau = clip(tau_req); friction phi = Fp moving up, -Fn moving down,
+    [-Fn, Fp] at rest. These are the optimality (KKT) conditions of the strictly convex problem
+    the solve minimises (kernels/drive_solve.py), so a v with violation ~0 is the solution;
+    the comparisons with v_des and 0 are exact, as the solver puts v there exactly."""
+    h = Ha @ ((v - qd) / dt) + ua
+    tauc = np.clip(required_efforts(Ha, ua, qd, v_des, dt, Fp, Fn), -Llo, Lhi)
+    worst = 0.0
+    for i in range(len(v)):
+        if mode == "paper":
+            t_lo = t_hi = tauc[i]
+        elif Lhi[i] == np.inf:
+            if v[i] != v_des[i]:
+                return np.inf
+            t_lo, t_hi = -np.inf, np.inf
+        elif v[i] < v_des[i]:
+            t_lo = t_hi = Lhi[i]
+        elif v[i] > v_des[i]:
+            t_lo = t_hi = -Llo[i]
+        else:
+            t_lo, t_hi = -Llo[i], Lhi[i]
+        if Fp[i] + Fn[i] == 0.0:
+            f_lo = f_hi = 0.0
+        elif v[i] > 0.0:
+            f_lo = f_hi = Fp[i]
+        elif v[i] < 0.0:
+            f_lo = f_hi = -Fn[i]
+        else:
+            f_lo, f_hi = -Fn[i], Fp[i]
+        worst = max(worst, t_lo - f_hi - h[i], h[i] - (t_hi - f_lo))  # h in [lo, hi]
+    fin = [x[np.isfinite(x)] for x in (Llo, Lhi)]
+    scale = (1.0 + np.max(np.abs(ua)) + np.max(np.abs(Ha)) * np.max(np.abs(v - qd)) / dt
+             + max(float(np.max(x, initial=0.0)) for x in fin) + np.max(Fp) + np.max(Fn))
+    return worst / scale

@@ -146,3 +146,23 @@ def test_sweep_a_named_joints_effort_limit(baxter, tmp_path) -> None:
     col = next(c for c in rows.columns if c.startswith("effort_limit.left_s1"))
     verdict = dict(zip(rows[col].round(6), rows["achievable"], strict=True))
     assert verdict == {round(hold * 0.8, 6): False, 50.0: True}
+
+
+def test_the_view_traces_every_named_tip(baxter) -> None:
+    """The program's three tips (head, left_wrist, right_wrist) are the tree's leaves, and the
+    3D view traces each: a path per tip, at that link's point (twice its centre of mass, the
+    URDF's lumped inertials as Pinocchio's reduced model has them), through the run."""
+    from mrnea.report.view3d import result_scene
+    from mrnea.simulate import simulate
+
+    path, robot = baxter
+    prog = mrnea.load_program(PROGRAM, robot=robot)
+    run = simulate(robot, prog.q_cmd[:40], prog.dt)
+    spec = result_scene(run)
+    traced = [robot.link_names[k] for k, *_ in spec["tips"]]
+    assert sorted(traced) == sorted(TIPS)
+    model = pin_from_urdf(path, robot)
+    pc = PinChain(robot, model)
+    for k, *p in spec["tips"]:
+        com = model.inertias[pc.ids[k]].lever  # the link's lumped centre of mass, link frame
+        assert rel_err(np.array(p), 2 * np.asarray(com)) < 1e-12, robot.link_names[k]

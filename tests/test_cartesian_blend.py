@@ -208,3 +208,34 @@ def test_a_wrench_with_moves_acts_at_the_tcp(tmp_path, blended):
     heavy.write_text(_program(path, MOVES + wrench.replace("40.0", "4000.0")))
     res = mrnea_cli("check", heavy)
     assert res.returncode == 1 and res.stdout.startswith("NOT ACHIEVABLE"), res.stdout
+
+
+def test_wrenches_on_named_links_with_moves(tmp_path, blended):
+    """[[wrench]] tables in a Cartesian program (issue 25): one without ``link`` acts at the
+    TCP as a single [wrench] does, one on ``forearm_link`` at that link's origin. The efforts
+    they add are Pinocchio's J^T f of the tool0 frame plus J^T f of the forearm's joint frame
+    (``getJointJacobian``, LOCAL_WORLD_ALIGNED: its origin, base axes)."""
+    path, robot, _, _ = blended
+    ref = PinTool(robot, pin_from_urdf(path, robot), "tool0")
+    f_tcp, f_arm = [0, 0, -40.0, 0, 0, 1.0], [5.0, -3.0, 2.0, 0.5, 0, 0]
+    wrench = (f"[[wrench]]\ntimes = [0.0]\nvalues = [{f_tcp}]\n\n[[wrench]]\n"
+              f'link = "forearm_link"\ntimes = [0.0]\nvalues = [{f_arm}]\n')
+    prog = solve(loads_program(_program(path, MOVES + wrench)), robot)
+    last = robot.link_names[-1]
+    assert set(prog.f_ext) == {last, "forearm_link"} and set(prog.f_ext_point) == {last}
+    single = solve(loads_program(_program(path, MOVES + f"[wrench]\ntimes = [0.0]\n"
+                                                      f"values = [{f_tcp}]\n")), robot)
+    np.testing.assert_array_equal(prog.f_ext_point[last], single.f_ext_point)  # the TCP
+    pc = ref.pc
+    for k in (0, prog.K // 2, prog.K - 1):
+        q = prog.q_cmd[k]
+        conf = pc.config(q)
+        g = pc.ours(pin.computeGeneralizedGravity(pc.model, pc.data, conf))
+        pin.computeJointJacobians(pc.model, pc.data, conf)
+        J = pin.getJointJacobian(pc.model, pc.data, pc.model.getJointId("elbow_joint"),
+                                 pin.LOCAL_WORLD_ALIGNED)[:, pc.iv]
+        expected = g + ref.jacobian(q).T @ np.array(f_tcp) + J.T @ np.array(f_arm)
+        tau = mrnea.inverse_dynamics(robot, q, np.zeros(6), np.zeros(6),
+                                     f_ext={n: f[k] for n, f in prog.f_ext.items()},
+                                     f_ext_point=prog.f_ext_point)
+        np.testing.assert_allclose(tau, expected, rtol=1e-10, atol=1e-9)

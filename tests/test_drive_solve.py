@@ -4,9 +4,10 @@ piecewise-linear drive law (tests/drive_oracle.py), and issue 11's first reprodu
 Per joint the law has up to 5 cells (drive below / on / above the program, combined with moving
 down / stuck / moving up, where they intersect); every combination is solved with
 numpy.linalg.solve and kept if consistent. Exactly one v must be consistent (ties at a boundary
-give the same v), and the solver must return it to 1e-9. 3050 random states, n = 2..6: H_a and
-u'_a from random chains (gravity, Coriolis, a wrench, rotors) or random SPD matrices with
-condition numbers up to 1e6; speed-dependent limits, unpowered and unlimited joints, joints at
+give the same v), and the solver must return it to 1e-9, with H_FF refactorised at every active-set
+step and with its factor updated (the path of long chains, forced here). 3050 random states, n =
+2..6: H_a and u'_a from random chains (gravity, Coriolis, a wrench, rotors) or random SPD matrices
+with condition numbers up to 1e6; speed-dependent limits, unpowered and unlimited joints, joints at
 rest, v_des = 0, no / symmetric / asymmetric friction, both modes; symmetric effort boxes and
 asymmetric ones (issue 27): the gear's driving and back-driven limits at the state's speed
 (kernels/drive.py effort_box, computed here from its definition) or arbitrary lower and upper
@@ -82,12 +83,12 @@ def random_problem(rng: np.random.Generator, n: int) -> dict:
             "Fp": Fp, "Fn": Fn, "mode": mode}
 
 
-def run_solver(p: dict, perm=None):
+def run_solver(p: dict, perm=None, update: bool | None = None):
     keys = ("Ha", "ua", "qd", "v_des", "dt", "Llo", "Lhi", "Fp", "Fn")
     a = [p[k] for k in keys]
     if perm is not None:
         a = [a[0][np.ix_(perm, perm)], *(x[perm] for x in a[1:4]), a[4], *(x[perm] for x in a[5:])]
-    return solve(*a, p["mode"])
+    return solve(*a, p["mode"], update)
 
 
 @pytest.mark.parametrize("n", sorted(STATES))
@@ -105,26 +106,29 @@ def test_unique_consistent_pattern_equals_solver(n):
         qdd0 = (v0 - p["qd"]) / p["dt"]
         for v, *_ in sols[1:]:  # ties at a boundary: the same v
             assert rel((v - p["qd"]) / p["dt"], qdd0) < 1e-8, f"{where}: two solutions"
-        status, v, qdd, tau, phi, treq, sat, stuck = run_solver(p)
-        assert status == OK, f"{where}: status {status}"
-        assert rel(qdd, qdd0) < 1e-9, f"{where}: qdd {qdd} vs {qdd0}"
-        assert rel(v, v0, floor=p["dt"]) < 1e-9, f"{where}: v"
-        assert rel(treq, tau_req) < 1e-12, f"{where}: tau_req"
-        assert rel(tau, tau0) < 1e-9, f"{where}: tau {tau} vs {tau0}"
-        assert rel(phi, phi0) < 1e-9, f"{where}: phi {phi} vs {phi0}"
-        assert rel(tau - phi, p["Ha"] @ qdd + p["ua"]) < 1e-9, f"{where}: Eq. 42"
-        assert np.all((tau >= -p["Llo"]) & (tau <= p["Lhi"])), f"{where}: tau outside its box"
-        if len(sols) == 1:  # no tie: the flags are exact where the law has a point
-            fr = p["Fp"] + p["Fn"] > 0  # held by friction: v = 0 exactly
-            assert np.array_equal(stuck[fr], v0[fr] == 0.0), f"{where}: stuck {stuck}"
-            assert np.array_equal(v[fr] == 0.0, v0[fr] == 0.0), f"{where}: v == 0 exactly"
-            if p["mode"] == "hybrid":  # on program: v = v_des exactly
-                pw = p["Llo"] + p["Lhi"] > 0
-                assert np.array_equal(sat[pw], v0[pw] != p["v_des"][pw]), f"{where}: sat {sat}"
-        if p["mode"] == "paper":
-            assert np.array_equal(sat, (tau_req > p["Lhi"]) | (tau_req < -p["Llo"])), \
-                f"{where}: sat (paper)"
-            seen["paper"] += 1
+        for update in (False, True):  # H_FF refactorised at every step; its factor updated
+            where = f"n={n} state {s} ({p['mode']}, update={update})"
+            status, v, qdd, tau, phi, treq, sat, stuck = run_solver(p, update=update)
+            assert status == OK, f"{where}: status {status}"
+            assert rel(qdd, qdd0) < 1e-9, f"{where}: qdd {qdd} vs {qdd0}"
+            assert rel(v, v0, floor=p["dt"]) < 1e-9, f"{where}: v"
+            assert rel(treq, tau_req) < 1e-12, f"{where}: tau_req"
+            assert rel(tau, tau0) < 1e-9, f"{where}: tau {tau} vs {tau0}"
+            assert rel(phi, phi0) < 1e-9, f"{where}: phi {phi} vs {phi0}"
+            assert rel(tau - phi, p["Ha"] @ qdd + p["ua"]) < 1e-9, f"{where}: Eq. 42"
+            assert np.all((tau >= -p["Llo"]) & (tau <= p["Lhi"])), f"{where}: tau outside its box"
+            if len(sols) == 1:  # no tie: the flags are exact where the law has a point
+                fr = p["Fp"] + p["Fn"] > 0  # held by friction: v = 0 exactly
+                assert np.array_equal(stuck[fr], v0[fr] == 0.0), f"{where}: stuck {stuck}"
+                assert np.array_equal(v[fr] == 0.0, v0[fr] == 0.0), f"{where}: v == 0 exactly"
+                if p["mode"] == "hybrid":  # on program: v = v_des exactly
+                    pw = p["Llo"] + p["Lhi"] > 0
+                    assert np.array_equal(sat[pw], v0[pw] != p["v_des"][pw]), \
+                        f"{where}: sat {sat}"
+            if p["mode"] == "paper":
+                assert np.array_equal(sat, (tau_req > p["Lhi"]) | (tau_req < -p["Llo"])), \
+                    f"{where}: sat (paper)"
+        seen["paper"] += p["mode"] == "paper"
         seen["saturated"] += bool(np.any(sat))
         seen["stuck"] += bool(np.any(stuck & (p["Fp"] + p["Fn"] > 0)))
         seen["stuck_on_program"] += bool(np.any(stuck & (p["v_des"] == 0) & (p["qd"] != 0)))

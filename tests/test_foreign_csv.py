@@ -17,6 +17,9 @@ import numpy as np
 import pytest
 from conftest import mrnea_cli, one_error_line
 
+import mrnea
+from mrnea.errors import PathWarning
+from mrnea.io.pathcsv import from_csv
 from mrnea.model import Joint, Link, Robot
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,6 +71,19 @@ def test_an_unknown_or_mixed_delimiter_is_one_error_naming_them(tmp_path: Path) 
                    "separated by semicolon", "comma")
 
 
+
+def test_a_decimal_comma_is_one_error_naming_both_delimiters(tmp_path: Path) -> None:
+    """A European controller log: semicolons between the columns and decimal commas. The error
+    names the cell, the comma it holds and the semicolon the header uses."""
+    header, rows = sdt_rows()
+    path = tmp_path / "euro.csv"
+    text = ";".join(header) + "\n" + "".join(
+        ";".join(f"{v:.4f}".replace(".", ",") for v in r) + "\n" for r in rows[:5])
+    path.write_text(text)
+    one_error_line(mrnea_cli("check", "sdt", path, "--dt", "0.01"), "euro.csv", "line 2",
+                   "column 1", "the cell holds a comma", "separated by semicolon",
+                   "decimal point")
+
 def test_degrees_with_units_deg_check_as_radians(tmp_path: Path) -> None:
     deg = puma_move([30.0, 60.0, -120.0, 0.0, -60.0, 30.0])
     rad = deg.copy()
@@ -90,9 +106,14 @@ def test_degrees_read_as_radians_get_a_hint_and_no_retime(tmp_path: Path) -> Non
     warning = [ln for ln in res.stderr.splitlines() if ln.startswith("mrnea: warning:")]
     assert len(warning) == 1 and "look like degrees" in warning[0]
     assert "--units deg" in warning[0] and "'joint2' starts at 45" in warning[0]
+    assert "units=" not in warning[0]  # the command line's words only
     assert "Retime it" not in res.stdout
     assert ("No timing can make it achievable: joint 'joint2' starts at 45 rad, outside its "
             "position limits [-0.7854, 3.927] rad") in res.stdout
+    with pytest.warns(PathWarning, match="look like degrees") as caught:  # the library's words
+        from_csv(path, 0.008, robot=mrnea.robots.puma560())
+    said = str(caught[0].message)
+    assert said.endswith('pass units="deg"') and "--units" not in said, said
 
 
 def test_a_path_leaving_the_limits_gets_no_retime(tmp_path: Path) -> None:

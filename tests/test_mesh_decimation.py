@@ -22,6 +22,15 @@ def open_edges(F: np.ndarray) -> int:
     return int((count == 1).sum())
 
 
+def misoriented_edges(F: np.ndarray) -> int:
+    """Directed edges used by more than one triangle: 0 when every triangle of a closed surface
+    is wound as its neighbours (each shared edge run once each way), so that the normals the
+    3D view computes from the winding all point the same way (out, with a positive volume)."""
+    d = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    _, count = np.unique(d, axis=0, return_counts=True)
+    return int((count > 1).sum())
+
+
 def volume(V: np.ndarray, F: np.ndarray) -> float:
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0
@@ -59,4 +68,5 @@ def test_the_ur5_meshes_decimate_closed() -> None:
         budget = MAX_SCENE_FACES * F.shape[0] // total
         D, E = decimate(V, F, budget)
         assert E.shape[0] <= budget and open_edges(E) == 0, part
+        assert misoriented_edges(G) == misoriented_edges(E) == 0, part
         assert volume(W, G) > 0 and volume(D, E) == pytest.approx(volume(W, G), rel=0.01), part

@@ -365,3 +365,53 @@ def test_a_joint_without_tracking_error_says_so(saturating: SimulationResult) ->
             assert ax.get_ylim() == (-1.0, 1.0)
         else:
             assert "no tracking error" not in said and len(dots) == 1
+
+
+def test_the_programmed_acceleration_is_the_programs_own_with_its_unit(
+        saturating: SimulationResult) -> None:
+    """Issue 22: the motion figure's dashed acceleration is the program's own (the second
+    difference of q_cmd, from rest, 0 after the last row), not the drive's catch-up once it
+    lags; cab_pitch's velocity step makes it a one-cycle spike of 0.5 rad/s / 5 ms, drawn off
+    scale with a note naming it "programmed" and giving its unit."""
+    q = saturating.q_cmd
+    V = np.vstack([np.zeros((1, q.shape[1])), np.diff(q, axis=0) / DT])
+    A = np.diff(np.vstack([V, np.zeros((1, q.shape[1]))]), axis=0) / DT  # numpy, by hand
+    fig = plot_result(saturating)["motion"]
+    axes = {ax.get_title(loc="left"): ax for ax in fig.axes if ax.get_title(loc="left")}
+    for i, name in enumerate(saturating.robot.joint_names):
+        ax = axes[f"{name}: acceleration"]
+        dashed = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+        assert len(dashed) == 1
+        np.testing.assert_allclose(np.asarray(dashed[0].get_ydata(), float), A[:, i],
+                                   rtol=1e-9, atol=1e-9)
+    notes = [t.get_text() for t in axes["cab_pitch: acceleration"].texts]
+    assert len(notes) == 1, notes
+    m = re.fullmatch(r"programmed peak ([\d.]+) rad/s² off scale", notes[0])
+    assert m, notes[0]
+    assert float(m.group(1)) == pytest.approx(np.abs(A[:, 3]).max(), rel=1e-3)
+    assert np.abs(A[:, 3]).max() == pytest.approx(0.5 / DT, rel=0.02)
+    assert np.abs(saturating.qdd_des[:, 3] - A[:, 3]).max() > 1.0  # the catch-up: another line
+
+
+def test_the_report_writes_the_figures_it_embeds(tmp_path) -> None:
+    """write_report(png_folder=) writes each figure once: the files are plot_result's, byte for
+    byte, and the page embeds the same bytes."""
+    import base64
+
+    import mrnea
+    from mrnea.report import FIGURES, plot_result, write_report
+    from mrnea.trajectory import quintic
+
+    robot = mrnea.robots.puma560()
+    _, q_cmd = quintic([np.zeros(6), np.full(6, 0.3)], dt=0.01, velocity_limit=1.0,
+                       acceleration_limit=2.0)
+    res = mrnea.simulate(robot, q_cmd, dt=0.01)
+    plot_result(res, tmp_path / "alone")
+    page = write_report(res, tmp_path / "r" / "report.html", view3d=False,
+                        png_folder=tmp_path / "r").read_text()
+    for name in FIGURES:
+        png = (tmp_path / "r" / f"{name}.png").read_bytes()
+        assert png == (tmp_path / "alone" / f"{name}.png").read_bytes()
+        assert base64.b64encode(png).decode("ascii") in page
+    with pytest.raises(mrnea.MrneaError, match=r"motion\.png"):
+        write_report(res, tmp_path / "r" / "other.html", png_folder=tmp_path / "r")

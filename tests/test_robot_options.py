@@ -171,7 +171,8 @@ def test_options_override_field_by_field() -> None:
     cli = RobotOptions(payload=Payload(5.0, np.zeros(3), np.zeros((3, 3))), tip="flange")
     merged = cli.over(program)
     assert merged.actuators == "a.toml" and merged.tip == "flange"
-    assert merged.payload.mass == 5.0 and merged.gravity == (0.0, 0.0, 9.81)
+    # payloads are a tuple (one Payload given: a tuple of one), replaced as a whole
+    assert [p.mass for p in merged.payload] == [5.0] and merged.gravity == (0.0, 0.0, 9.81)
 
 
 def test_load_robot_spec_applies_every_option(tmp_path) -> None:

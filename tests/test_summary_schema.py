@@ -106,9 +106,8 @@ def test_a_limit_from_the_torque_speed_curve_says_so():
             "its torque\u2013speed curve (peak 150 N m), at t = ") in res.verdict()
 
 
-def test_written_summaries_are_valid_and_the_table_splits_program_from_catch_up(tmp_path):
-    out = tmp_path / "demo"
-    res = mrnea_cli("demo", "--out", out, "--no-3d", "--quiet")
+def test_written_summaries_are_valid_and_the_table_splits_program_from_catch_up(demo_run):
+    res, out = demo_run  # mrnea demo --out DIR --no-3d (conftest; shared with test_exit_codes)
     assert res.returncode == 1, res.stderr
     valid(json.loads((out / "summary.json").read_text()))
     table = pandas.read_csv(out / "cycles.csv")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import struct
 import subprocess
 import sys
@@ -109,6 +110,36 @@ def test_scheduler_address_equals_serial_loop(demo, sdt_serial, scheduler_addres
     df = mrnea.sweep(sdt(), demo, SDT_GRID, client=scheduler_address, progress=False)
     assert df.attrs["threads"] == 1
     check_rows(df, sdt_serial, "sdt_training")
+
+
+def test_a_plain_local_cluster_is_tuned_and_warmed(demo):
+    """A plain ``LocalCluster`` passed as ``client=`` (none of mrnea's settings at its start):
+    the rows are the serial loop's; each worker is tuned on its first task (glibc's heap,
+    :func:`mrnea.sweep.rows.tune_worker`) and makes one full-length warm-up run as a task
+    before any task of the run phase starts (Dask's task stream: the first task to finish on
+    each worker finished before the first run-phase task started), one more task per worker
+    than the sweep reports."""
+    import importlib
+    import logging
+
+    from distributed import Client, LocalCluster, get_task_stream
+
+    grid = {"gear_ratio.cab_yaw": [60, 120], "payload": [0.0, 300.0]}
+    lc = LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0",
+                      silence_logs=logging.CRITICAL)
+    with lc, Client(lc) as c:
+        c.wait_for_workers(2)
+        with get_task_stream(c) as ts:
+            df = mrnea.sweep(sdt(), demo, grid, client=c, progress=False, batch=1)
+        tuned = c.run(lambda: os.getpid() in importlib.import_module("mrnea.sweep.rows")._TUNED)
+    check_rows(df, serial(sdt(), demo, grid), "sdt_training")
+    assert list(tuned.values()) == [True, True]
+    tasks = sorted((t["startstops"][-1]["stop"], t["startstops"][0]["start"], t["worker"])
+                   for t in ts.data if t["key"].startswith("run_batch"))
+    assert len(tasks) == df.attrs["tasks"] + 2 == 4 + 2
+    warm_ups, runs = tasks[:2], tasks[2:]
+    assert len({w for *_, w in warm_ups}) == 2  # one on each worker
+    assert max(stop for stop, *_ in warm_ups) <= min(start for _, start, _ in runs)
 
 
 def test_client_two_programs_and_one_run_per_task(scheduler_address):

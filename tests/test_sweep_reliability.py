@@ -262,8 +262,10 @@ def test_the_files_name_their_units_and_say_when_parquet_is_missing(tmp_path, mo
 
 def test_workers_get_one_numba_thread_and_the_heap_settings():
     """A cluster started as mrnea's own: its workers' environment has NUMBA_NUM_THREADS=1 and
-    the glibc settings; a sweep without retime starts no Numba thread pool in them (it used to
-    start one of the machine's size in every worker); the rows are still the serial loop's."""
+    the glibc settings, Dask's statistical profiler is off in them and the scheduler's and
+    workers' tick is slow; a sweep without retime starts no Numba thread pool in them (it used
+    to start one of the machine's size in every worker); the rows are still the serial
+    loop's."""
     import logging
 
     from distributed import Client, LocalCluster
@@ -271,12 +273,16 @@ def test_workers_get_one_numba_thread_and_the_heap_settings():
 
     from mrnea.robots.sdt_profile import training_program
 
-    def state() -> dict:
+    def state(dask_worker) -> dict:
+        import dask
         import numba.np.ufunc.parallel as parallel
 
         keys = ("NUMBA_NUM_THREADS", *cluster.WORKER_MALLOC)
         return {"env": {k: os.environ.get(k) for k in keys},
-                "pool": bool(parallel._is_initialized)}
+                "pool": bool(parallel._is_initialized),
+                "profile": (dask.config.get("distributed.worker.profile.enabled"),
+                            "profile" in dask_worker.periodic_callbacks),
+                "tick": dask_worker._tick_interval}
 
     with cluster.spawning():
         lc = LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
@@ -285,6 +291,9 @@ def test_workers_get_one_numba_thread_and_the_heap_settings():
     with lc, Client(lc) as c:
         df = mrnea.sweep(sdt(), "demo", grid, client=c, progress=False)
         (got,) = c.run(state).values()
+        tick = c.run_on_scheduler(lambda dask_scheduler: dask_scheduler._tick_interval)
     assert got["env"] == {k: str(v) for k, v in cluster.WORKER_ENVIRON.items()}, got
     assert got["pool"] is False
+    assert got["profile"] == (False, False)  # no statistical profiler (no dashboard either)
+    assert got["tick"] == tick == 1.0  # [s]: CLUSTER_CONFIG's, not Dask's 20 ms
     check_rows(df, serial(sdt(), training_program(), grid), "sdt_training")

@@ -97,6 +97,8 @@ def test_frames_and_jacobians_equal_pinocchio(case) -> None:
             Jp[:3] += np.cross(Jp[3:].T, oMi.rotation @ pe).T
             assert link_jacobian_ws(m, q, t, pe, J, ws) == OK
             assert rel_err(J, Jp) <= TOL
+            # the public function, the link by name (any branch)
+            assert rel_err(mrnea.jacobian(robot, q, pe, link=robot.link_names[t]), Jp) <= TOL
 
 
 def test_whole_tree_order_is_depth_first_in_file_order() -> None:
@@ -114,6 +116,39 @@ def test_a_kept_mimic_joint_is_refused_naming_it() -> None:
     # one tip: the chain to it, as before trees
     arm = mrnea.load_urdf(path, tip="left_wrist")
     assert arm.n == 7 and arm.is_serial
+
+
+@pytest.mark.parametrize("rel", ["baxter_description/urdf/baxter.urdf",
+                                 "pr2_description/urdf/pr2.urdf"])
+def test_every_tip_the_mimic_refusal_suggests_loads(rel) -> None:
+    """The refusal's advice works: each candidate tip it lists (all of them, and all together)
+    loads, and its path crosses no ``<mimic>`` joint of the file (Pinocchio's URDF model: the
+    joints supporting the candidate's frame; the file's ``<mimic>`` elements read here with
+    ElementTree). Baxter has a mimic finger in each gripper, PR2 several: a candidate must avoid
+    them all, not only the one the message names."""
+    import xml.etree.ElementTree as ET
+
+    import pinocchio as pin
+
+    path = erd_path(rel)
+    with pytest.raises(RobotFileError, match="<mimic>") as info:
+        mrnea.load_urdf(path)
+    msg = str(info.value)
+    listed = msg.split("heaviest chain first: ")[1]
+    shown = [t.strip() for t in listed.split(" and ")[0].split(",")]
+    assert len(shown) == 10
+    mimics = {j.get("name") for j in ET.parse(path).getroot().iter("joint")
+              if j.find("mimic") is not None}
+    full = pin.buildModelFromUrdf(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # visuals left out of the 3D view
+        for tip in shown:
+            support = {full.names[i] for i in full.supports[full.frames[full.getFrameId(tip)]
+                                                             .parentJoint]}
+            assert not support & mimics, tip
+            robot = mrnea.load_urdf(path, tip=tip)
+            assert set(robot.joint_names) == support - {"universe"}, tip
+        assert mrnea.load_urdf(path, tip=shown).n > 0
 
 
 def test_a_program_keeps_several_tips(tmp_path) -> None:
@@ -172,5 +207,89 @@ def test_jacobian_of_a_named_link_equals_pinocchios_frame_jacobian() -> None:
     # the last link's, as without ``link``
     assert np.array_equal(mrnea.jacobian(robot, Q[0], P[0], link=robot.link_names[-1]),
                           mrnea.jacobian(robot, Q[0], P[0]))
-    with pytest.raises(StateError, match="link: 'left_hand' is not a link of robot"):
-        mrnea.jacobian(robot, Q[0], link="left_hand")
+    with pytest.raises(StateError, match="link: 'nowhere' is neither a link of robot 'baxter'"
+                                         r".*nor a frame fixed to one \(its frames: .*left_hand"):
+        mrnea.jacobian(robot, Q[0], link="nowhere")
+
+
+@pytest.mark.parametrize("name", ["baxter", "talos-upper", "pr2"])
+def test_jacobian_of_every_named_frame_equals_pinocchios(name) -> None:
+    """``mrnea.jacobian(robot, q, point, link=FRAME)`` for every frame a tree robot keeps on its
+    links (``Link.frames``: the URDF links merged by fixed joints, e.g. Baxter's ``left_hand``,
+    its cameras): Pinocchio's ``computeFrameJacobian`` of the frame of that name in
+    ``LOCAL_WORLD_ALIGNED``, at the frame's origin and at a point given in the frame's axes."""
+    import pinocchio as pin
+
+    rel, tips, _ = TREES[name]
+    path = erd_path(rel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        robot = mrnea.load_urdf(path, tip=tips)
+    pc = PinChain(robot, pin_from_urdf(path, robot))
+    frames = [f.name for lk in robot.links for f in lk.frames]
+    assert len(frames) >= 5
+    rng = np.random.default_rng(12)
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    for q in rng.uniform(lo, hi, size=(2, robot.n)):
+        p = rng.normal(0, 0.1, 3)
+        for f in frames:
+            fid = pc.model.getFrameId(f)
+            assert fid < len(pc.model.frames), f
+            Jo = np.array(pin.computeFrameJacobian(pc.model, pc.data, pc.config(q), fid,
+                                                   pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
+            pin.updateFramePlacements(pc.model, pc.data)
+            assert rel_err(mrnea.jacobian(robot, q, link=f), Jo) <= TOL, f
+            Jp = Jo.copy()
+            Jp[:3] += np.cross(Jp[3:].T, pc.data.oMf[fid].rotation @ p).T
+            assert rel_err(mrnea.jacobian(robot, q, p, link=f), Jp) <= TOL, f
+
+
+@pytest.mark.parametrize("rel", ["pr2_description/urdf/pr2.urdf",
+                                 "talos_data/robots/talos_reduced.urdf",
+                                 "baxter_description/urdf/baxter.urdf"])
+def test_several_tips_keep_the_subtree_pinocchio_supports(rel) -> None:
+    """Several tips (``load_urdf(tip=[...])``; ``--tip`` repeated on the command line) keep the
+    union of the root-to-tip paths: for random sets of 1-4 links whose paths cross no
+    ``<mimic>``, the kept joints are the union of Pinocchio's ``supports`` of each link's
+    frame, depth first with siblings in file order, each with Pinocchio's parent joint. The
+    command line's ``info --json`` with the same ``--tip``s lists the same joints."""
+    import json
+    import xml.etree.ElementTree as ET
+
+    import pinocchio as pin
+    from conftest import mrnea_cli
+
+    path = erd_path(rel)
+    full = pin.buildModelFromUrdf(str(path))
+    mimics = {j.get("name") for j in ET.parse(path).getroot().iter("joint")
+              if j.find("mimic") is not None}
+
+    def support(frame: str) -> set[int]:
+        return {i for i in full.supports[full.frames[full.getFrameId(frame)].parentJoint]
+                if i > 0}
+
+    links = [f.name for f in full.frames if f.type == pin.FrameType.BODY and support(f.name)
+             and not {full.names[i] for i in support(f.name)} & mimics]
+    rng = np.random.default_rng(25)
+    sets = [list(rng.choice(links, size=k, replace=False)) for k in (1, 2, 2, 3, 4, 4)]
+    # depth first from the root, a joint's children in the order of the file's <joint>
+    # elements (Pinocchio orders siblings by name: its ids give the tree, not the order)
+    line = {j.get("name"): k for k, j in enumerate(ET.parse(path).getroot().iter("joint"))}
+
+    def depth_first(kept: set[int], parent: int = 0) -> list[int]:
+        kids = sorted((i for i in kept if full.parents[i] == parent),
+                      key=lambda i: line[full.names[i]])
+        return [x for i in kids for x in (i, *depth_first(kept, i))]
+
+    for tips in sets:
+        ids = depth_first(set().union(*map(support, tips)))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # visuals left out of the 3D view
+            robot = mrnea.load_urdf(path, tip=tips)
+        assert robot.joint_names == tuple(full.names[i] for i in ids), tips
+        names = [None if full.parents[i] == 0 else full.names[full.parents[i]] for i in ids]
+        assert [None if p < 0 else robot.joint_names[p] for p in robot.parents] == names, tips
+    res = mrnea_cli("info", path, "--json", *[a for t in tips for a in ("--tip", t)])
+    assert res.returncode == 0, res.stderr
+    assert [j["name"] for j in json.loads(res.stdout)["joints"]] == list(robot.joint_names)

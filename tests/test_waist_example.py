@@ -41,12 +41,14 @@ def setup():
     return prog, robot, model
 
 
-def test_the_waist_saturates_through_the_coupling_paper_mode_against_pinocchio(setup) -> None:
+@pytest.mark.parametrize("fd", ["mrnea", "walker_orin", "crba"])
+def test_the_waist_saturates_through_the_coupling_paper_mode_against_pinocchio(setup, fd) -> None:
+    """Every way a cycle forms H and u' (``simulate(fd=...)``) on the tree, the same loop."""
     prog, robot, model = setup
     data = model.createData()
     dt, q_cmd = prog.dt, prog.q_cmd
     K = q_cmd.shape[0]
-    res = simulate(robot, q_cmd, dt, mode="paper")
+    res = simulate(robot, q_cmd, dt, mode="paper", fd=fd)
     assert not res.position_clamped.any()
     L, vmax = robot.effort_limit, robot.velocity_limit
     q, qd = q_cmd[0].copy(), np.zeros(robot.n)

@@ -12,6 +12,17 @@ the last moving link exerts **on its environment** (the paper's k_e): the joints
 the tool pushes down on a table with 10 N: ``f_ext = [0, 0, -10, 0, 0, 0]``. (A force the
 environment applies *to* the robot, Pinocchio's and MuJoCo's convention, is the negative.)
 
+Wrenches on any links, by name (a tree's two hands, a link halfway along an arm): ``f_ext`` a
+mapping ``{link: [f; n]}``, each value (6,) or (B, 6), with the same meaning (base coordinates,
+what that link exerts on its environment), and ``f_ext_point`` None or ``{link: p}``, each p (3,)
+or (B, 3) [m] in that link's own frame (default its origin). Link i is the one joint i moves
+(``robot.link_names``). This is Pinocchio's ``fext``, a wrench per body, with two differences
+of convention: Pinocchio's is the force applied *to* the body, in its joint's local frame about
+the joint origin; ours is its negative, in base coordinates, at the point given. Example: the
+left hand pushes down with 10 N at 0.1 m along its z axis, the right hand holds a 2 N m moment
+about the base z axis: ``f_ext={"hand_l": [0, 0, -10, 0, 0, 0], "hand_r": [0, 0, 0, 0, 0, 2]},
+f_ext_point={"hand_l": [0, 0, 0.1]}``. An unknown link is a StateError naming it.
+
 The caller's arrays are never modified. Errors are :class:`mrnea.errors.StateError` (shapes, NaN,
 unknown method) and :class:`mrnea.errors.SingularMassMatrixError`.
 
@@ -70,14 +81,14 @@ class _Entry:
     (the fast path in the module docstring, or :func:`mrnea.validate.inputs`), so they call an
     entry directly: ``free`` takes ``fext=None, pe=None`` (no external wrench: Numba compiles that
     case without reading either, and two fewer arrays cross from Python), ``call`` takes both
-    arrays.
+    arrays, ``links`` the per-link wrench arrays (n, 6) and (n, 3) (a wrench by link name).
     ``Dispatcher.compile`` compiles an entry (or loads it from Numba's disk cache) on its first
     call and returns it.
     The kernel's arguments are ``(model, *states, *optional, *outputs, scratch)``: ``optional``
     counts the inputs ``free`` passes as None (the wrench and its point; a Jacobian's point).
     """
 
-    __slots__ = ("_kernel", "call", "free")
+    __slots__ = ("_kernel", "call", "free", "links")
 
     def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type,
                  optional: int = 2) -> None:
@@ -90,8 +101,11 @@ class _Entry:
                 "call", nb.types.int64(MODEL_T, *states, *given, *outputs, SCRATCH_T))
             self.free = self._first(
                 "free", nb.types.int64(MODEL_T, *states, *none, *outputs, SCRATCH_T))
+            self.links = self._first(
+                "links", nb.types.int64(MODEL_T, *states, *[OUT2_T] * optional, *outputs,
+                                        SCRATCH_T))
         else:
-            self.call = self.free = kernel
+            self.call = self.free = self.links = kernel
 
     def _first(self, slot: str, sig: nb.core.typing.Signature) -> Callable[..., int]:
         """A stand-in for the entry ``slot`` that compiles it on its first call."""
@@ -145,6 +159,8 @@ def _evaluate(
         outputs = [np.empty(shape) for shape in shapes(robot.n)]
         if f_ext is None:  # a point without a force changes nothing
             status = kernel.free(m, *arrays, None, None, *outputs, ws)
+        elif fe.ndim == 2:  # a wrench per link
+            status = kernel.links(m, *arrays, fe, pe, *outputs, ws)
         else:
             status = kernel.call(m, *arrays, fe, pe, *outputs, ws)
     if batched or status != OK:
@@ -336,9 +352,11 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
     q : (n,) or (B, n) joint positions [rad | m].
     point : (3,) or (B, 3) [m], in the last link's frame (``link``'s); None: its origin.
     link : None (the last link), or the name of any link of the robot (``robot.link_names``;
-        on a tree, any branch's): the point is fixed to that link, and column k is zero unless
-        joint k carries it. Pinocchio's ``getFrameJacobian`` of a frame at the point on that
-        link, ``LOCAL_WORLD_ALIGNED``.
+        on a tree, any branch's) or of a frame fixed to one (``Link.frames``: a URDF link
+        merged by a fixed joint, a TCP): the point is fixed to that link, given in that link's
+        (or frame's) axes and origin, and column k is zero unless joint k carries it.
+        Pinocchio's ``getFrameJacobian`` of a frame at the point on that link,
+        ``LOCAL_WORLD_ALIGNED``.
 
     Returns
     -------
@@ -373,14 +391,21 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
 
 def _link_jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None,
                    link: str) -> NDArray[np.float64]:
-    """:func:`jacobian` of a point of the named link, state by state (``link_jacobian_ws``)."""
+    """:func:`jacobian` of a point of the named link or frame, state by state
+    (``link_jacobian_ws``); a frame's point is moved into its link's frame first."""
     validate.require_robot(robot)
-    if link not in robot.link_names:
-        raise StateError(f"link: {link!r} is not a link of robot '{robot.name}' (its links: "
-                         f"{', '.join(robot.link_names)})")
+    frames = {f.name: (t, f.origin) for t, lk in enumerate(robot.links) for f in lk.frames}
+    if link not in robot.link_names and link not in frames:
+        raise StateError(f"link: {link!r} is neither a link of robot '{robot.name}' (its links: "
+                         f"{', '.join(robot.link_names)}) nor a frame fixed to one"
+                         + (f" (its frames: {', '.join(frames)})" if frames else ""))
     batched, q, p = validate.kinematics_inputs(robot, q, point)
     m, _, ws, _ = compiled.of(robot)
-    t = robot.link_names.index(link)
+    if link in robot.link_names:
+        t = robot.link_names.index(link)
+    else:  # the point in the frame's axes -> the link's
+        t, origin = frames[link]
+        p = np.ascontiguousarray(p @ origin[:3, :3].T + origin[:3, 3])
     Q, P = np.atleast_2d(q), np.atleast_2d(p)
     J = np.empty((Q.shape[0], 6, robot.n))
     status = np.array([link_jacobian_ws(m, Q[b], t, P[b], J[b], ws) for b in range(len(Q))])

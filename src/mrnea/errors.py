@@ -156,7 +156,13 @@ class ModelWarning(UserWarning):
 
 class PathWarning(UserWarning):
     """A commanded path is valid but doubtful: its interpolation between a CSV's rows leaves a
-    position limit the rows respect (the simulator would clamp it); mrnea goes on and says so."""
+    position limit the rows respect (the simulator would clamp it), or its rows look like
+    degrees; mrnea goes on and says so. ``cli``: the message as the command line says it (as
+    :class:`MrneaError`'s), None: the same for both."""
+
+    def __init__(self, message: str, cli: str | None = None) -> None:
+        super().__init__(message)
+        self.cli = cli
 
 
 class MeshWarning(UserWarning):

@@ -48,7 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.actuator_fields import actuator_values, check_actuator_fields
-from mrnea.errors import ModelError, quote, shorten
+from mrnea.errors import ModelError, MrneaError, quote, shorten
 from mrnea.frozen import (
     Frozen,
     check_magnitude,
@@ -415,18 +415,23 @@ class Robot(Frozen):
             p = Link("payload", mass, com, np.zeros((3, 3)) if inertia is None else inertia)
         except ModelError as exc:
             raise ModelError(f"with_payload: {exc}") from None
-        names = self.link_names
-        if link is not None and link not in names:
-            close = difflib.get_close_matches(str(link), names, n=1)
-            raise ModelError(f"payload: no link named {quote(link)} in robot {quote(self._name)}"
-                             f"{f' (did you mean {close[0]!r}?)' if close else ''}; its "
-                             f"links: {shorten(', '.join(names), 300)}")
-        i = len(names) - 1 if link is None else names.index(link)
+        i = self.n - 1 if link is None else self.link_index(link, "payload")
         old = self._links[i]
         m, c, inertia_sum = combine_inertials([(old.mass, old.com, old.inertia),
                                                (p.mass, p.com, p.inertia)])
         merged = Link(old.name, m, c, inertia_sum, old.visuals, old.frames)
         return self._replace(links=(*self._links[:i], merged, *self._links[i + 1:]))
+
+    def link_index(self, link: str, what: str, error: type[MrneaError] = ModelError) -> int:
+        """Index of the link named ``link`` (link i moves with joint i); an ``error`` naming
+        ``what`` and the link, with a close match, when the robot has no such link."""
+        names = self.link_names
+        if link not in names:
+            close = difflib.get_close_matches(str(link), names, n=1)
+            raise error(f"{what}: no link named {quote(link)} in robot {quote(self._name)}"
+                        f"{f' (did you mean {close[0]!r}?)' if close else ''}; its "
+                        f"links: {shorten(', '.join(names), 300)}")
+        return names.index(link)
 
     def _replace(self, **kw: object) -> Robot:
         return Robot(**{**self._state(), **kw})  # type: ignore[arg-type]

@@ -26,7 +26,6 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea import compiled, cycles, validate
 from mrnea.achievable import MODES
@@ -307,7 +306,10 @@ def simulate(
     ----------
     mode : ``"hybrid"`` (default) or ``"paper"``: how saturation is resolved each cycle.
     f_ext, f_ext_point : the wrench the last link exerts on its environment, (6,) constant or
-        (K, 6) per cycle, and its point in the last link's frame, (3,) or (K, 3).
+        (K, 6) per cycle, and its point in the last link's frame, (3,) or (K, 3). Or wrenches on
+        any links, by name: ``f_ext={"hand_l": w, ...}``, each w (6,) or (K, 6), and
+        ``f_ext_point={"hand_l": p, ...}``, each p (3,) or (K, 3) in that link's frame
+        (:mod:`mrnea.dynamics`, "External wrench").
     fd : how each cycle forms H_a and u'_a: ``"mrnea"`` (the paper: one pass),
         ``"walker_orin"`` (n + 1 RNEA passes) or ``"crba"`` (CRBA + RNEA). The results agree to
         rounding; the choice reproduces the paper's cost comparison. (ABA gives no H, which the
@@ -355,8 +357,7 @@ def simulate(
     v0 = np.zeros(n) if qd0 is None else validate.array(qd0, "qd0", n)
     if x0.ndim != 1 or v0.ndim != 1:
         raise StateError(f"q0, qd0: expected shape ({n},)")
-    FE = validate.per_cycle(f_ext, K, 6, "f_ext")
-    PE = validate.per_cycle(f_ext_point, K, 3, "f_ext_point")
+    FE, PE = validate.wrench_per_cycle(robot, f_ext, f_ext_point, K)
     Vc = np.empty_like(Qc)
     Vc[0] = v0
     Vc[1:] = np.diff(Qc, axis=0) / dt
@@ -423,6 +424,8 @@ def simulate(
 
 def _tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> None:
     """The real motion's tool errors against the programmed pose, for ``rows``."""
+    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
+
     T = forward_kinematics(res.robot, res.q[rows], tool=path.tool)[:, -1]
     P = path.pose[rows]
     res.tool_position_error[rows] = np.linalg.norm(T[:, :3, 3] - P[:, :3, 3], axis=1)

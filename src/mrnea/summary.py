@@ -26,7 +26,8 @@ from mrnea import compiled
 from mrnea.kernels import bearing, peaks
 from mrnea.kernels.drive import beyond
 
-_beyond = beyond.py_func  # the kernels' limit comparison, run as Python (nothing to compile)
+_beyond = getattr(beyond, "py_func", beyond)  # the kernels' limit comparison, run as Python
+# (nothing to compile; under NUMBA_DISABLE_JIT=1 `beyond` is the plain function)
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import ModelError, StateError, quote
-from mrnea.frozen import rigid_transform
+from mrnea.frozen import check_magnitude, rigid_transform
 from mrnea.model import Robot
 from mrnea.rigid import transform
 
@@ -85,6 +85,7 @@ def tool_transform(robot: Robot, tool: Tool) -> NDArray[np.float64]:
                     np.isfinite(xyz).all() and np.isfinite(rpy).all()):
                 raise StateError(f"tool: 'xyz' and 'rpy' must be 3 finite numbers each, got "
                                  f"{xyz.tolist()} and {rpy.tolist()}")
+            check_magnitude(xyz, "length", "'xyz'", "m")  # ModelError: 'tool: ' added below
             return transform(xyz, rpy)
         return np.array(rigid_transform(tool, "tool"))
     except (ModelError, TypeError, ValueError) as exc:

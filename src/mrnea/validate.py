@@ -16,7 +16,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.errors import MrneaError, SingularMassMatrixError, StateError
+from mrnea.errors import MrneaError, SingularMassMatrixError, StateError, quote
 from mrnea.kernels.status import CYCLE_LIMIT, NONFINITE, OK, OVERFLOW
 from mrnea.model import Robot
 
@@ -105,12 +105,30 @@ def array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
 
 
 def per_joint(x: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
-    """A value per joint, (n,): one number for every joint or n numbers (:func:`array`)."""
-    scalar = np.ndim(x) == 0
-    a = array(np.atleast_1d(x) if scalar else x, name, 1 if scalar else n)
+    """A value per joint, (n,): one number for every joint (a scalar or a sequence of one) or n
+    numbers (:func:`array`)."""
+    try:
+        shape = np.shape(x)
+    except (TypeError, ValueError):  # a ragged nesting
+        raise StateError(f"{name}: not a numeric array: {quote(x)}") from None
+    scalar = shape in ((), (1,))
+    a = array(np.ravel(x) if scalar else x, name, 1 if scalar else n)
     if a.ndim != 1:
         raise StateError(f"{name}: expected one number or ({n},), got shape {a.shape}")
     return np.full(n, a[0]) if scalar else a
+
+
+def wrench_per_cycle(robot: Robot, f_ext: object, f_ext_point: object, K: int
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A simulation's wrench, one per cycle: the last link's, (K, 6) and (K, 3)
+    (:func:`per_cycle`), or by link name (mappings, :func:`link_wrenches`), (K, n, 6) and
+    (K, n, 3)."""
+    if by_link(f_ext, f_ext_point):
+        fe, pe = link_wrenches(robot, f_ext, f_ext_point, rows=K)
+        if fe.ndim == 2:
+            fe, pe = np.broadcast_to(fe, (K, *fe.shape)), np.broadcast_to(pe, (K, *pe.shape))
+        return np.ascontiguousarray(fe), np.ascontiguousarray(pe)
+    return per_cycle(f_ext, K, 6, "f_ext"), per_cycle(f_ext_point, K, 3, "f_ext_point")
 
 
 def per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray[np.float64]:
@@ -118,6 +136,10 @@ def per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray[np.
     K rows."""
     if x is None:
         return np.zeros((K, width))
+    if isinstance(x, Mapping):
+        raise StateError(f"{name}: wrenches on named links are taken by the dynamics "
+                         f"functions, simulate, check and sweep, not yet here (retime, "
+                         f"sizing, the drive requirement); give the last link's wrench")
     a = array(x, name, width)
     if a.ndim == 1:
         return np.ascontiguousarray(np.broadcast_to(a, (K, width)))
@@ -138,11 +160,63 @@ def inputs(
     require_robot(robot)
     n = robot.n
     arrays = {k: array(v, k, n) for k, v in states.items()}
+    if by_link(f_ext, f_ext_point):  # per-link arrays, flattened to broadcast like a state
+        fe, pe = link_wrenches(robot, f_ext, f_ext_point)
+        arrays["f_ext"] = fe.reshape(*fe.shape[:-2], 6 * n)
+        arrays["f_ext_point"] = pe.reshape(*pe.shape[:-2], 3 * n)
+        batched, out = _broadcast(arrays)
+        shape = (-1, n) if batched else (n,)
+        return (batched, out[:-2], np.ascontiguousarray(out[-2].reshape(*shape, 6)),
+                np.ascontiguousarray(out[-1].reshape(*shape, 3)))
     arrays["f_ext"] = _ZERO_WRENCH if f_ext is None else array(f_ext, "f_ext", 6)
     arrays["f_ext_point"] = (_ZERO_POINT if f_ext_point is None
                              else array(f_ext_point, "f_ext_point", 3))
     batched, out = _broadcast(arrays)
     return batched, out[:-2], out[-2], out[-1]
+
+
+def by_link(f_ext: object, f_ext_point: object) -> bool:
+    """True when the wrench is given by link name (a mapping), not as the last link's array."""
+    return isinstance(f_ext, Mapping) or isinstance(f_ext_point, Mapping)
+
+
+def link_wrenches(robot: Robot, f_ext: Mapping[str, ArrayLike] | None,
+                  f_ext_point: Mapping[str, ArrayLike] | None, rows: int | None = None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Wrenches by link name as per-link arrays, what the kernels take for a wrench per body.
+
+    ``f_ext``: ``{link: [f; n]}``, each (6,) or (B, 6) [N, N m], base coordinates, the wrench
+    that link exerts on its environment; ``f_ext_point``: ``{link: p}``, each (3,) or (B, 3)
+    [m], the point in that link's frame where it acts (a link not given: its frame's origin).
+    Returns (n, 6) and (n, 3), row i link i's (zero for a link without a wrench), or (B, n, 6)
+    and (B, n, 3) when a value has B rows (``rows``: B required, as a simulation's K cycles).
+    A StateError names an unknown link (with a close match), a point without its wrench or a
+    mix of a mapping and an array."""
+    for name, v in (("f_ext", f_ext), ("f_ext_point", f_ext_point)):
+        if v is not None and not isinstance(v, Mapping):
+            raise StateError(f"{name}: with the wrench given by link name, give {name} as a "
+                             f"mapping {{link: value}} too, or None; got {type(v).__name__}")
+    fe_by = {robot.link_index(k, "f_ext", StateError): array(v, f"f_ext[{k!r}]", 6)
+             for k, v in (f_ext or {}).items()}
+    pe_by = {robot.link_index(k, "f_ext_point", StateError):
+             array(v, f"f_ext_point[{k!r}]", 3) for k, v in (f_ext_point or {}).items()}
+    for i in pe_by.keys() - fe_by.keys():
+        raise StateError(f"f_ext_point: a point for link {robot.link_names[i]!r}, which "
+                         f"f_ext gives no wrench")
+    sizes = {a.shape[0] for a in (*fe_by.values(), *pe_by.values()) if a.ndim == 2}
+    if rows is not None:
+        sizes.add(rows)
+    if len(sizes) > 1:
+        raise StateError(f"f_ext, f_ext_point by link: row counts differ ({sorted(sizes)}); "
+                         f"give each value one row or {rows or 'B'} rows")
+    lead = (sizes.pop(),) if sizes else ()
+    n = robot.n
+    fe, pe = np.zeros((*lead, n, 6)), np.zeros((*lead, n, 3))
+    for i, a in fe_by.items():
+        fe[..., i, :] = a
+    for i, a in pe_by.items():
+        pe[..., i, :] = a
+    return fe, pe
 
 
 def kinematics_inputs(robot: Robot, q: ArrayLike, point: ArrayLike | None
@@ -183,6 +257,12 @@ def one_state(
     arrays = {k: array(v, k, robot.n) for k, v in states.items()}
     if any(a.ndim != 1 for a in arrays.values()):
         raise StateError(f"{who} takes one state: arrays of shape ({robot.n},)")
+    if by_link(f_ext, f_ext_point):
+        fe, pe = link_wrenches(robot, f_ext, f_ext_point)
+        if fe.ndim != 2:
+            raise StateError(f"{who} takes one state: f_ext {{link: (6,)}}, f_ext_point "
+                             f"{{link: (3,)}}")
+        return arrays, fe, pe
     fe = _ZERO_WRENCH if f_ext is None else array(f_ext, "f_ext", 6)
     pe = _ZERO_POINT if f_ext_point is None else array(f_ext_point, "f_ext_point", 3)
     if fe.ndim != 1 or pe.ndim != 1:
@@ -200,7 +280,7 @@ def check_status(robot: Robot, status: int | NDArray, states: dict[str, object])
         return
     if np.any(st == NONFINITE):
         for k, v in states.items():
-            if v is not None:
+            if v is not None and not isinstance(v, Mapping):  # a mapping: checked already
                 array(v, k, {"f_ext": 6, "f_ext_point": 3, "point": 3}.get(k, robot.n))
     if np.any(st == OVERFLOW):
         b = int(np.flatnonzero(st == OVERFLOW)[0])

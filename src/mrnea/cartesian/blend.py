@@ -48,14 +48,17 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea.errors import StateError
 from mrnea.io.moves import Move
 from mrnea.trajectory import cycles
+
+if TYPE_CHECKING:  # imported where used: scipy.spatial costs every command ~0.4 s
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["chain_poses", "hermite"]
 
@@ -87,6 +90,8 @@ class _Segment:
         return self.p0 + sigma[:, None] * (self.p1 - self.p0)
 
     def rotation(self, sigma: NDArray) -> Rotation:
+        from scipy.spatial.transform import Rotation
+
         return self.R0 * Rotation.from_rotvec(sigma[:, None] * self.w)
 
 
@@ -112,12 +117,16 @@ class _Arc:
                 + (2.0 * rho * np.sin(0.5 * a) ** 2)[:, None] * self.n)
 
     def rotation(self, lam: NDArray) -> Rotation:
+        from scipy.spatial.transform import Rotation
+
         g1, g2 = hermite(lam, self.length / self.r)
         return (self.RA * Rotation.from_rotvec(g1[:, None] * self.w1)
                 * Rotation.from_rotvec(g2[:, None] * self.w2))
 
 
 def _segments(moves: Sequence[Move], T0: NDArray) -> list[_Segment]:
+    from scipy.spatial.transform import Rotation
+
     out = []
     p, R = T0[:3, 3].copy(), Rotation.from_matrix(T0[:3, :3])
     for mv in moves:
@@ -202,6 +211,8 @@ def chain_poses(moves: Sequence[Move], T0: NDArray, dt: float
     """(poses (N + 1, 4, 4), owner (N + 1,), targets (M, 4, 4)) of linear moves joined by
     their blends (module docstring). StateError: a blend too large for its segments, a move
     that goes nowhere, a corner that turns straight back."""
+    from scipy.spatial.transform import Rotation
+
     segs = _segments(moves, T0)
     arcs = [_arc(mv, s1, s2) for mv, s1, s2 in zip(moves[:-1], segs[:-1], segs[1:],
                                                     strict=True)]

@@ -25,7 +25,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea.errors import StateError
 from mrnea.io.moves import Move
@@ -62,6 +61,8 @@ def move_poses(move: Move, T0: NDArray, dt: float) -> tuple[NDArray, NDArray]:
     """(s (N + 1,), poses (N + 1, 4, 4)) of a linear or circular move from T0 (module
     docstring). StateError: a move that only turns without an angular limit, or a circle
     that does not exist."""
+    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
+
     p0, R0 = T0[:3, 3], T0[:3, :3]
     p1 = move.xyz
     R1 = R0 if move.R is None else move.R

@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea.cartesian.blend import chain_poses
 from mrnea.cartesian.path import move_poses
@@ -45,7 +44,7 @@ from mrnea.errors import ProgramFileError, StateError
 from mrnea.ik import solve_path
 from mrnea.io.moves import Move
 from mrnea.io.program import Program
-from mrnea.io.wrench import wrench_at
+from mrnea.io.wrench import LinkWrenches, wrench_at, wrenches_on
 from mrnea.model import Robot
 from mrnea.tool import tool_transform
 from mrnea.trajectory import cycles, quintic, scurve, trapezoidal
@@ -120,6 +119,8 @@ def _chains(moves: tuple[Move, ...]) -> list[tuple[Move, ...]]:
 def _poses_of(move: Move, T: NDArray, where: str) -> NDArray:
     """The poses of a pose CSV move (its first row included), which must start where the tool
     is (within ``JOIN_POSITION`` [m] and ``JOIN_ORIENTATION`` [rad])."""
+    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
+
     P = move.poses
     gap = float(np.linalg.norm(P[0, :3, 3] - T[:3, 3]))
     turn = float(np.linalg.norm(Rotation.from_matrix(T[:3, :3].T @ P[0, :3, :3]).as_rotvec()))
@@ -213,7 +214,9 @@ def solve(program: Program, robot: Robot) -> Program:
     for a in (t, q_cmd, pose, move, cart, path.position_error, path.orientation_error):
         a.setflags(write=False)
     f_ext, point = None, program.f_ext_point
-    if program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
+    if isinstance(program.wrench, LinkWrenches):  # on named links; at the TCP by default
+        f_ext, point = wrenches_on(program.wrench, robot, t, where, Tt[:3, 3].copy())
+    elif program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
         f_ext = wrench_at(*program.wrench, t)
         point = Tt[:3, 3].copy() if point is None else point
         for a in (f_ext, point):

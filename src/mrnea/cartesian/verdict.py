@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import minimum_filter1d
 
 from mrnea.dynamics import jacobian
 from mrnea.io.moves import Move
@@ -115,6 +114,8 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
     qd = np.zeros_like(q)
     qd[1:] = np.diff(q, axis=0) / dt
     vmax = robot.velocity_limit
+    from scipy.ndimage import minimum_filter1d  # here: it would cost every command ~0.1 s
+
     near = minimum_filter1d(sigma, 2 * max(1, round(NEAR_WINDOW / dt)) + 1, mode="nearest")
     ratio = np.abs(qd) / vmax
     fast = (ratio > 1.0) & cartesian[:, None] & (near < SIGMA_NEAR)[:, None]

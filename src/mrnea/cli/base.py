@@ -184,7 +184,8 @@ def _warnings_as_lines() -> Iterator[None]:
 
     def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
              file: object = None, line: str | None = None) -> None:
-        text = one_line(str(message))
+        # a warning worded for the command line where the library's names an API argument
+        text = one_line(getattr(message, "cli", None) or str(message))
         if text not in seen:
             seen.add(text)
             click.echo(f"mrnea: warning: {text}", err=True)

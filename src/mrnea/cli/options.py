@@ -117,7 +117,7 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
     def wrapper(*args: Any, actuators: str | None, tip: tuple[str, ...], payload: Any,
                 gravity: Any, package_path: tuple[str, ...], **kw: Any) -> Any:
         tips = None if not tip else tip[0] if len(tip) == 1 else tuple(tip)
-        return command(*args, robot_options=RobotOptions(actuators, tips, payload, gravity,
+        return command(*args, robot_options=RobotOptions(actuators, tips, payload or None, gravity,
                                                          package_path or None), **kw)
 
     for option in reversed([
@@ -128,9 +128,10 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      help="Keep the URDF's joints up to this link (a chain); repeated, the "
                           "subtree holding all the tips (default: the whole tree)."),
         click.option("--payload", type=_Payload(), metavar="KG[@[LINK:]X,Y,Z]|FILE",
+                     multiple=True,
                      help="A payload fixed to the last link (or to LINK: KG@LINK[:X,Y,Z]): "
                           "a mass [kg] at a point [m] of that link's frame, or a TOML file "
-                          "with mass, com, inertia and link."),
+                          "with mass, com, inertia and link; repeated, several payloads."),
         click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
                      help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
         click.option("--package-path", "package_path", multiple=True, metavar="DIR",

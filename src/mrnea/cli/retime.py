@@ -46,7 +46,7 @@ from mrnea.cli.options import (
     units_opt,
 )
 from mrnea.errors import MrneaError, NoTimingError, RetimeError
-from mrnea.io import BUILTIN_ROBOTS, RobotOptions, resolve_robot
+from mrnea.io import BUILTIN_ROBOTS, Payload, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import parse_number
 from mrnea.io.writer import check_new, create, own_folder
@@ -97,28 +97,39 @@ def _robot_spec(spec: str) -> str:
     return source if source in BUILTIN_ROBOTS else str(Path(source).resolve())
 
 
-def _point_mass(options: RobotOptions) -> str | None:
-    """The payload as ``KG@X,Y,Z`` or ``KG@LINK:X,Y,Z`` (shortest reprs), or None when it has
+def _point_mass(p: Payload) -> str | None:
+    """A payload as ``KG@X,Y,Z`` or ``KG@LINK:X,Y,Z`` (shortest reprs), or None when it has
     an inertia."""
-    p = options.payload
     if np.any(p.inertia):
         return None
     return (f"{float(p.mass)!r}@" + (f"{p.link}:" if p.link is not None else "")
             + ",".join(repr(float(c)) for c in p.com))
 
 
+def _payload_specs(options: RobotOptions) -> list[str]:
+    """The retimed program's ``payload`` entries: each payload's point mass, or PAYLOAD for the
+    one with an inertia (a MrneaError for several such: one payload file holds one)."""
+    specs = [_point_mass(p) or PAYLOAD for p in options.payload or ()]
+    if specs.count(PAYLOAD) > 1:
+        raise MrneaError("retime writes one payload file: give at most one payload with an "
+                         "inertia (the others as KG@LINK:X,Y,Z point masses)")
+    return specs
+
+
 def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str, Any]:
     """The [program] keys that give the retimed program the robot options the run used; a
-    payload with an inertia is written to ``folder``/payload.toml."""
+    payload with an inertia is written to ``folder``/payload.toml (one such payload: a
+    MrneaError for several, which one file cannot hold)."""
     keys: dict[str, Any] = {}
     if options.actuators is not None:
         keys["actuators"] = str(Path(options.actuators).resolve())
     if options.tip is not None:
         keys["tip"] = options.tip if isinstance(options.tip, str) else list(options.tip)
     if options.payload is not None:
-        keys["payload"] = _point_mass(options) or PAYLOAD
-        if keys["payload"] == PAYLOAD:
-            p = options.payload
+        specs = _payload_specs(options)
+        keys["payload"] = specs[0] if len(specs) == 1 else specs
+        if PAYLOAD in specs:
+            p = options.payload[specs.index(PAYLOAD)]
             with create(folder / PAYLOAD, force) as fh:
                 fh.write(f"# The payload of the retimed program ({PROGRAM}).\n"
                          f"mass = {float(p.mass)!r}\ncom = {[float(c) for c in p.com]!r}\n"
@@ -189,7 +200,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         with own_folder(Path(out)) as folder:
             paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
                                              *((POSES, CARTESIAN) if run.cartesian else ()))}
-            check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])],
+            check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
             with compile_notice(quiet):
                 try:
@@ -311,8 +322,8 @@ def _option_args(options: RobotOptions) -> list[str]:
     if options.tip is not None:
         for t in (options.tip,) if isinstance(options.tip, str) else options.tip:
             args += ["--tip", t]
-    if options.payload is not None:
-        args += ["--payload", _point_mass(options) or "FILE"]
+    for p in options.payload or ():
+        args += ["--payload", _point_mass(p) or "FILE"]
     if options.gravity is not None:
         args += ["--gravity", ",".join(repr(float(g)) for g in options.gravity)]
     return args

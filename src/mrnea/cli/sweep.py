@@ -75,9 +75,10 @@ def _is_robot(arg: str) -> bool:
 
 def _same_options(a: RobotOptions, b: RobotOptions) -> bool:
     """Whether two programs change their robot alike (a payload's arrays by value)."""
-    pa, pb = a.payload, b.payload
-    same_payload = (pa is None) == (pb is None) and (pa is None or (pa.link == pb.link and all(
-        np.array_equal(x, y) for x, y in zip(pa[:3], pb[:3], strict=True))))
+    pa, pb = a.payload or (), b.payload or ()
+    same_payload = len(pa) == len(pb) and all(
+        p.link == q.link and all(np.array_equal(x, y) for x, y in zip(p[:3], q[:3], strict=True))
+        for p, q in zip(pa, pb, strict=True))
     return same_payload and (a.actuators, a.tip, a.gravity) == (b.actuators, b.tip, b.gravity)
 
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from mrnea.identify.regressor import (
@@ -101,6 +100,8 @@ def base_parameters(robot: Robot, seed: int = 0) -> BaseParameters:
     W = full_regressor(robot, *random_states(robot, STATES, seed)).reshape(-1, 15 * robot.n)
     norms = np.linalg.norm(W, axis=0)
     norms[norms <= RANK_TOL * norms.max()] = np.inf  # a zero column, to rounding
+    import scipy.linalg  # here, not at the top: every command imports this module
+
     R = scipy.linalg.qr(W, mode="r")[0]
     keep = np.flatnonzero(np.abs(np.diag(R)) > RANK_TOL * norms)
     rank = np.linalg.matrix_rank(R / norms, tol=RANK_TOL)  # R: W's singular values

@@ -32,7 +32,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import NDArray
 
 from mrnea.identify.base import BaseParameters, full_regressor
@@ -202,6 +201,8 @@ class Problem:
         bounds = [(lo, hi) if i == 0 else (None, None)
                   for lo, hi in zip(self.limits.lower, self.limits.upper, strict=True)
                   for i in range(self.m)]
+        import scipy.optimize  # here, not at the top: every command imports this module
+
         res = scipy.optimize.minimize(self.value, x0, jac=self.gradient, method="SLSQP",
                                       bounds=bounds, constraints=constraints,
                                       options={"maxiter": maxiter},

@@ -26,8 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 from numpy.typing import NDArray
 
 from mrnea import validate
@@ -138,6 +136,8 @@ def _least_squares(W: NDArray, tau: NDArray, used: NDArray
 
 def _solve(A: NDArray, b: NDArray) -> NDArray[np.float64]:
     """The least squares solution of A x = b (QR with column pivoting, LAPACK's gelsy)."""
+    import scipy.linalg  # here, not at the top: every command imports this module
+
     return scipy.linalg.lstsq(A, b, lapack_driver="gelsy", check_finite=False)[0]
 
 
@@ -193,6 +193,8 @@ def _consistent(robot: Robot, base: BaseParameters, beta: NDArray, info: NDArray
     start = np.where(drive, np.sqrt(np.maximum(a0, 1e-2 * s[10 * n:])), a0)
     x0 = np.concatenate([*(to_log_cholesky(prior[10 * i:10 * i + 10], floor) for i in range(n)),
                          start])
+    import scipy.optimize  # here, not at the top: every command imports this module
+
     sol = scipy.optimize.least_squares(residuals, x0, jac=jacobian, method="lm",
                                        xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=MAX_NFEV)
     return theta(sol.x)

@@ -34,6 +34,7 @@ number reported is over those cycles; then mrnea simulates the program (the verd
 
 from __future__ import annotations
 
+import heapq
 import math
 import numbers
 import os
@@ -328,14 +329,17 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     problem = Problem(robot, base, limits, L, f, samples)
     rng = np.random.default_rng(seed)
     t_opt = np.arange(samples) / (samples * f)
-    pool = []
-    for _ in range(candidates):
+    pool: list[tuple[float, int, NDArray]] = []  # the best max(starts, 1): a max-heap of -value
+    for k in range(candidates):
         c, a, b = coefficients(random_free(rng, limits, L), robot.n, L)
         s = _bounds_ok(limits, c, a, b, f, 1.0 / (samples * f), t_opt)
         x = _free(c, s * a, s * b)
-        pool.append((problem.value(x), x))
+        heapq.heappush(pool, (-problem.value(x), -k, x))  # ties: the earlier candidate kept
+        if len(pool) > max(starts, 1):
+            heapq.heappop(pool)
         stop()
-    pool.sort(key=lambda p: p[0])
+    pool = sorted(pool, reverse=True)
+    pool = [(-v, x) for v, _, x in pool]
     t = np.arange(cycles) * dt  # one period's cycles
     results = [pool[0][1]] + [problem.solve(x, maxiter, stop) for _, x in pool[:starts]]
     scored = []

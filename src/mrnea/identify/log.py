@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.signal
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import LogFileError, StateError, quote
@@ -27,6 +26,12 @@ from mrnea.io.source import read_text
 from mrnea.model import Robot
 
 CUTOFF_HZ = 10.0  # the position filter's default cut-off [Hz]
+#: The largest magnitude of a log's number (time [s], q [rad | m], efforts [N m | N], qd, qdd):
+#: beyond, the least squares' sums of squares overflow.
+LOG_BOUND = 1e12
+#: The lowest cut-off the filter takes, as a fraction of the sample rate: below, the
+#: Butterworth design loses its digits (at 1e-8 its gain is off by 7 %, at 1e-10 it is singular).
+MIN_CUTOFF_RATIO = 1e-6
 FILTER_ORDER = 4
 
 
@@ -58,11 +63,20 @@ class Log:
             bad = np.argwhere(~np.isfinite(a))
             if bad.size:
                 raise StateError(f"log: {name} is NaN or inf at sample {bad[0][0]}")
+            big = np.argwhere(np.abs(a) > LOG_BOUND)
+            if big.size:
+                k, j = big[0]
+                raise StateError(f"log: {name} of joint {j + 1} is {a[k, j]:.3g} at sample {k}, "
+                                 f"beyond {LOG_BOUND:g}, the largest mrnea accepts in a log "
+                                 "(check its units)")
             object.__setattr__(self, name, a)
         bad = np.flatnonzero(~(np.diff(t) > 0))
         if bad.size or not np.isfinite(t).all():
             k = int(bad[0]) + 1 if bad.size else int(np.flatnonzero(~np.isfinite(t))[0])
             raise StateError(f"log: time must increase strictly and be finite (sample {k})")
+        if np.abs(t).max() > LOG_BOUND:
+            raise StateError(f"log: time {t[np.argmax(np.abs(t))]:.3g} s is beyond {LOG_BOUND:g} "
+                             "s, the largest mrnea accepts in a log (check its units)")
         object.__setattr__(self, "time", t)
 
     @property
@@ -81,10 +95,14 @@ def derivatives(time: ArrayLike, q: ArrayLike, cutoff_hz: float = CUTOFF_HZ
     (module docstring). The sample rate is the median of the time steps; ``cutoff_hz`` must be
     below half of it (Nyquist)."""
     t, q = np.asarray(time, dtype=float), np.asarray(q, dtype=float)
-    fs = 1.0 / float(np.median(np.diff(t)))
-    if not 0 < cutoff_hz < fs / 2:
-        raise StateError(f"cutoff: the filter's cut-off {cutoff_hz} Hz must be in (0, {fs / 2:g})"
-                         f" Hz, half the log's sample rate {fs:g} Hz")
+    with np.errstate(divide="ignore", over="ignore"):
+        fs = 1.0 / float(np.median(np.diff(t)))
+    if not MIN_CUTOFF_RATIO * fs <= cutoff_hz < fs / 2:
+        raise StateError(f"cutoff: the filter's cut-off {cutoff_hz} Hz must be in "
+                         f"[{MIN_CUTOFF_RATIO * fs:g}, {fs / 2:g}) Hz, from {MIN_CUTOFF_RATIO:g} "
+                         f"to half the log's sample rate {fs:g} Hz")
+    import scipy.signal  # here: scipy.signal (and scipy.stats) would add ~0.5 s to every command
+
     sos = scipy.signal.butter(FILTER_ORDER, cutoff_hz, fs=fs, output="sos")
     qf = scipy.signal.sosfiltfilt(sos, q, axis=0)
     qd = np.gradient(qf, t, axis=0)
@@ -127,6 +145,11 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
     optional = [p + j for p in ("qd_", "qdd_") for j in names]
     has_rates = all(c in header for c in optional)
     used = need + (optional if has_rates else [])
+    twice = next((c for c in used if header.count(c) > 1), None)
+    if twice is not None:
+        first = header.index(twice)
+        raise LogFileError(f"{path}: row 1: column {quote(twice)} appears twice (columns "
+                           f"{first + 1} and {header.index(twice, first + 1) + 1})")
     cols = [header.index(c) for c in used]
     data = np.empty((len(rows) - 1, len(cols)))
     for r, row in enumerate(rows[1:]):

@@ -157,8 +157,8 @@ class RobotOptions:
     actuators : the path of a sidecar actuator file (:func:`apply_actuator_file`), or None.
     tip : the URDF chain's last link, or several (the subtree holding them), or None (the
         whole tree): :func:`mrnea.io.urdf.load_urdf`.
-    payload : a :class:`~mrnea.io.payload.Payload` fixed to its link (the last by default),
-        or None.
+    payload : the :class:`~mrnea.io.payload.Payload` s fixed to their links (each the last
+        link by default), a tuple of them (one Payload is taken as a tuple of one), or None.
     gravity : (3,) gravity [m/s^2] in base coordinates replacing the robot's, or None.
     package_path : folders where the robot file's ``package://`` mesh names not found at load
         are looked for (:func:`with_package_path`; the command line's ``--package-path``), or
@@ -167,9 +167,15 @@ class RobotOptions:
 
     actuators: str | None = None
     tip: str | tuple[str, ...] | None = None
-    payload: Payload | None = None
+    payload: tuple[Payload, ...] | None = None
     gravity: tuple[float, float, float] | None = None
     package_path: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.payload, Payload):  # one payload: a tuple of one
+            object.__setattr__(self, "payload", (self.payload,))
+        elif self.payload is not None:
+            object.__setattr__(self, "payload", tuple(self.payload))
 
     def over(self, other: RobotOptions) -> RobotOptions:
         """These options where they are set, ``other``'s elsewhere (the command line's over a
@@ -184,8 +190,9 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
     """Load the robot ``spec`` names: a built-in robot or a robot file (:func:`resolve_robot`).
 
     ``options`` are applied in this order: the chain's ``tip`` (URDF files only), the sidecar
-    ``actuators`` file (over the robot file's own values), the ``payload`` on the last link
-    (:meth:`~mrnea.model.Robot.with_payload`), ``gravity`` (over the robot file's).
+    ``actuators`` file (over the robot file's own values), each ``payload`` on its link (the
+    last by default; :meth:`~mrnea.model.Robot.with_payload`, one after the other), ``gravity``
+    (over the robot file's).
 
     Raises
     ------
@@ -213,8 +220,8 @@ def load_robot_spec(spec: str, base_dir: str | Path | None = None,
     if opt.actuators is not None:
         robot = apply_actuator_file(robot, opt.actuators)
     try:
-        if opt.payload is not None:
-            robot = robot.with_payload(*opt.payload)
+        for p in opt.payload or ():
+            robot = robot.with_payload(*p)
         if opt.gravity is not None:
             robot = robot.with_gravity(opt.gravity)
     except ModelError as exc:

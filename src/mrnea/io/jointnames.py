@@ -19,6 +19,7 @@ may give joints by name instead of by position (format: ``docs/programs.md``, "J
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -52,13 +53,20 @@ class CsvHeader(NamedTuple):
     line: int
 
 
-def column_order(header: CsvHeader, robot: Robot) -> NDArray[np.int64] | None:
+#: A header cell ``name [unit]``: the joint's name and its unit in brackets.
+_UNIT = re.compile(r"(.*?)\s*\[\s*([^\[\]]*?)\s*\]")
+
+
+def column_order(header: CsvHeader, robot: Robot, units: str = "rad"
+                 ) -> NDArray[np.int64] | None:
     """The CSV column of each of ``robot``'s joints when the header names them, else None.
 
     Parameters
     ----------
     header : the CSV's header row (:func:`mrnea.io.pathcsv.read_table`).
     robot : the robot the path is for.
+    units : the file's units, ``"rad"`` (rad, m) or ``"deg"`` (deg, mm): a column's header
+        ``name [unit]`` is the joint ``name``, and its unit, when given, must be that joint's.
 
     Returns
     -------
@@ -69,19 +77,26 @@ def column_order(header: CsvHeader, robot: Robot) -> NDArray[np.int64] | None:
     Raises
     ------
     ProgramFileError
-        A column that is not a joint, a joint named twice, or a joint without a column; the
-        message names the file, the line and the name.
+        A column that is not a joint, a joint named twice, a joint without a column, or a
+        unit that is not the joint's; the message names the file, the line and the name.
     """
-    names = list(header.names[1:])
+    cells = [_UNIT.fullmatch(cell) for cell in header.names[1:]]
+    names = [m.group(1) if m else cell for m, cell in zip(cells, header.names[1:], strict=True)]
     index = {name: i for i, name in enumerate(robot.joint_names)}
     if not any(name in index for name in names):
         return None
     where = f"{header.source}: line {header.line} (header)"
     order = np.full(robot.n, -1, dtype=np.int64)
-    for col, name in enumerate(names, start=1):
+    for col, (name, m) in enumerate(zip(names, cells, strict=True), start=1):
         if name not in index:
             raise ProgramFileError(f"{where}: column {col + 1} {_unknown(name, robot)} (the "
                                    f"header names joints, so every column after time must)")
+        joint = robot.joints[index[name]]
+        unit = ("mm" if units == "deg" else "m") if joint.is_prismatic else units
+        if m and m.group(2) != unit:
+            raise ProgramFileError(f"{where}: column {col + 1} {quote(header.names[col])}: "
+                                   f"joint {quote(name)} is read in {unit!r} here (units "
+                                   f"{units!r}), not {quote(m.group(2))}")
         if order[index[name]] >= 0:
             raise ProgramFileError(f"{where}: joint {quote(name)} has two columns "
                                    f"({order[index[name]] + 1} and {col + 1})")

@@ -153,8 +153,15 @@ def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64
                 except ValueError as exc:
                     where = (f"{path}: line {line} (data row {rows + 1}), column {col + 1} "
                              f"({quote(header[col])})")
-                    raise ProgramFileError(f"{where}: {exc}" if cell else f"{where}: empty cell"
-                                           ) from None
+                    # a decimal comma under a semicolon header, or a header and rows that
+                    # disagree: name the delimiter expected and the one the cell holds
+                    held = [name for d, name in DELIMITERS.items()
+                            if d != delimiter and d != " " and d in cell]
+                    hint = (f" (the cell holds a {held[0]}; columns are separated by "
+                            f"{DELIMITERS[delimiter]} as in the header (line {header_line}), and "
+                            "numbers use a decimal point)" if held else "")
+                    raise ProgramFileError(f"{where}: {exc}{hint}" if cell
+                                           else f"{where}: empty cell") from None
                 if col == 0 and rows and v <= last_time:
                     raise ProgramFileError(
                         f"{path}: line {line} (data row {rows + 1}), column 1 "
@@ -264,7 +271,7 @@ def from_csv(
     p = as_path(path, "path", ProgramFileError)
     header, data = read_table(p, None if n is None or robot is not None else int(n))
     if robot is not None:
-        order = column_order(header, robot)
+        order = column_order(header, robot, units)
         if order is not None:
             data = data[:, np.r_[0, order]]
         elif data.shape[1] != n + 1:
@@ -364,12 +371,11 @@ def degree_hint(robot: Robot, rows: NDArray, source: str) -> None:
     if outside.size == 0 or values.size == 0 or values.max() > 360.0 or values.max() <= 2 * np.pi:
         return
     i = int(outside[0])
-    warnings.warn(
-        f"{source}: the joint columns look like degrees (every value within ±360, up to "
-        f"{values.max():.4g}); read in rad, joint '{robot.joint_names[i]}' starts at "
-        f"{q0[i]:.4g}, outside its limits [{robot.lower[i]:.4g}, {robot.upper[i]:.4g}]: if the "
-        "file is in degrees (mm for prismatic joints), pass --units deg (Python: units=\"deg\")",
-        PathWarning, stacklevel=3)
+    said = (f"{source}: the joint columns look like degrees (every value within ±360, up to "
+            f"{values.max():.4g}); read in rad, joint '{robot.joint_names[i]}' starts at "
+            f"{q0[i]:.4g}, outside its limits [{robot.lower[i]:.4g}, {robot.upper[i]:.4g}]: if "
+            "the file is in degrees (mm for prismatic joints), pass ")
+    warnings.warn(PathWarning(said + 'units="deg"', cli=said + "--units deg"), stacklevel=3)
 
 
 def limit_warnings(robot: Robot, t: NDArray, q: NDArray, rows: NDArray, interpolation: str,

@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation, RotationSpline, Slerp
 
 from mrnea.errors import ProgramFileError, StateError, quote
 from mrnea.io.pathcsv import data_lines, read_table, resample
@@ -68,6 +67,8 @@ def _columns(path: Path, header: list[str], line: int) -> dict[str, str]:
 def read_poses(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], list[int]]:
     """(time (R,) [s], poses (R, 4, 4) base frame [m], line numbers (R,)) of a pose CSV (module
     docstring). ProgramFileError: naming the file, the line and the column at fault."""
+    from scipy.spatial.transform import Rotation  # here: scipy.spatial costs every command ~0.4 s
+
     header, rows = read_table(path, None)
     lines = data_lines(path)
     layout = _columns(path, list(header.names), lines[0])
@@ -99,6 +100,8 @@ def resample_poses(time: NDArray, poses: NDArray, dt: float, interpolation: str 
         t, xyz = resample(time, poses[:, :3, 3], dt, interpolation, source)
     except StateError as exc:
         raise ProgramFileError(f"{source}: {exc}") from None
+    from scipy.spatial.transform import Rotation, RotationSpline, Slerp  # here: see read_poses
+
     rot = Rotation.from_matrix(poses[:, :3, :3])
     at = np.minimum(t, time[-1])
     if np.all(poses[:, :3, :3] == poses[0, :3, :3]):
@@ -119,6 +122,8 @@ def save_poses(path: str | os.PathLike[str], t: NDArray, poses: NDArray,
     qw, qx, qy, qz``, then one row per pose (t (K,) [s], poses (K, 4, 4) base frame), every
     number as Python's shortest repr. Through :func:`mrnea.io.writer.create`: whole or not at
     all, an existing file replaced only with ``overwrite``."""
+    from scipy.spatial.transform import Rotation  # here: see read_poses
+
     quat = Rotation.from_matrix(np.asarray(poses)[:, :3, :3]).as_quat(scalar_first=True)
     rows = np.column_stack([t, np.asarray(poses)[:, :3, 3], quat]).tolist()
     with create(path, overwrite) as fh:

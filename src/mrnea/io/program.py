@@ -29,7 +29,7 @@ from mrnea.io.payload import parse_payload
 from mrnea.io.program_value import Program
 from mrnea.io.source import as_path, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
-from mrnea.io.wrench import WRENCH_KEYS, read_wrench, wrench_at
+from mrnea.io.wrench import WRENCH_KEYS, LinkWrenches, read_wrenches, wrench_at
 from mrnea.io.writer import create
 
 __all__ = ["Program", "dumps_program", "is_program_file", "load_program", "loads_program",
@@ -68,10 +68,12 @@ def _options(check: TomlCheck, prog: Mapping[str, Any], base_dir: Path) -> Robot
         tip = prog["tip"]
         kw["tip"] = (tuple(check.string(t, where, "tip") for t in tip)
                      if isinstance(tip, list) and tip else check.string(tip, where, "tip"))
-    if "payload" in prog:
+    if "payload" in prog:  # one, or a list: several, each on its own link
+        given = prog["payload"]
+        specs = given if isinstance(given, list) and given else [given]
         try:
-            kw["payload"] = parse_payload(check.string(prog["payload"], where, "payload"),
-                                          base_dir, ProgramFileError)
+            kw["payload"] = tuple(parse_payload(check.string(s, where, "payload"), base_dir,
+                                                ProgramFileError) for s in specs)
         except MrneaError as exc:
             raise check.error(where, str(exc)) from None
     if "gravity" in prog:
@@ -208,11 +210,10 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
         moves = read_moves(check, prog, doc["move"], dt, base)
         wrench = point = None
         if "wrench" in doc:
-            *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
-                                     robot)
+            wrench, point = read_wrenches(check, doc["wrench"], robot)
         return Program(robot=robot, dt=dt, t=None, q_cmd=None, f_ext=None, f_ext_point=point,
                        mode=mode, name=name, source=source, options=options, moves=moves,
-                       wrench=None if wrench is None else tuple(wrench))
+                       wrench=wrench)
     for key in _MOVE_KEYS:
         if key in prog:
             raise check.error("[program]", f"'{key}' belongs to a program of [[move]] tables "
@@ -226,15 +227,15 @@ def loads_program(text: str, source: str = "<string>", base_dir: str | Path | No
     if q.shape[0] < 2:
         raise check.error("[path]", "the program is a single cycle (all waypoints equal and no "
                                     "dwell); give at least two distinct waypoints or a dwell")
-    f_ext = point = None
+    f_ext = point = wrench = None
     if "wrench" in doc:
-        times, values, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
-                                           robot)
-        f_ext = wrench_at(times, values, t)
+        wrench, point = read_wrenches(check, doc["wrench"], robot)
+        if not isinstance(wrench, LinkWrenches):  # on named links: made on the robot (on())
+            f_ext, wrench = wrench_at(*wrench, t), None
     for a in (t, q, f_ext, point, rows):
         if a is not None:
             a.setflags(write=False)
-    return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point,
+    return Program(robot=robot, dt=dt, t=t, q_cmd=q, f_ext=f_ext, f_ext_point=point, wrench=wrench,
                    mode=mode, name=name, source=source, options=options,
                    csv=path["csv"] if "csv" in path else None, interpolation=interpolation,
                    csv_rows=rows, columns=header, units=path.get("units", "rad"),
@@ -256,10 +257,9 @@ def _named(check: TomlCheck, doc: Mapping[str, Any], path: Mapping[str, Any],
     named = read_named_path(check, path, math.pi / 180.0 if units == "deg" else 1.0)
     wrench = point = None
     if "wrench" in doc:
-        *wrench, point = read_wrench(check, check.table(doc["wrench"], "top level", "wrench"),
-                                     fields["robot"])
+        wrench, point = read_wrenches(check, doc["wrench"], fields["robot"])
     return Program(t=None, q_cmd=None, f_ext=None, f_ext_point=point, named=named,
-                   wrench=None if wrench is None else tuple(wrench), units=units,
+                   wrench=wrench, units=units,
                    _mm_pending=units == "deg", **fields)
 
 

@@ -20,7 +20,7 @@ from mrnea.io.dispatch import RobotOptions, load_robot_spec, resolve_robot, same
 from mrnea.io.jointnames import CsvHeader, NamedPath, column_order, named_rows
 from mrnea.io.moves import Moves
 from mrnea.io.pathcsv import limit_warnings
-from mrnea.io.wrench import wrench_at
+from mrnea.io.wrench import LinkWrenches, wrench_at, wrenches_on
 from mrnea.model import Robot
 
 __all__ = ["Program"]
@@ -67,7 +67,11 @@ class Program:
     wrench : a Cartesian program's or a named path's ``[wrench]`` breakpoints (times (W,) [s]
         from its first cycle, values (W, 6) [N, N m]), made into ``f_ext`` (a Cartesian
         program's ``f_ext_point`` defaulted to the tool point) when it is solved (:meth:`on`
-        for a named path); None otherwise.
+        for a named path); or wrenches on named links (``[[wrench]]`` tables or a ``link``
+        key: a :class:`mrnea.io.wrench.LinkWrenches`), made into ``f_ext`` and
+        ``f_ext_point`` by link name (``{link: (K, 6)}``, ``{link: (3,)}``, as
+        :func:`mrnea.simulate.simulate` takes them) on the robot, where the names are checked
+        (:meth:`on`, :func:`mrnea.cartesian.solve`); None otherwise.
     columns : a CSV path's header (time first), matched to a robot's joint names by :meth:`on`
         where it names them (:func:`mrnea.io.jointnames.column_order`); None for waypoints.
     units : the ``[path]``'s ``units``: ``"deg"`` reads revolute joints in degrees and prismatic
@@ -93,7 +97,7 @@ class Program:
     moves: Moves | None = None
     cartesian: Any = None
     named: NamedPath | None = None
-    wrench: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    wrench: tuple[NDArray[np.float64], NDArray[np.float64]] | LinkWrenches | None = None
     columns: CsvHeader | None = None
     units: Literal["rad", "deg"] = "rad"
     _mm_pending: bool = field(default=False, repr=False)
@@ -195,7 +199,7 @@ class Program:
         """A CSV path's column of each of ``robot``'s joints where its header names them."""
         if self.columns is None:
             return None
-        return column_order(self.columns, robot)
+        return column_order(self.columns, robot, self.units)
 
     def on(self, robot: Robot) -> Program:
         """This program with its path in ``robot``'s joint order: a path of waypoint tables
@@ -208,13 +212,27 @@ class Program:
             A name that is not one of ``robot``'s joints, a joint the CSV has no column for,
             and :func:`mrnea.io.jointnames.named_rows`' errors; naming the file and the joint.
         """
+        return self._in_order(robot)._links_on(robot)
+
+    def _links_on(self, robot: Robot) -> Program:
+        """Wrenches on named links (:class:`mrnea.io.wrench.LinkWrenches`) made into ``f_ext``
+        and ``f_ext_point`` by link name, once the cycles are known (a Cartesian program's:
+        :mod:`mrnea.cartesian.solve`); the links checked on ``robot``."""
+        if not isinstance(self.wrench, LinkWrenches) or self.t is None:
+            return self
+        f_ext, points = wrenches_on(self.wrench, robot, self.t, self.source or self.name)
+        return dataclasses.replace(self, f_ext=f_ext, f_ext_point=points, wrench=None)
+
+    def _in_order(self, robot: Robot) -> Program:
         if self.named is not None:
             t, q = named_rows(self.named, robot, self.dt)
-            f_ext = None if self.wrench is None else wrench_at(*self.wrench, t)
+            links = isinstance(self.wrench, LinkWrenches)
+            f_ext = None if self.wrench is None or links else wrench_at(*self.wrench, t)
             for a in (t, q, f_ext):
                 if a is not None:
                     a.setflags(write=False)
-            made = dataclasses.replace(self, t=t, q_cmd=q, f_ext=f_ext, named=None, wrench=None)
+            made = dataclasses.replace(self, t=t, q_cmd=q, f_ext=f_ext, named=None,
+                                       wrench=self.wrench if links else None)
             made.apply_units(robot)
             return made
         order = self._order(robot)

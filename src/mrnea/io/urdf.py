@@ -257,7 +257,8 @@ class _Reader:
 
 def _tip_candidates(links: dict[str, _UrdfLink], paths: list[tuple[str, list[_UrdfJoint]]]
                     ) -> list[str]:
-    """The leaves whose path has a moving joint, ordered by the mass the chain to them would
+    """The leaves whose path has a moving joint (the caller gives those whose path has no
+    ``<mimic>`` joint), ordered by the mass the chain to them would
     move (the links after the path's first moving joint), heaviest first, then by name: real
     end effectors before the cameras and sensors hanging off a wrist with placeholder masses."""
     def moved(path: list[_UrdfJoint]) -> float:
@@ -412,14 +413,17 @@ def load_urdf(
                 raise rd.error(f"the path from root link {quote(base)} to tip link {quote(t)} "
                                "has no moving joint")
             kept.update(on_path)
-    # depth first, children in file order (``order``): Robot's order, and Pinocchio's
+    # depth first, children in file order (``order``): Robot's order (Pinocchio's URDF parser
+    # orders a link's children by joint name instead: tests compare by name)
     chain_path = [parent_joint[name] for name in order[1:] if parent_joint[name].name in kept]
     chain = {j.name: i + 1 for i, j in enumerate(chain_path)}  # joint -> body index (1..n)
     for j in chain_path:
         if j.mimic:
             leaves = [name for name in order if not children[name]]
+            # a candidate's path avoids every <mimic> joint, not only this one: a tip it
+            # suggests must load
             candidates = _tip_candidates(links, [(lf, path_to(lf)) for lf in leaves
-                                                 if j not in path_to(lf)])
+                                                 if not any(k.mimic for k in path_to(lf))])
             raise rd.error(
                 f"joint {quote(j.name)}: <mimic> joints (coupled to another joint) are not "
                 f"supported: keep the links whose paths avoid it with tip=<link name> "

@@ -1,9 +1,11 @@
-"""A program file's ``[wrench]`` table: its breakpoints read, and interpolated at the cycles.
+"""A program file's ``[wrench]`` table(s): breakpoints read, and interpolated at the cycles.
 
-Format: ``docs/programs.md`` ("[wrench]"). :func:`read_wrench` checks the table (a
+Format: ``docs/programs.md`` ("[wrench]"). :func:`read_wrenches` reads one ``[wrench]`` table or
+several (``[[wrench]]``, each with its ``link``); :func:`read_wrench` checks one table (a
 :class:`mrnea.io.tomlcheck.TomlCheck` names the file and the key at fault); :func:`wrench_at`
 gives the wrench of every cycle, for a path when the file is read and for a Cartesian program
-once its moves are solved (:mod:`mrnea.cartesian.solve`).
+once its moves are solved (:mod:`mrnea.cartesian.solve`); :func:`wrenches_on` does it for
+wrenches on named links, once the robot is known (their names are checked there).
 """
 
 from __future__ import annotations
@@ -14,12 +16,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.errors import ProgramFileError, quote
 from mrnea.io.dispatch import flange_of
 from mrnea.io.tomlcheck import TomlCheck
+from mrnea.model import Robot
 
-__all__ = ["POINT_FRAMES", "WRENCH_KEYS", "read_wrench", "wrench_at"]
+__all__ = ["POINT_FRAMES", "WRENCH_KEYS", "LinkWrenches", "read_wrench", "read_wrenches",
+           "wrench_at", "wrenches_on"]
 
-WRENCH_KEYS = ("times", "values", "point", "point_frame")
+WRENCH_KEYS = ("times", "values", "point", "point_frame", "link")
 #: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
 #: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
 POINT_FRAMES = ("link", "flange")
@@ -34,13 +39,68 @@ def wrench_at(times: NDArray, values: NDArray, t: NDArray) -> NDArray[np.float64
     return f_ext
 
 
-def read_wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None
-                ) -> tuple[NDArray, NDArray, NDArray | None]:
-    """(times (W,) [s], values (W, 6) [N, N m], point (3,) [m] in the last link's frame or
-    None) of a ``[wrench]`` table (docs/programs.md); ``robot`` the program's robot spec (a
-    ``"flange"`` point needs a DH robot). ProgramFileError naming the key at fault."""
-    where = "[wrench]"
+class LinkWrenches(dict):
+    """Wrenches on named links, as a program file gives them: ``{link: (times (W,) [s], values
+    (W, 6) [N, N m], point (3,) [m] in that link's frame or None)}``, the key None for a table
+    without ``link`` (the last link; a Cartesian program's TCP)."""
+
+
+def read_wrenches(check: TomlCheck, given: Any, robot: str | None
+                  ) -> tuple[tuple[NDArray, NDArray] | LinkWrenches, NDArray | None]:
+    """A program's ``[wrench]`` (one table) or ``[[wrench]]`` (a list of tables): (wrench,
+    point). One table without ``link``: ``(times, values)`` and its point (3,) or None, the
+    last link's wrench as before. Otherwise a :class:`LinkWrenches` and None (the points are
+    in it); two tables on one link are an error naming it."""
+    tables = given if isinstance(given, list) else [check.table(given, "top level", "wrench")]
+    if not tables:
+        raise check.error("top level", "'wrench' is an empty list: give at least one [[wrench]]")
+    read = [read_wrench(check, check.table(t, "top level", f"wrench[{k}]"), robot,
+                        "[wrench]" if len(tables) == 1 else f"[[wrench]] {k + 1}")
+            for k, t in enumerate(tables)]
+    if len(read) == 1 and read[0][0] is None:
+        return read[0][1:3], read[0][3]
+    out = LinkWrenches()
+    for k, (link, times, values, point) in enumerate(read):
+        if link in out:
+            raise check.error(f"[[wrench]] {k + 1}", f"a second wrench on link "
+                                                     f"{quote(link or 'the last link')}: "
+                                                     f"give one table per link")
+        out[link] = (times, values, point)
+    return out, None
+
+
+def wrenches_on(wrenches: LinkWrenches, robot: Robot, t: NDArray, where: str,
+                tcp: NDArray | None = None) -> tuple[dict[str, NDArray], dict[str, NDArray]]:
+    """``f_ext`` and ``f_ext_point`` by link name (what :func:`mrnea.simulate.simulate` takes)
+    of ``wrenches`` at the cycle times t (K,) [s] on ``robot``: each link's (K, 6) wrench and
+    its point (3,) where given (``tcp``: the point of a table without ``link`` and without
+    ``point``, a Cartesian program's tool point). A link the robot does not have is a
+    ProgramFileError naming ``where`` (the file) and the link, with a close match."""
+    f_ext, points = {}, {}
+    for link, (times, values, point) in wrenches.items():
+        name = (robot.link_names[-1] if link is None else
+                robot.link_names[robot.link_index(link, f"{where}: [wrench] 'link'",
+                                                  ProgramFileError)])
+        if name in f_ext:
+            raise ProgramFileError(f"{where}: [wrench]: two wrenches on link {quote(name)} (the "
+                                   f"last link: a table without 'link'); give one per link")
+        f_ext[name] = wrench_at(times, values, t)
+        f_ext[name].setflags(write=False)
+        if point is None and link is None:
+            point = tcp
+        if point is not None:
+            points[name] = point
+    return f_ext, points
+
+
+def read_wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None,
+                where: str = "[wrench]") -> tuple[str | None, NDArray, NDArray, NDArray | None]:
+    """(link or None, times (W,) [s], values (W, 6) [N, N m], point (3,) [m] in that link's
+    frame (the last link's for None) or None) of a ``[wrench]`` table (docs/programs.md);
+    ``robot`` the program's robot spec (a ``"flange"`` point needs a DH robot). ProgramFileError
+    naming ``where`` and the key at fault."""
     check.check_keys(table, WRENCH_KEYS, where)
+    link = check.string(table["link"], where, "link") if "link" in table else None
     times = check.vector(check.require(table, "times", where), where, "times")
     if np.any(np.diff(times) <= 0):
         k = int(np.argmax(np.diff(times) <= 0)) + 1
@@ -55,6 +115,9 @@ def read_wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None
     if frame not in POINT_FRAMES:
         raise check.error(where, f"'point_frame' must be one of "
                                  f"{', '.join(map(repr, POINT_FRAMES))}, got {frame!r}")
+    if frame == "flange" and link is not None:
+        raise check.error(where, "point_frame = 'flange' is DH frame n, on the last link: give "
+                                 "a named link's point in its own frame ('link')")
     if frame == "flange":  # DH frame n -> the last link's frame: p_link = B_n p_flange
         B = flange_of(robot)
         if B is None:
@@ -65,4 +128,4 @@ def read_wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None
     for a in (times, values, point):
         if a is not None:
             a.setflags(write=False)
-    return times, values, point
+    return link, times, values, point

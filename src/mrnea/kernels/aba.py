@@ -10,15 +10,27 @@ Spatial vectors in base coordinates, Plucker style about the base origin O: moti
 or [0; z_i] (prismatic); link i's spatial inertia about O is
 ``[[Ic - m [c]x [c]x, m [c]x], [-m [c]x, m 1]]``. Gravity enters as the base acceleration
 [0; -g]; the external wrench k_e as the force [n_e + p x f_e; f_e] the environment takes from
-the last link (so the last link receives its negative).
+the last link (so the last link receives its negative); a wrench per link (``fext`` (n, 6),
+kernels/common.py) so on each link.
 """
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
-from mrnea.kernels.common import add, cross, finite, kinematics, sized, tip_point, vec, wrench
+from mrnea.kernels.common import (
+    add,
+    cross,
+    finite,
+    kinematics,
+    link_wrench,
+    per_link_type,
+    sized,
+    tip_wrench,
+    vec,
+)
 from mrnea.kernels.layout import (
     ENTRY_ALLOC,
     JIT,
@@ -50,6 +62,34 @@ def _force_cross(v, f, out):
     a = add(cross(w, fn), cross(vo, ff))
     b = cross(w, ff)
     out[0], out[1], out[2], out[3], out[4], out[5] = a[0], a[1], a[2], b[0], b[1], b[2]
+
+
+@nb.njit(**JIT)
+def _spatial(R, o, fext, pe, pA):
+    for i in range(pA.shape[0]):
+        f, m, p = link_wrench(o, R, fext, pe, i)
+        m = add(m, cross(p, f))
+        for a in range(3):
+            pA[i, a] += m[a]
+            pA[i, 3 + a] += f[a]
+
+
+@nb.njit(**JIT)
+def _no_spatial(R, o, fext, pe, pA):
+    return
+
+
+def spatial_wrenches(R, o, fext, pe, pA):
+    """A per-link ``fext`` (n, 6) (kernels/common.py): each link's bias force takes its wrench
+    as the environment's reaction, ``pA_i += [n_i + p_i x f_i; f_i]`` (as the last link's below).
+    No-op otherwise. Python body for NUMBA_DISABLE_JIT; compiled code uses the overload."""
+    if fext is not None and np.ndim(fext) == 2:
+        _spatial(R, o, fext, pe, pA)
+
+
+@overload(spatial_wrenches, inline="always")
+def _spatial_overload(R, o, fext, pe, pA):
+    return (_spatial if per_link_type(fext) else _no_spatial).py_func
 
 
 @nb.njit(**ENTRY_ALLOC)
@@ -107,8 +147,8 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
                 Iv[a] += IA[i, a, b] * v[i, b]
         _force_cross(v[i], Iv, pA[i])
     # the environment's reaction on the last link: p_n -= -[n_e + p x f_e; f_e]
-    p = tip_point(o, R, n, pe)
-    fe, ne = wrench(fext)
+    fe, ne, p = tip_wrench(o, R, n, fext, pe)
+    spatial_wrenches(R, o, fext, pe, pA)  # a wrench per link, if given: each link's own
     ne = add(ne, cross(p, fe))
     for a in range(3):
         pA[n - 1, a] += ne[a]

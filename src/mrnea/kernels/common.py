@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
 from mrnea.kernels.layout import (
     COM,
@@ -212,6 +213,83 @@ def tip_point(o, R, n, pe):
     if pe is None:
         return vec(o, n - 1)
     return add(vec(o, n - 1), mv(R, n - 1, (pe[0], pe[1], pe[2])))
+
+
+# --- external wrenches --------------------------------------------------------------------------
+# ``fext`` is None (no wrench), (6,) (the last link's wrench, ``pe`` (3,) its point in that link's
+# frame: the paper's k_e, entered as a virtual link n + 1) or (n, 6) (one wrench per link, base
+# coordinates, ``pe`` (n, 3) the point of each in its own link's frame: Pinocchio's fext, a
+# wrench per body). Which one is a compile-time choice (the overloads below read the array's
+# type), so the free-motion and last-link paths compile exactly as before.
+
+@nb.njit(**INLINE)
+def link_wrench(o, R, fext, pe, i):
+    """Link i's wrench of a per-link ``fext`` (n, 6): (f, n, p), its force and moment (base
+    coordinates) and the base-frame point p = o_i + R_i pe[i] where it acts."""
+    f = (fext[i, 0], fext[i, 1], fext[i, 2])
+    m = (fext[i, 3], fext[i, 4], fext[i, 5])
+    if pe is None:
+        return f, m, vec(o, i)
+    return f, m, add(vec(o, i), mv(R, i, (pe[i, 0], pe[i, 1], pe[i, 2])))
+
+
+def per_link_type(fext) -> bool:
+    """True for a per-link wrench array's Numba type (a 2-D array)."""
+    return isinstance(fext, nb.types.Array) and fext.ndim == 2
+
+
+@nb.njit(**INLINE)
+def _tip_wrench(o, R, n, fext, pe):
+    f, m = wrench(fext)
+    return f, m, tip_point(o, R, n, pe)
+
+
+@nb.njit(**INLINE)
+def _no_tip_wrench(o, R, n, fext, pe):
+    return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), vec(o, n - 1)
+
+
+def tip_wrench(o, R, n, fext, pe):
+    """(f_{n+1}, n_{n+1}, p): the virtual link n + 1's force and moment (Eqs. 10-11) and the
+    base-frame point where they act: the last link's wrench at its point; zero for a per-link
+    ``fext`` (those are folded into the links' own F, N by :func:`fold_wrenches`). Python body
+    for NUMBA_DISABLE_JIT; compiled code uses the overload."""
+    if fext is not None and np.ndim(fext) == 2:
+        return _no_tip_wrench(o, R, n, fext, pe)
+    return _tip_wrench(o, R, n, fext, pe)
+
+
+@overload(tip_wrench, inline="always")
+def _tip_wrench_overload(o, R, n, fext, pe):
+    return (_no_tip_wrench if per_link_type(fext) else _tip_wrench).py_func
+
+
+@nb.njit(**INLINE)
+def _fold(R, o, c, fext, pe, F, N):
+    for i in range(F.shape[0]):
+        f, m, p = link_wrench(o, R, fext, pe, i)
+        put(F, i, add(vec(F, i), f))
+        put(N, i, add(vec(N, i), add(m, cross(sub(p, vec(c, i)), f))))
+
+
+@nb.njit(**INLINE)
+def _no_fold(R, o, c, fext, pe, F, N):
+    return
+
+
+def fold_wrenches(R, o, c, fext, pe, F, N):
+    """A per-link ``fext``: link i's wrench, exerted on its environment, is a force and a moment
+    the link needs on top of its own, so it adds to the link's total force F_i (Eq. 6) f_i and to
+    its moment N_i about the centre of mass (Eq. 7) n_i + (p_i - c_i) x f_i; the backward passes
+    then carry it to every joint that supports link i. No-op for None or a last-link (6,)
+    ``fext``. Python body for NUMBA_DISABLE_JIT; compiled code uses the overload."""
+    if fext is not None and np.ndim(fext) == 2:
+        _fold(R, o, c, fext, pe, F, N)
+
+
+@overload(fold_wrenches, inline="always")
+def _fold_overload(R, o, c, fext, pe, F, N):
+    return (_fold if per_link_type(fext) else _no_fold).py_func
 
 
 @nb.njit(**INLINE)

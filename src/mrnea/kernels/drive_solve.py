@@ -65,6 +65,21 @@ never 1e-18: no creep, no sign flips); a release that rounding sends the wrong w
 back onto its breakpoint, is undone and that joint not released again until another release
 succeeds (``tabu``). None of these acts in exact arithmetic.
 
+Cost. Each pass through steps 2-4 costs O(n^2) besides step 2's factor of H_FF, and a
+saturated cycle makes about 1.4 n of them (a 100- to 300-joint chain, every drive saturated).
+Made afresh at every step (m^3 / 6 for m free joints) the factor makes a saturated cycle
+O(n^4); from UPDATE_FROM joints on it is instead kept and updated (``update``,
+kernels/solve.py): the joint released in step 4 is appended as the factor's last row
+(``factor_append``, O(m^2)), a joint held in step 3 is removed (``factor_remove``: a rank-one
+update of the rows after it, O(m^2)), so a cycle is O(n^3). The free joints then sit in the
+factor's order (idx[:m]), the held joints' part of step 2's right-hand side is H_a's product
+with qw (qdd on the held joints, 0 on the free ones), and the long sums run in four partial
+sums. The two ways give the same solution up to rounding (tests/test_drive_solve_update.py);
+below UPDATE_FROM the refactorising way is kept operation for operation (no faster to update
+there, measured: benchmarks/long_chain.py, docs/performance.md). A singular free block is
+reported at the joint whose pivot fails: in index order when refactorising, the joint being
+appended when updating.
+
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
 (H_a qdd + u'_a)_i is: friction takes up to its capacity first, the drive the rest
@@ -84,12 +99,16 @@ import numba as nb
 
 from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
 from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
-from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.solve import cholesky_solve, dot, factor_append, factor_remove, factor_solve
 from mrnea.kernels.status import CYCLE_LIMIT, OK
 
 PAPER, HYBRID = 0, 1  # how the drives meet their limits (module docstring)
 MULT_TOL = 1e-12  # a multiplier this close (relative) to its interval counts as inside
 SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held there
+# from this many joints on, step 2's factor of H_FF is updated one joint at a time (O(m^2) a
+# step: module docstring, 'Cost'); below it, refactorised at every step (measured:
+# benchmarks/long_chain.py, docs/performance.md)
+UPDATE_FROM = 16
 # compiled into the caller: the active set into solve_cycle, solve_cycle into step and
 # achievable_ws. As calls of their own (17 array arguments) they cost 0.1-0.25 us a cycle in
 # paper mode (measured: docs/design.md)
@@ -160,8 +179,19 @@ def _start(v0, nb_, i, bp):
 @nb.njit(**INTO)
 def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws):
-    """Solve one cycle exactly (module docstring). Returns OK, the joint index of a failed
-    pivot of a free block of H_a (singular), or CYCLE_LIMIT.
+    """Solve one cycle exactly (module docstring), H_FF's factor updated from UPDATE_FROM
+    joints on (:func:`solve_cycle_by`, whose arguments and result it has)."""
+    return solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
+                          tau_req, sat, stuck, ws, qd.shape[0] >= UPDATE_FROM)
+
+
+@nb.njit(**INTO)
+def solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
+                   sat, stuck, ws, update):
+    """Solve one cycle exactly (module docstring), step 2's factor of H_FF updated one joint
+    at a time (``update``) or made afresh at every step: the same solution up to rounding
+    (tests and benchmarks/long_chain.py force either). Returns OK, the index of a joint whose
+    pivot of a free block of H_a failed (singular), or CYCLE_LIMIT.
 
     Parameters
     ----------
@@ -180,6 +210,7 @@ def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         friction, the program's requirement (joint side; tau - phi = H_a qdd + u'_a).
     sat, stuck : (n,) bool out: saturated, stuck (v == 0 exactly).
     ws : an ACHIEVABLE scratch (its ``drive_solve_buffers``); the arrays above are not in it.
+    update : bool, factor H_FF by updates (long chains) or afresh at every step.
     """
     n = qd.shape[0]
     # 0. tau_req = H_a qdd_des + u'_a + phi_des (Eq. 42 at the program's motion), and the
@@ -196,14 +227,29 @@ def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         fast = fast and not _over(tau_req[i], Llo[i], Lhi[i])
     if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
         return OK
+    if update:
+        return _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd,
+                                   tau, phi, tau_req, sat, stuck, ws)
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws)
+                       tau_req, sat, stuck, ws, False)
+
+
+@nb.njit(**JIT)
+def _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
+                        tau_req, sat, stuck, ws):
+    """Steps 1-4 with the factor updated, as a call of its own: the code compiled into the
+    cycle loop (update = False, a constant there) stays that of the refactorising way alone."""
+    return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
+                       tau_req, sat, stuck, ws, True)
 
 
 @nb.njit(**INTO)
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
-                sat, stuck, ws):
-    """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`; tau_req filled)."""
+                sat, stuck, ws, update):
+    """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle_by`; tau_req
+    filled). With ``update``, idx[:m] lists the free joints in the order of their factor Lc
+    (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in step with the patterns: a joint
+    is appended where it is released, removed where it is held."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
     Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)
@@ -223,26 +269,41 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         tabu[i] = 0
         max_iter = min(max_iter * (2 * nbp[i] + 1), 1 << 40)
     max_iter *= n + 1  # the exact-arithmetic bound (module docstring)
+    m = 0  # number of free joints
+    qw = Hs[0]  # update: qdd on the held joints, 0 on the free ones (H_FW qdd_W = (H_a qw)_F)
+    if update:  # the start's free joints, in index order: the row-by-row Cholesky of H_FF
+        for i in range(n):
+            qw[i] = qdd[i] if pat[i] % 2 == 1 else 0.0
+            if pat[i] % 2 == 0:
+                if not factor_append(Ha, Lc, idx, m, i):
+                    return i
+                m += 1
 
     released, side, pat_from = -1, 0, 0  # joint released last, to which side (+1 up, -1 down),
     # and its pattern before
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
-        m = 0
-        for i in range(n):
-            if pat[i] % 2 == 0:
-                idx[m] = i
-                m += 1
+        if not update:  # idx[:m]: the free joints in index order
+            m = 0
+            for i in range(n):
+                if pat[i] % 2 == 0:
+                    idx[m] = i
+                    m += 1
         for a in range(m):
             i = idx[a]
             r = -ua[i] - sl[pat[i] // 2, i]
-            for j in range(n):
-                if pat[j] % 2 == 1:
-                    r -= Ha[i, j] * qdd[j]
+            if update:
+                r -= dot(Ha[i], qw, n)
+            else:
+                for j in range(n):
+                    if pat[j] % 2 == 1:
+                        r -= Ha[i, j] * qdd[j]
+                for c in range(m):
+                    Hs[a, c] = Ha[i, idx[c]]
             rhs[a] = r
-            for c in range(m):
-                Hs[a, c] = Ha[i, idx[c]]
-        if m > 0:
+        if update:
+            factor_solve(Lc, m, rhs, x)
+        elif m > 0:
             status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
             if status != OK:
                 return idx[status]
@@ -253,6 +314,8 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             pat[released] -= side
             tabu[released] = 1
             released = -1
+            if update:
+                m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
         else:
             # 3. step towards v*; the first free joint to reach a breakpoint blocks it
             alpha, block = 1.0, -1
@@ -282,6 +345,8 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                     continue
                 qdd[i] = (v[i] - qd[i]) / dt
                 held_new = True
+            if update and held_new:
+                m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
             if released >= 0:
                 if pat[released] == pat_from:  # back on its breakpoint at once: rounding
                     tabu[released] = 1
@@ -297,12 +362,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             if pat[i] % 2 == 0 or tabu[i] == 1:
                 continue
             k = pat[i] // 2
-            h = ua[i]
-            scale = abs(ua[i])
-            for j in range(n):
-                t = Ha[i, j] * qdd[j]
-                h += t
-                scale += abs(t)
+            h, scale = _residual(Ha, ua, qdd, i, update)
             lo, hi = sl[k, i], sl[k + 1, i]
             scale += (abs(lo) if lo > -math.inf else 0.0) + (abs(hi) if hi < math.inf else 0.0)
             if -h > hi + MULT_TOL * scale:
@@ -320,7 +380,49 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             return OK
         released, side, pat_from = worst, worst_side, pat[worst]
         pat[worst] += worst_side  # onto the piece its multiplier points to
+        if update:
+            if not factor_append(Ha, Lc, idx, m, worst):
+                return worst
+            m += 1
+            qw[worst] = 0.0
     return CYCLE_LIMIT
+
+
+@nb.njit(**INLINE)
+def _drop_held(L, idx, m, pat, qdd, qw, c, s):
+    """Remove the joints held since the last step from the updated factor (positions from the
+    last, so that those before stay put) and give them their held qdd in qw; c, s (n,) scratch
+    for the rotations. Returns the new number of free joints."""
+    for a in range(m - 1, -1, -1):
+        i = idx[a]
+        if pat[i] % 2 == 1:
+            factor_remove(L, idx, m, a, c, s)
+            m -= 1
+            qw[i] = qdd[i]
+    return m
+
+
+@nb.njit(**INLINE)
+def _residual(Ha, ua, qdd, i, update):
+    """h_i = (H_a qdd + u'_a)_i and its scale |u'_a,i| + sum_j |H_a,ij qdd_j| (step 4). The
+    update path sums in four partial sums (kernels/solve.py ``dot``), the other in index order
+    as before it."""
+    n = qdd.shape[0]
+    row = Ha[i]
+    h = h1 = h2 = h3 = 0.0
+    a0 = a1 = a2 = a3 = 0.0
+    n4 = n - n % 4 if update else 0
+    for j in range(0, n4, 4):
+        t0, t1, t2, t3 = row[j] * qdd[j], row[j + 1] * qdd[j + 1], row[j + 2] * qdd[j + 2], \
+            row[j + 3] * qdd[j + 3]
+        h, h1, h2, h3 = h + t0, h1 + t1, h2 + t2, h3 + t3
+        a0, a1, a2, a3 = a0 + abs(t0), a1 + abs(t1), a2 + abs(t2), a3 + abs(t3)
+    h, scale = ua[i] + h, abs(ua[i]) + a0
+    for j in range(n4, n):
+        t = row[j] * qdd[j]
+        h += t
+        scale += abs(t)
+    return h + ((h1 + h2) + h3), scale + ((a1 + a2) + a3)
 
 
 @nb.njit(**INLINE)

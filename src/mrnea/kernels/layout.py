@@ -377,10 +377,11 @@ def achievable_buffers(ws, n):
 @nb.njit(**INTO_CALLER)
 def drive_solve_buffers(ws, n):
     """The exact cycle solve's buffers (kernels/drive_solve.py): the free joints' block of H_a
-    Hs (n, n) and its Cholesky factor Lc (n, n); the (n,) float rows rhs, x (the free joints'
-    solution), vstar (their target velocity) and tauc (clamped efforts, PAPER); breakpoints bp
-    (2, n) and piece slopes sl (3, n); the (n,) int rows pat (pattern), nbp (number of
-    breakpoints), idx (free joints' indices) and tabu."""
+    Hs (n, n) (when the factor is updated instead, its row 0 holds qw) and its Cholesky factor
+    Lc (n, n); the (n,) float rows rhs, x (the free joints' solution), vstar (their target
+    velocity) and tauc (clamped efforts, PAPER); breakpoints bp (2, n) and piece slopes sl
+    (3, n); the (n,) int rows pat (pattern), nbp (number of breakpoints), idx (free joints'
+    indices) and tabu."""
     S, ints = ws[2], ws[3]
     v0 = 3 * n + 6
     return (S[n:2 * n], S[2 * n:3 * n], S[v0], S[v0 + 1], S[v0 + 2], S[v0 + 3],

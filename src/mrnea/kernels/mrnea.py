@@ -34,7 +34,9 @@ not, is what the batch kernels and the simulation loop call.
 Beyond the paper (which treats revolute joints): for a prismatic joint i the effort is the force
 along its axis, so h_ik = z_i . E_ik and u'_i = z_i . E_i. Eq. 14 folds the external force f_e
 into e_n; here it is E_{n+1} = f_e, acting at the point p_e, so that it enters through
-p*_n = p_e - o_n exactly as Eq. 22 writes it, with n'_{(n+1)c} = n_e. Indices follow
+p*_n = p_e - o_n exactly as Eq. 22 writes it, with n'_{(n+1)c} = n_e. A wrench per link
+(``fext`` (n, 6), kernels/common.py) is folded into each link's e_i and d_i instead: it has no
+qdd part, so it only changes u'. Indices follow
 kernels/rnea.py (docs/notation.md).
 """
 
@@ -47,15 +49,15 @@ from mrnea.kernels.common import (
     cross,
     dot,
     finite,
+    fold_wrenches,
     kinematics,
     mv,
     put,
     scale,
     sized,
     sub,
-    tip_point,
+    tip_wrench,
     vec,
-    wrench,
 )
 from mrnea.kernels.layout import (
     BRANCH,
@@ -158,14 +160,14 @@ def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
     # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
     link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws, tree)
+    fold_wrenches(R, o, c, fext, pe, e, d)  # a wrench per link, if given (kernels/common.py)
     # a tree's later children put their sums aside here (docs/notation.md, Trees)
     Sc, Sn = stash_buffers(ws, n)
     SC = column_stash(ws, n)
 
     # backward pass: E sums and n' coefficients, tip to base
     # E_{i+1} starts as f_{n+1} = f_e, n'_{(i+1)c} as n_e
-    E_c, n_c = wrench(fext)
-    p_next = tip_point(o, R, n, pe)
+    E_c, n_c, p_next = tip_wrench(o, R, n, fext, pe)
     for i in range(n - 1, -1, -1):
         oi, ci, zi = vec(o, i), vec(c, i), vec(z, i)
         m_i = model[i + 1, MASS]

@@ -13,6 +13,8 @@ point to the centre of mass, is ``c[i] - o[i]``.
 External wrench: ``fext = [f_e; n_e]`` (6,), base coordinates, is what the last link exerts on
 its environment (the paper's k_e), applied at ``pe`` (3,), a point given in the last link's frame.
 It enters as the force f_{n+1} = f_e and moment n_{n+1} = n_e of a virtual link n+1 (Eqs. 10-11).
+A wrench per link, ``fext`` (n, 6) with points ``pe`` (n, 3) each in its own link's frame, is
+added to each link's F_i, N_i instead (kernels/common.py ``fold_wrenches``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from mrnea.kernels.common import (
     cross,
     dot,
     finite,
+    fold_wrenches,
     kinematics,
     mat,
     mm,
@@ -34,9 +37,8 @@ from mrnea.kernels.common import (
     scale,
     sized,
     sub,
-    tip_point,
+    tip_wrench,
     vec,
-    wrench,
 )
 from mrnea.kernels.layout import (
     BRANCH,
@@ -124,11 +126,12 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     """
     n = qd.shape[0]
     link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws, True)
+    fold_wrenches(R, o, c, fext, pe, f, nm)  # a wrench per link, if given (kernels/common.py)
     Sf, Sn = stash_buffers(ws, n)
 
     # backward pass: forces and moments, tip to base
-    f_next, n_next = wrench(fext)  # f_{n+1} = f_e, n_{n+1} = n_e (Eqs. 10-11)
-    p_next = tip_point(o, R, n, pe)  # where f_{n+1} acts
+    # f_{n+1} = f_e, n_{n+1} = n_e (Eqs. 10-11), acting at p_next
+    f_next, n_next, p_next = tip_wrench(o, R, n, fext, pe)
     for i in range(n - 1, -1, -1):
         oi = vec(o, i)
         Fi = vec(f, i)

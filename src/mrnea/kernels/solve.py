@@ -135,3 +135,81 @@ def solve_forward(model, status, H, u, tau, L, rhs, qdd):
     else:
         status = cholesky_solve(H, rhs, L, qdd)
     return status if status != OK or finite(qdd) else OVERFLOW
+
+
+# --- a Cholesky factor updated one joint at a time (kernels/drive_solve.py on long chains) -------
+# L (m, m) lower triangular, L L^T = H[idx[:m], idx[:m]] with the joints in the order they were
+# added (not in index order); its diagonal holds L_aa itself. Appending or removing one joint
+# costs O(m^2) instead of the O(m^3) of a fresh factorisation (docs/design.md, "A 1000-joint
+# chain"). Every inner loop reads L row by row.
+
+
+@nb.njit(**JIT)
+def dot(x, y, k):
+    """sum_{j<k} x_j y_j in four partial sums: without fastmath a single running sum waits for
+    each addition (about 4 cycles an element); four interleave (rounding differs from the
+    single sum's, as from any other order)."""
+    s0 = s1 = s2 = s3 = 0.0
+    k4 = k - k % 4
+    for j in range(0, k4, 4):
+        s0 += x[j] * y[j]
+        s1 += x[j + 1] * y[j + 1]
+        s2 += x[j + 2] * y[j + 2]
+        s3 += x[j + 3] * y[j + 3]
+    for j in range(k4, k):
+        s0 += x[j] * y[j]
+    return (s0 + s1) + (s2 + s3)
+
+
+@nb.njit(**JIT)
+def factor_append(H, L, idx, m, i):
+    """Add joint i as row and column m of the factor: row m solves L_11 l = H[idx[:m], i]
+    (forward substitution), L_mm = sqrt(H_ii - l.l). Returns False, leaving the factor as it
+    was, if that pivot is not above PIVOT_TOL times the largest diagonal entry of the grown
+    block (as :func:`cholesky_solve`)."""
+    dmax = H[i, i]
+    for a in range(m):
+        dmax = max(dmax, H[idx[a], idx[a]])
+    row = L[m]
+    for a in range(m):
+        row[a] = (H[idx[a], i] - dot(row, L[a], a)) / L[a, a]
+    s = H[i, i] - dot(row, row, m)
+    if not s > PIVOT_TOL * dmax:  # also catches NaN
+        return False
+    row[m] = np.sqrt(s)
+    idx[m] = i
+    return True
+
+
+@nb.njit(**JIT)
+def factor_remove(L, idx, m, p, c, s):
+    """Drop position p (joint idx[p]) from the factor of size m, leaving that of size m - 1.
+    With L = [[L11, 0, 0], [l21, l22, 0], [L31, l32, L33]] the factor without row and column p
+    is [[L11, 0], [L31, L33']], L33' L33'^T = L33 L33^T + l32 l32^T: a rank-one update by
+    Givens rotations (orthogonal: stable). Row by row: rotation j (cosine c[j], sine s[j]) is
+    made on row j's diagonal and turns the pair (L_ij, x_i) of each row i below it; each row
+    moves up one and its trailing part left one as it is finished. ``c``, ``s``: (m,) scratch."""
+    for i in range(p + 1, m):
+        xi = L[i, p]  # row i of l32, turned into the columns after p
+        for k in range(p):
+            L[i - 1, k] = L[i, k]  # L31 keeps its columns
+        for j in range(p + 1, i):
+            lij = L[i, j]
+            L[i - 1, j - 1] = c[j] * lij + s[j] * xi
+            xi = c[j] * xi - s[j] * lij
+        lii = L[i, i]
+        r = np.sqrt(lii * lii + xi * xi)
+        c[i], s[i] = lii / r, xi / r
+        L[i - 1, i - 1] = r
+        idx[i - 1] = idx[i]
+
+
+@nb.njit(**JIT)
+def factor_solve(L, m, rhs, x):
+    """x (m,) = (L L^T)^-1 rhs for the updated factor L (m, m): two triangular solves."""
+    for a in range(m):  # L y = rhs
+        x[a] = (rhs[a] - dot(L[a], x, a)) / L[a, a]
+    for a in range(m - 1, -1, -1):  # L^T x = y, column a of L^T being row a of L
+        x[a] /= L[a, a]
+        for k in range(a):
+            x[k] -= L[a, k] * x[a]

@@ -229,12 +229,20 @@ def fmt_number(x: float, sig: int = 4) -> str:
     return f"{x:.{sig - 1}e}"
 
 
-def png_data_uri(fig: Figure) -> str:
-    """``fig`` as a ``data:image/png;base64,...`` URI (for a self-contained HTML page)."""
+def png_bytes(fig: Figure) -> bytes:
+    """``fig`` drawn as a PNG file at :data:`DPI`, without a version stamp (the bytes
+    :func:`save_figure` writes for a ``.png`` path)."""
     buf = io.BytesIO()
     with _rendering():
         fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None})
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+    return buf.getvalue()
+
+
+def png_data_uri(fig: Figure | bytes) -> str:
+    """``fig``, or a PNG already drawn by :func:`png_bytes`, as a ``data:image/png;base64,...``
+    URI (for a self-contained HTML page)."""
+    png = fig if isinstance(fig, bytes) else png_bytes(fig)
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
 def figure_file(path: str | os.PathLike[str]) -> tuple[Path, str]:

@@ -22,8 +22,8 @@ from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, write_file
-from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_data_uri
-from mrnea.report.figures import plot_result, require_result
+from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_bytes, png_data_uri
+from mrnea.report.figures import FIGURES, plot_result, require_result
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
 from mrnea.validate import choice
@@ -339,6 +339,7 @@ def write_report(
     extra_figures: Mapping[str, Figure] | None = None,
     interpolation: str | None = None,
     view3d: bool = True,
+    png_folder: str | os.PathLike[str] | None = None,
 ) -> Path:
     """Write one self-contained HTML report of a simulation run.
 
@@ -373,6 +374,10 @@ def write_report(
         and the frames, inline). The times in the tables then link to their instant and the
         figures mark the slider's time. False: no script in the page. A run without any cycle
         gets no view.
+    png_folder : str or path-like, optional
+        Also write the figures of :func:`plot_result` there as ``<name>.png``: the bytes the
+        page embeds, so each figure is drawn once (the files :func:`plot_result` with a
+        ``path`` writes; ``overwrite`` as for ``path``, every file checked before any work).
 
     Returns
     -------
@@ -393,7 +398,10 @@ def write_report(
             and all(isinstance(f, Figure) for f in extra_figures.values())):
         raise StateError("extra_figures: expected a mapping of names to matplotlib Figures, got "
                          f"{type(extra_figures).__name__}")
-    check_new([path], overwrite)  # before any rendering
+    pngs = (None if png_folder is None
+            else as_path(png_folder, "png_folder", OutputError))
+    check_new([path, *([] if pngs is None else [pngs / f"{n}.png" for n in FIGURES])],
+              overwrite)  # before any rendering
     if interpolation is not None:
         choice("interpolation", interpolation, INTERPOLATIONS)
     try:
@@ -405,14 +413,17 @@ def write_report(
     cls = {True: "ok", False: "bad", None: "partial"}[s["achievable"]]
 
     view3d = view3d and result.K > 0
-    figures = list(plot_result(result).items())
-    if extra_figures:
-        figures += list(extra_figures.items())
+    own = plot_result(result)
+    figures = list(own.items()) + list((extra_figures or {}).items())
     fig_html = []
     for k, (name, fig) in enumerate(figures):
         caption = f": {_e(_CAPTIONS[name])}" if name in _CAPTIONS else ""
         slug = re.sub(r"[^A-Za-z0-9_-]+", "-", str(name)).strip("-")
-        uri = png_data_uri(fig)  # the figure drawn as saved: figure_axes reads that layout
+        png = png_bytes(fig)  # the figure drawn as saved: figure_axes reads that layout
+        if pngs is not None and k < len(own):
+            pngs.mkdir(parents=True, exist_ok=True)
+            write_file(pngs / f"{name}.png", png, overwrite)
+        uri = png_data_uri(png)
         axes = f" data-xaxes='{figure_axes(fig)}'" if view3d else ""
         fig_html.append(
             f'<figure id="fig{k + 1}-{slug}"{axes}><div class="figscroll">'

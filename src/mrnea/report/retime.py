@@ -227,7 +227,10 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
         uri = png_data_uri(fig)  # drawn as saved: figure_axes reads that layout
         axes = (f" data-xaxes='{figure_axes(fig)}'" if view3d and name == "effort_ratio"
                 else "")
-        figs.append(f'<figure id="fig{k + 1}-{name}"{axes}><img alt="{name}" src="{uri}">'
+        # below 960 px a figure keeps a readable size and pans inside its own box (.figscroll,
+        # as the simulation report's; scaled to the page, its text was unreadable at 800 px)
+        figs.append(f'<figure id="fig{k + 1}-{name}"{axes}><div class="figscroll">'
+                    f'<img alt="{name}" src="{uri}"></div>'
                     f"<figcaption><b>{name.replace('_', ' ')}</b>: {_e(_CAPTIONS[name])}"
                     "</figcaption></figure>")
     view_html = (f"<h2>3D view (retimed)</h2>\n{scene_html(result_scene(result.simulation))}"

@@ -29,7 +29,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import StateError
@@ -252,6 +251,9 @@ def scene_data(t: ArrayLike, frames_real: ArrayLike, frames_cmd: ArrayLike | Non
     blob = gzip.compress(raw, compresslevel=9, mtime=0) if compress else raw
     marks = []
     if targets is not None and len(targets):
+        from scipy.spatial.transform import Rotation  # here: a report without targets needs no
+        # scipy.spatial (~0.4 s)
+
         Tg = np.asarray(targets, dtype=float).reshape(-1, 4, 4)
         marks = np.column_stack([Tg[:, :3, 3], Rotation.from_matrix(Tg[:, :3, :3]).as_quat()
                                  ]).tolist()

@@ -20,6 +20,7 @@ from typing import Any
 
 from mrnea.actuator_fields import GEAR_RANGE
 from mrnea.errors import SizingError, quote
+from mrnea.frozen import MAGNITUDES
 from mrnea.io.tomlcheck import TomlCheck, read_text
 
 __all__ = ["Catalogue", "Gearbox", "Motor", "Train", "load_catalogue", "loads_catalogue"]
@@ -102,6 +103,13 @@ class Catalogue:
                 + list(self.drives))
 
 
+#: The largest number a catalogue entry may give (docs/sizing.md): a mass and an inertia as a
+#: robot file's (:data:`mrnea.frozen.MAGNITUDES`), any other (torques [N m], speeds [rad/s],
+#: prices) :data:`BOUND`; beyond, the sums of the judging and the plot lose every digit.
+BOUND = 1e9
+_BOUNDS = {"mass": MAGNITUDES["mass"], "rotor_inertia": MAGNITUDES["rotor_inertia"],
+           "inertia": MAGNITUDES["rotor_inertia"]}
+
 _MOTOR_KEYS = ("name", "rated_torque", "peak_torque", "max_speed", "rotor_inertia",
                "torque_speed", "mass", "price")
 _GEARBOX_KEYS = ("name", "ratio", "efficiency", "inertia", "rated_torque", "peak_torque",
@@ -161,6 +169,10 @@ def _positive(check: TomlCheck, e: Mapping[str, Any], key: str, where: str,
     v = check.number(check.require(e, key, where), where, key, allow_inf=inf)
     if v < 0 or (v == 0 and not zero):
         raise check.error(where, f"'{key}' must be {'>= 0' if zero else '> 0'}, got {v}")
+    bound = _BOUNDS.get(key, BOUND)
+    if bound < v < float("inf"):
+        raise check.error(where, f"'{key}' {v:.3g} is beyond {bound:g}, the largest mrnea "
+                                 "accepts (check its units)")
     return v
 
 
@@ -180,10 +192,10 @@ def _motor(check: TomlCheck, e: Mapping[str, Any], where: str, names: set[str],
     curve = None
     if "torque_speed" in e:
         c = check.vector(e["torque_speed"], where, "torque_speed", 3, allow_inf=True)
-        if not (c[0] == peak and 0 < c[1] <= c[2]) or c[1] == float("inf"):
+        if not (c[0] == peak and 0 < c[1] <= c[2]) or c[1] > BOUND:
             raise check.error(where, f"'torque_speed' must be [peak_torque, corner_speed, "
                                      f"no_load_speed] with peak {peak} and 0 < corner_speed <= "
-                                     f"no_load_speed, corner finite; got {c.tolist()}")
+                                     f"no_load_speed, corner at most {BOUND:g}; got {c.tolist()}")
         curve = (float(c[0]), float(c[1]), float(c[2]))
     return Motor(e["name"], rated, peak, vmax,
                  _positive(check, e, "rotor_inertia", where, zero=True), curve,

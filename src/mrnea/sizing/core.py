@@ -162,6 +162,9 @@ def _cases(programs: object, robot: Robot) -> list[Case]:
             p = training_program() if str(p) == DEMO_PROGRAM else load_program(p)
         if isinstance(p, Program):
             p = solve(p, robot)  # joints by name, Cartesian moves: the robot's joint path
+            if isinstance(p.f_ext, dict):
+                raise SizingError(f"{p.source or p.name}: sizing takes the last link's wrench; "
+                                 f"wrenches on named links ([[wrench]] link) are not sized yet")
             out.append(Case(p.name, np.asarray(p.q_cmd), p.dt, p.f_ext, p.f_ext_point))
         elif isinstance(p, Case):
             out.append(p)

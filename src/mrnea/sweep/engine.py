@@ -13,7 +13,10 @@
   of runs of about :data:`TARGET_CYCLES` cycles (well above Dask's per-task overhead) and
   returns summary rows, never per-cycle arrays.
 * Before the runs, each worker loads the compiled kernels (:func:`~mrnea.sweep.rows.warm`)
-  and reports the code it runs: a worker with other code is an error (its rows would differ).
+  and reports the code it runs: a worker with other code is an error (its rows would differ);
+  then it receives the robot and the programs and makes one full-length run as a task
+  (:func:`_warm_up`), so that the run phase, like a serial loop after its first run, times
+  runs only.
 * Ctrl-C (or a ``progress`` callback raising KeyboardInterrupt; the command line turns
   SIGTERM into the same) cancels what is left and returns the rows done, never a row for a
   run not done; ``df.attrs["completed"]`` is then False.
@@ -297,13 +300,14 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
         raise SweepError(f"the workers cannot run mrnea's sweep ({type(exc).__name__}: "
                          f"{quote(str(exc), 200)}); give every worker the same mrnea") from None
     _check_workers(answers)
+    r_fut, p_fut = c.scatter([robot, dict(scaled)], broadcast=True, hash=False)
+    _warm_up(c, list(nthreads), jobs[0], r_fut, p_fut)
     clock["warm"] = time.perf_counter() - t
     t = time.perf_counter()
     cycles = sum(scaled[key].K for _, key, _ in jobs) / len(jobs)
     size = info["batch"] = info["batch"] or batch_size(len(jobs), cycles, threads)
     batches = [jobs[k:k + size] for k in range(0, len(jobs), size)]
     info["tasks"] = len(batches)
-    r_fut, p_fut = c.scatter([robot, dict(scaled)], broadcast=True, hash=False)
     futures = c.map(run_batch, batches, robot=r_fut, programs=p_fut, retime=retime,
                     client_pid=os.getpid(), pure=False)
     which = {f.key: b for f, b in builtins.zip(futures, batches, strict=True)}
@@ -315,6 +319,23 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
         raise
     finally:
         clock["run"] = time.perf_counter() - t
+
+
+def _warm_up(c: Any, addresses: Sequence[str], job: tuple[int, Any, Any], robot: Any,
+             programs: Any) -> None:
+    """One full-length run of the sweep's first job on each worker, as a task (its row is
+    dropped), before the run phase: a worker's first run in its task thread grows that
+    thread's heap arena to the run's size (about 1800 page faults, 7 MB, on the SDT demo) and
+    tunes the worker (:func:`~mrnea.sweep.rows.tune_worker`), as the serial loop's first run
+    does for a loop. :func:`~mrnea.sweep.rows.warm` (``Client.run``) runs on the worker's
+    event-loop thread, not the task thread. A task may run elsewhere if its worker leaves."""
+    warm_ups = [c.submit(run_batch, [job], robot=robot, programs=programs,
+                         client_pid=os.getpid(), workers=[a], allow_other_workers=True,
+                         pure=False) for a in addresses]
+    try:
+        c.gather(warm_ups, errors="skip")  # a failed warm-up is the real task's row to report
+    finally:
+        c.cancel(warm_ups)
 
 
 def _check_workers(answers: Mapping[str, Mapping[str, Any]]) -> None:

@@ -301,14 +301,21 @@ def time_scaled(program: Program, factor: float) -> Program:
     u = (s - x[seg])[:, None]
     q_new = Q[seg] + v[seg] * u + (v[seg + 1] - v[seg]) * u**2 / (2 * h[seg, None])
     q_new[0], q_new[-1] = q[0], q[-1]
-    f_ext = None
-    if program.f_ext is not None:
-        tk = np.arange(K) * dt
-        f_ext = np.stack([np.interp(s, tk, program.f_ext[:, c]) for c in range(6)], axis=1)
+    tk = np.arange(K) * dt
+
+    def moved(f: NDArray) -> NDArray:  # a wrench (K, 6) at the new rows
+        out = np.stack([np.interp(s, tk, f[:, c]) for c in range(6)], axis=1)
+        out.setflags(write=False)
+        return out
+
+    f_ext = program.f_ext
+    if isinstance(f_ext, dict):  # wrenches by link name
+        f_ext = {link: moved(f) for link, f in f_ext.items()}
+    elif f_ext is not None:
+        f_ext = moved(f_ext)
     t = np.arange(M) * dt
-    for a in (t, q_new, f_ext):
-        if a is not None:
-            a.setflags(write=False)
+    for a in (t, q_new):
+        a.setflags(write=False)
     return dataclasses.replace(program, t=t, q_cmd=q_new, f_ext=f_ext)
 
 
