@@ -7,9 +7,16 @@ Usage::
 
     python benchmarks/first_run.py demo --out /tmp/x --quiet
     python benchmarks/first_run.py --warm demo --out /tmp/y --quiet   # a second run, cache kept
+    python benchmarks/first_run.py --suite        # issue 22's first runs, each on an empty cache
+
+``--suite`` runs, each as a fresh process on its own empty cache: ``mrnea demo``, ``mrnea check``,
+``mrnea simulate`` and ``mrnea retime`` on the Puma 560's pick program and the README's library
+example (:data:`LIBRARY`), and prints one line per run (CPU, wall, kernels, the heaviest).
 
 Prints one JSON object: the command, wall [s], CPU [s] (user + system of the process and its
-children), the compile total [s] and the kernels (name, signature, seconds). On a shared machine
+children), the compile total [s] and the kernels (name, signature, seconds; ``self_s``: the
+seconds less those of the kernels compiled inside it, i.e. its own typing, lowering and LLVM work
+on everything linked into it). On a shared machine
 wall times are noisy; CPU times are the steadier figure. docs/performance.md quotes its numbers.
 """
 
@@ -28,29 +35,65 @@ import json, sys, time
 from numba.core import event
 
 events = []
+stack = []  # per open compile: [start time, seconds of its direct children]
 
 class Record(event.Listener):
     def on_start(self, ev):
-        self.t0 = getattr(self, "t0", [])
-        self.t0.append(time.perf_counter())
+        stack.append([time.perf_counter(), 0.0])
     def on_end(self, ev):
-        t = time.perf_counter() - self.t0.pop()
+        t0, children = stack.pop()
+        t = time.perf_counter() - t0
+        if stack:
+            stack[-1][1] += t
         d = ev.data or {}
         disp = d.get("dispatcher")
         name = getattr(getattr(disp, "py_func", None), "__qualname__", str(disp))
         mod = getattr(getattr(disp, "py_func", None), "__module__", "")
         events.append({"kernel": f"{mod}.{name}", "signature": str(d.get("args")),
-                       "seconds": round(t, 3), "nested": len(self.t0)})
+                       "seconds": round(t, 3), "self_s": round(t - children, 3),
+                       "nested": len(stack)})
 
 event.register("numba:compile", Record())
-from mrnea.cli import main
 try:
-    main(sys.argv[1:], standalone_mode=True)
+    if sys.argv[1:2] == ["--python"]:
+        exec(sys.argv[2])
+    else:
+        from mrnea.cli import main
+        main(sys.argv[1:], standalone_mode=True)
 except SystemExit:
     pass  # the exit code is the process's
 finally:
     sys.stderr.write("\nFIRST_RUN_EVENTS " + json.dumps(events) + "\n")
 """
+
+# The README's library example (the section "The library"), on the built-in Puma 560: single
+# states through the fast path, one batch, the achievable accelerations and a simulation
+LIBRARY = """
+import numpy as np
+import mrnea
+robot = mrnea.robots.puma560()
+q, qd, qdd = np.zeros(robot.n), np.zeros(robot.n), np.ones(robot.n)
+tau = mrnea.inverse_dynamics(robot, q, qd, qdd)
+H, u = mrnea.mass_matrix_and_bias(robot, q, qd)
+qdd = mrnea.forward_dynamics(robot, q, qd, tau)
+W = mrnea.joint_reactions(robot, q, qd, qdd)
+Q = np.random.default_rng(0).uniform(-1, 1, (10_000, robot.n))
+TAU = mrnea.inverse_dynamics(robot, Q, 0 * Q, 0 * Q)
+res = mrnea.achievable_accelerations(robot, q, qd, 20 * np.ones(robot.n))
+from mrnea.trajectory import quintic
+t, q_cmd = quintic([q, q + 1.0], dt=0.005, velocity_limit=1.0, acceleration_limit=2.0)
+print(mrnea.simulate(robot, q_cmd, dt=0.005).verdict())
+"""
+
+
+def suite(out: str) -> list[list[str]]:
+    """The first runs of issue 22 (module docstring); outputs under the folder ``out``."""
+    pick = "examples/puma_pick.toml"
+    return [["demo", "--out", f"{out}/demo", "--quiet"],
+            ["check", "puma560", pick, "--quiet"],
+            ["simulate", "puma560", pick, "--out", f"{out}/simulate", "--quiet"],
+            ["retime", "puma560", pick, "--out", f"{out}/retime", "--quiet"],
+            ["--python", LIBRARY]]
 
 
 def run(args: list[str], cache: str) -> dict:
@@ -67,7 +110,8 @@ def run(args: list[str], cache: str) -> dict:
         if line.startswith("FIRST_RUN_EVENTS "):
             events = json.loads(line[len("FIRST_RUN_EVENTS "):])
     top = [e for e in events if e["nested"] == 0]  # nested compiles are inside their caller's
-    return {"command": "mrnea " + " ".join(args), "exit": res.returncode, "wall_s": round(wall, 2),
+    command = "library example" if args[0] == "--python" else "mrnea " + " ".join(args)
+    return {"command": command, "exit": res.returncode, "wall_s": round(wall, 2),
             "cpu_s": round(cpu, 2), "compile_s": round(sum(e["seconds"] for e in top), 2),
             "kernels_compiled": len(events),
             "kernels": sorted(events, key=lambda e: -e["seconds"]),
@@ -76,6 +120,18 @@ def run(args: list[str], cache: str) -> dict:
 
 def main() -> None:
     args = sys.argv[1:]
+    if args == ["--suite"]:
+        with tempfile.TemporaryDirectory(prefix="mrnea-first-run-") as out:
+            for cmd in suite(out):
+                with tempfile.TemporaryDirectory(prefix="mrnea-numba-cache-") as cache:
+                    r = run(cmd, cache)
+                top = sorted((e for e in r["kernels"] if e["nested"] == 0),
+                             key=lambda e: -e["seconds"])[:4]
+                print(json.dumps({k: r[k] for k in ("command", "exit", "cpu_s", "wall_s",
+                                                    "kernels_compiled")}
+                                 | {"heaviest": [(e["kernel"].rsplit(".", 1)[-1], e["seconds"])
+                                                 for e in top]}), flush=True)
+        return
     warm = bool(args) and args[0] == "--warm"
     args = args[1:] if warm else args
     with tempfile.TemporaryDirectory(prefix="mrnea-numba-cache-") as cache:

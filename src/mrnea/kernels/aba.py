@@ -103,7 +103,7 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     S = np.zeros((n, 6))
     v = np.zeros((n, 6))
     cb = np.zeros((n, 6))  # velocity-product accelerations c_i = v_i x S_i qd_i

@@ -157,7 +157,7 @@ def put_mat(M, k, A):
 
 
 @nb.njit(**JIT)
-def kinematics(model, q, R, o, z, c, Ic, tree=True):
+def kinematics(model, q, R, o, z, c, Ic, tree):
     """Link poses in base coordinates: fills R, o, z, c, Ic (shapes in the module docstring).
 
     ``T_i = T_{λ(i)} @ origin_i @ motion_i(q_i)``: the parent's pose is carried from the previous
@@ -167,7 +167,9 @@ def kinematics(model, q, R, o, z, c, Ic, tree=True):
     so rounding does not compound along the chain. A prismatic joint moves the origin by
     ``z_i q_i``. ``z_i = R_{i-1} (A a)`` (``R_{λ(i)}`` on a tree). Terms of a zero offset are
     skipped (NOPOS, NOCOM). ``tree=None`` compiles a serial chain's copy, without the
-    parent look-up (kernels/mrnea.py ``mrnea_ws``); the default runs any tree.
+    parent look-up (kernels/mrnea.py ``mrnea_ws``); ``tree=True`` runs any tree. Every caller
+    passes ``tree`` (no default): an omitted argument and a literal True type differently, and
+    Numba compiled the pass once for each (docs/performance.md, Start-up).
     """
     Rp = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)  # orientation of the parent (the base)
     op = (0.0, 0.0, 0.0)

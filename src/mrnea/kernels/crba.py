@@ -37,7 +37,7 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 def crba(model, q, H):
     """The mass matrix H (n, n) of one state."""
     R, o, z, c, Ic = pose_arrays(q.shape[0])
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     composite(model, o, z, c, Ic, H)
 
 
@@ -49,7 +49,7 @@ def crba_bias(model, q, qd, fext, pe, H, u, ws):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     f, nm = force_buffers(ws, n)  # the joint forces and moments, not needed here
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)

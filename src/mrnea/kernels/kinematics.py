@@ -39,7 +39,7 @@ def frames_ws(model, q, out, ws):
     if not finite(q):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     for a in range(4):  # the base frame: the identity
         for b in range(4):
             out[0, a, b] = 1.0 if a == b else 0.0
@@ -76,7 +76,7 @@ def link_jacobian_ws(model, q, t, pe, J, ws):
     if not (finite(q) and finite(pe)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     p = tip_point(o, R, t + 1, pe)  # o_t + R_t p_e, base coordinates
     for k in range(n):
         zk = vec(z, k)

@@ -106,7 +106,9 @@ def pairwise_sum(a):
 
 @nb.njit(**INLINE)
 def _peak(x, best, k, kb):
-    """(new peak, its cycle) after x at cycle k: the first maximum; a NaN, once seen, kept."""
+    """(new peak, its cycle) after x at cycle k: the first maximum; a NaN, once seen, kept.
+    Where only the value is wanted, callers pass ``kb = k`` (a variable, as elsewhere): a
+    literal 0 typed differently and compiled the helper a second time."""
     if x > best or (x != x and best == best):
         return x, k
     return best, kb
@@ -137,23 +139,23 @@ def run_peaks(response, program, drive, idx, val):
             tm = tau_motor[k, i]
             sq[0, i, k], sq[1, i, k], sq[2, i, k] = r * r, m * m, tm * tm
             peak[i, 0], idx[i, K_REQ] = _peak(a, peak[i, 0], k, idx[i, K_REQ])
-            val[i, MOTOR_REQ_PEAK] = _peak(m, val[i, MOTOR_REQ_PEAK], k, 0)[0]
+            val[i, MOTOR_REQ_PEAK] = _peak(m, val[i, MOTOR_REQ_PEAK], k, k)[0]
             lim = limit[k, i]
             if limited[i]:
                 val[i, RATIO_PEAK], idx[i, K_RATIO] = _peak(
                     a / lim if a > 0.0 else 0.0, val[i, RATIO_PEAK], k, idx[i, K_RATIO])
             if idx[i, K_OVER] < 0 and beyond(a, lim, lim + a):
                 idx[i, K_OVER] = k
-            val[i, TAU_MOTOR_PEAK] = _peak(abs(tm), val[i, TAU_MOTOR_PEAK], k, 0)[0]
-            val[i, TAU_PEAK] = _peak(abs(tau[k, i]), val[i, TAU_PEAK], k, 0)[0]
-            val[i, QD_PEAK] = _peak(abs(qd[k, i]), val[i, QD_PEAK], k, 0)[0]
+            val[i, TAU_MOTOR_PEAK] = _peak(abs(tm), val[i, TAU_MOTOR_PEAK], k, k)[0]
+            val[i, TAU_PEAK] = _peak(abs(tau[k, i]), val[i, TAU_PEAK], k, k)[0]
+            val[i, QD_PEAK] = _peak(abs(qd[k, i]), val[i, QD_PEAK], k, k)[0]
             peak[i, 1], idx[i, K_ERR] = _peak(abs(err[k, i]), peak[i, 1], k, idx[i, K_ERR])
             idx[i, N_SATURATED] += sat[k, i]
             idx[i, N_STUCK] += stuck[k, i]
             if loads:
                 here = split(wrench[k, i], axes[i])
                 for c in range(6):
-                    val[i, FORCE_PEAK + c] = _peak(here[c], val[i, FORCE_PEAK + c], k, 0)[0]
+                    val[i, FORCE_PEAK + c] = _peak(here[c], val[i, FORCE_PEAK + c], k, k)[0]
     for i in range(n):
         val[i, REQ_RMS] = math.sqrt(pairwise_sum(sq[0, i]) / K)
         val[i, MOTOR_REQ_RMS] = math.sqrt(pairwise_sum(sq[1, i]) / K)

@@ -70,7 +70,7 @@ def regressor_ws(model, q, qd, qdd, Y, ws):
     if not (finite(q) and finite(qd) and finite(qdd)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     for j in range(n):
         for col in range(10 * n):
             Y[j, col] = 0.0

@@ -63,7 +63,7 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
-def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree=True):
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
     centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
 
@@ -72,7 +72,7 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree=True):
     previous link when λ(i) = i - 1, else read back from the scratch ``ws``'s
     ``branch_buffers``, where each link with a second child keeps them (docs/notation.md).
     ``tree=None`` compiles a serial chain's copy, without those branches (kernels/mrnea.py
-    ``mrnea_ws``); the default runs any tree.
+    ``mrnea_ws``); ``tree=True`` runs any tree (passed by every caller, as ``kinematics``'s).
     """
     n = qd.shape[0]
     Wb, WDb, Ab = branch_buffers(ws, n)
@@ -125,7 +125,7 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     until the parent's step adds them (Eqs. 18-19 summed over the children).
     """
     n = qd.shape[0]
-    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws)
+    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws, True)
     fold_wrenches(R, o, c, fext, pe, f, nm)  # a wrench per link, if given (kernels/common.py)
     Sf, Sn = stash_buffers(ws, n)
 
@@ -175,7 +175,7 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, q.shape[0])
     if not pose_ready:
-        kinematics(model, q, R, o, z, c, Ic)
+        kinematics(model, q, R, o, z, c, Ic, True)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws)
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW

@@ -74,9 +74,10 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0
                                   engine == ENGINE_MRNEA)
             if status != OK:
                 return k, status
-        if not last:
-            q[k + 1] = q_next
-            qd[k + 1] = qd_next
+        if not last:  # entry by entry: a slice assignment compiles Numba's shape-mismatch
+            for i in range(n):  # message (string formatting), seconds of a first run
+                q[k + 1, i] = q_next[i]
+                qd[k + 1, i] = qd_next[i]
     return k1, OK
 
 

@@ -29,7 +29,7 @@ def walker_orin(model, q, qd, fext, pe, H, u, ws):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic)
+    kinematics(model, q, R, o, z, c, Ic, True)
     f, nm = force_buffers(ws, n)
     g = (model[0, 0], model[0, 1], model[0, 2])
     newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)
