@@ -192,14 +192,16 @@ def link_wrenches(robot: Robot, f_ext: Mapping[str, ArrayLike] | None,
     and (B, n, 3) when a value has B rows (``rows``: B required, as a simulation's K cycles).
     A StateError names an unknown link (with a close match), a point without its wrench or a
     mix of a mapping and an array."""
+    # a mapping's own names and values first: an unknown link is named before a mix is
+    fe_by = ({robot.link_index(k, "f_ext", StateError): array(v, f"f_ext[{k!r}]", 6)
+              for k, v in f_ext.items()} if isinstance(f_ext, Mapping) else {})
+    pe_by = ({robot.link_index(k, "f_ext_point", StateError):
+              array(v, f"f_ext_point[{k!r}]", 3) for k, v in f_ext_point.items()}
+             if isinstance(f_ext_point, Mapping) else {})
     for name, v in (("f_ext", f_ext), ("f_ext_point", f_ext_point)):
         if v is not None and not isinstance(v, Mapping):
             raise StateError(f"{name}: with the wrench given by link name, give {name} as a "
                              f"mapping {{link: value}} too, or None; got {type(v).__name__}")
-    fe_by = {robot.link_index(k, "f_ext", StateError): array(v, f"f_ext[{k!r}]", 6)
-             for k, v in (f_ext or {}).items()}
-    pe_by = {robot.link_index(k, "f_ext_point", StateError):
-             array(v, f"f_ext_point[{k!r}]", 3) for k, v in (f_ext_point or {}).items()}
     for i in pe_by.keys() - fe_by.keys():
         raise StateError(f"f_ext_point: a point for link {robot.link_names[i]!r}, which "
                          f"f_ext gives no wrench")
