@@ -220,4 +220,5 @@ def test_cli_robot_named_by_a_program(tmp_path) -> None:
                     "2", "--starts", "1", "--dt", "0.02", "--velocity-limit", "2", "--quiet")
     assert res.returncode == 0, res.stderr
     written = load_program(tmp_path / "o" / "excitation.toml")
-    assert written.robot == "puma560" and written.options.payload[0] == 2.0
+    assert written.robot == "puma560"
+    assert [p.mass for p in written.options.payload] == [2.0]  # a tuple of payloads
