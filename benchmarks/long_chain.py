@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 
 from mrnea import Joint, Link, Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, solve_cycle_by
+from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
@@ -37,12 +37,13 @@ from conftest import random_chain
 
 
 @nb.njit(cache=True)
-def _repeat(R, Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, out, sat, stuck, ws, update):
-    """R solves of the same cycle on one path; returns the last status."""
+def _repeat(R, Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, out, sat, stuck, ws, how):
+    """R solves of the same cycle the way ``how`` names (``solve_mode``); returns the last
+    status."""
     status = 0
     for _ in range(R):
-        status = solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, HYBRID, out[0],
-                                out[1], out[2], out[3], out[4], sat, stuck, ws, update)
+        status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, how, out[0], out[1],
+                             out[2], out[3], out[4], sat, stuck, ws)
     return status
 
 
@@ -75,7 +76,7 @@ def run(args: tuple, R: int, update: bool) -> tuple[float, np.ndarray, np.ndarra
     best = np.inf
     for _ in range(3 if R > 1 or n <= 300 else 1):
         t0 = time.process_time()  # one thread: steadier than the wall time on a busy machine
-        status = _repeat(R, *args, out, sat, stuck, ws, update)
+        status = _repeat(R, *args, out, sat, stuck, ws, solve_mode(HYBRID, n, update))
         best = min(best, (time.process_time() - t0) / R)
     assert status == -1, status  # OK
     return best, out[1].copy(), sat.copy(), stuck.copy()

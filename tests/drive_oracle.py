@@ -17,7 +17,7 @@ import itertools
 import numpy as np
 
 from mrnea import Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle, solve_cycle_by
+from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle, solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 CODE = {"hybrid": HYBRID, "paper": PAPER}
@@ -48,8 +48,8 @@ def cycle_terms(robot: Robot, q, qd, f_ext=None, f_ext_point=None):
 
 def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None):
     """The compiled cycle solve with its own outputs and scratch; the effort box
-    -Llo <= tau <= Lhi. ``update``: None, the factorisation solve_cycle picks by n; True or
-    False, H_FF's factor updated or made afresh at every step (``solve_cycle_by``).
+    -Llo <= tau <= Lhi. ``update``: None, the factorisation ``solve_mode`` picks by n; True or
+    False, H_FF's factor updated or made afresh at every step.
 
     Returns (status, v, qdd, tau, phi, tau_req, sat, stuck)."""
     args = [np.ascontiguousarray(a, dtype=float) for a in (Ha, ua, qd, v_des)]
@@ -58,10 +58,8 @@ def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | Non
     out = [np.empty(n) for _ in range(5)]
     flags = [np.empty(n, dtype=np.bool_) for _ in range(2)]
     ws = entry_scratch(n, ACHIEVABLE)
-    if update is None:
-        status = solve_cycle(*args, float(dt), *lim, CODE[mode], *out, *flags, ws)
-    else:
-        status = solve_cycle_by(*args, float(dt), *lim, CODE[mode], *out, *flags, ws, update)
+    status = solve_cycle(*args, float(dt), *lim, solve_mode(CODE[mode], n, update), *out,
+                         *flags, ws)
     return (status, *out, *flags)
 
 

@@ -1,5 +1,5 @@
 """The exact cycle solve with H_FF's Cholesky factor updated one joint at a time
-(kernels/drive_solve.py ``solve_cycle_by(..., update=True)``, kernels/solve.py
+(kernels/drive_solve.py ``solve_cycle`` with ``solve_mode(mode, n, update=True)``, kernels/solve.py
 ``factor_append`` / ``factor_remove``: issue 25, long chains) against independent references.
 
 * The factor updates against numpy.linalg.cholesky of the same block, after random sequences
@@ -103,7 +103,7 @@ def test_update_path_satisfies_the_law_and_equals_refactorising(n):
 
 
 def test_default_path_by_size():
-    """solve_cycle takes the update path from UPDATE_FROM joints on: its result is bit for bit
+    """solve_mode takes the update path from UPDATE_FROM joints on: its result is bit for bit
     that path's, and below it the refactorising path's."""
     rng = np.random.default_rng(2520)
     for n in (UPDATE_FROM - 1, UPDATE_FROM):

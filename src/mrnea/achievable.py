@@ -41,6 +41,7 @@ from mrnea.kernels.achievable import (
     achievable_batch,
     step,
 )
+from mrnea.kernels.drive_solve import solve_mode
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import ACHIEVABLE, batch_scratch, entry_scratch
 from mrnea.model import Robot
@@ -135,10 +136,12 @@ def achievable_accelerations(
     # qdd, tau, phi, tau_req, limit, sat, stuck
     if batched:
         status = np.empty(q.shape[0], dtype=np.int64)
-        achievable_batch((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out, status,
+        achievable_batch((m, act), q, qd, qdd_des, fe, pe, solve_mode(code, robot.n),
+                         ENGINE_MRNEA, out, status,
                          batch_scratch(robot.n, ACHIEVABLE))
     else:
-        status = achievable((m, act), q, qd, qdd_des, fe, pe, code, ENGINE_MRNEA, out)
+        status = achievable((m, act), q, qd, qdd_des, fe, pe, solve_mode(code, robot.n),
+                            ENGINE_MRNEA, out)
     validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     qdd, tau, phi, tau_req, limit, sat, stuck = out
     return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, qd),
@@ -176,8 +179,9 @@ def achievable_step(
     sat, stuck = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.bool_)
     clamp = np.empty(n, dtype=np.int64)
     status = step(m, act, arrays["q"], arrays["qd"], arrays["q_next_cmd"], arrays["qd_next_cmd"],
-                  dt, fe, pe, code, ENGINE_MRNEA, qdd_des, qdd, tau, phi, tau_req, limit, sat,
-                  stuck, q_next, qd_next, clamp, entry_scratch(n, ACHIEVABLE))
+                  dt, fe, pe, solve_mode(code, n), ENGINE_MRNEA, qdd_des, qdd, tau, phi,
+                  tau_req, limit, sat, stuck, q_next, qd_next, clamp,
+                  entry_scratch(n, ACHIEVABLE))
     validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return StepResult(
         qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, arrays["qd"]), tau_required=tau_req,

@@ -35,6 +35,7 @@ from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.derived import derived
 from mrnea.kernels.drive import actuator_terms
+from mrnea.kernels.drive_solve import solve_mode
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
@@ -347,6 +348,7 @@ def simulate(
     catch_up = validate.catch_up(catch_up, dt)
     reactions = validate.flag(reactions, "reactions")
     n = robot.n
+    how = solve_mode(code, n)  # the drive solve's way for n joints, a compile-time choice
     Qc = validate.array(q_cmd, "q_cmd", n)
     if Qc.ndim != 2 or Qc.shape[0] < 2:
         raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")
@@ -398,7 +400,7 @@ def simulate(
         try:
             while done < K:
                 k1 = min(K, done + CHUNK)
-                k, status = simulate_cycles((m, act), program, dt, code, engine,
+                k, status = simulate_cycles((m, act), program, dt, how, engine,
                                             catch_up, reactions, done, k1, run)
                 if status != OK:
                     validate.check_cycle(robot, k, status, res.q[k], res.qd[k], dt)

@@ -4,7 +4,9 @@ Usage: ``status = achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, o
 ``compiled = (model, act)`` and ``out = (qdd, tau, phi, tau_req, limit, sat, stuck)``; ``status =
 step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, qdd, tau, phi,
 tau_req, limit, sat, stuck, q_next, qd_next, clamp, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch
-(kernels/layout.py). The kernels Python calls take tuples; the per-state kernels inside the
+(kernels/layout.py); ``mode`` is ``solve_mode(PAPER or HYBRID, n)`` (kernels/drive_solve.py: the
+mode with the drive solve's way for n joints, a compile-time choice). The kernels Python calls
+take tuples; the per-state kernels inside the
 batch and simulation loops (``achievable_ws``, ``step``) take their arrays one by one, which
 measured 3-6 % faster in the simulation loop (docs/design.md).
 

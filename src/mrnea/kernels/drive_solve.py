@@ -1,9 +1,10 @@
 """One interpolation cycle solved exactly: effort limits and Coulomb friction (paper Secs. II
 and V, Eqs. 42-44).
 
-Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau,
-phi, tau_req, sat, stuck, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py,
-``drive_solve_buffers``).
+Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau,
+phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n)`` (the mode, and
+how H_FF's factor is kept: 'Cost' below) and ``ws`` an ``ACHIEVABLE`` scratch
+(kernels/layout.py, ``drive_solve_buffers``).
 
 Everything is joint side. The cycle starts at speed qd [rad/s | m/s]; the drives hold the new
 velocity v over the next dt [s], so qdd = (v - qd) / dt. Eq. 42, with the Coulomb friction phi
@@ -78,7 +79,10 @@ sums. The two ways give the same solution up to rounding (tests/test_drive_solve
 below UPDATE_FROM the refactorising way is kept operation for operation (no faster to update
 there, measured: benchmarks/long_chain.py, docs/performance.md). A singular free block is
 reported at the joint whose pivot fails: in index order when refactorising, the joint being
-appended when updating.
+appended when updating. Which way a cycle takes is a compile-time choice, made in Python by n
+(``solve_mode``: a named tuple of class ``Refactor`` or ``Update`` carrying the mode), so a
+kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea demo`` (4
+joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first run").
 
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
@@ -94,8 +98,10 @@ holds the joint).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
+from numba.extending import overload
 
 from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
 from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
@@ -113,6 +119,25 @@ UPDATE_FROM = 16
 # achievable_ws. As calls of their own (17 array arguments) they cost 0.1-0.25 us a cycle in
 # paper mode (measured: docs/design.md)
 INTO = {**JIT, "inline": "always"}
+
+
+class Refactor(NamedTuple):
+    """A cycle's solve with H_FF factored afresh at every step (below UPDATE_FROM joints);
+    ``mode``: PAPER or HYBRID."""
+    mode: int
+
+
+class Update(NamedTuple):
+    """A cycle's solve with H_FF's factor updated one joint at a time (from UPDATE_FROM joints
+    on); ``mode``: PAPER or HYBRID."""
+    mode: int
+
+
+def solve_mode(mode: int, n: int, update: bool | None = None) -> Refactor | Update:
+    """``mode`` (PAPER or HYBRID) in the form the kernels take for an n-joint robot: the way
+    H_FF's factor is kept chosen by n (module docstring, 'Cost'); ``update`` True or False forces
+    one (tests, benchmarks/long_chain.py). Its class is the choice: a kernel compiles one way."""
+    return Update(mode) if (n >= UPDATE_FROM if update is None else update) else Refactor(mode)
 
 
 @nb.njit(**INLINE)
@@ -177,20 +202,9 @@ def _start(v0, nb_, i, bp):
 
 
 @nb.njit(**INTO)
-def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
+def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws):
-    """Solve one cycle exactly (module docstring), H_FF's factor updated from UPDATE_FROM
-    joints on (:func:`solve_cycle_by`, whose arguments and result it has)."""
-    return solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
-                          tau_req, sat, stuck, ws, qd.shape[0] >= UPDATE_FROM)
-
-
-@nb.njit(**INTO)
-def solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
-                   sat, stuck, ws, update):
-    """Solve one cycle exactly (module docstring), step 2's factor of H_FF updated one joint
-    at a time (``update``) or made afresh at every step: the same solution up to rounding
-    (tests and benchmarks/long_chain.py force either). Returns OK, the index of a joint whose
+    """Solve one cycle exactly (module docstring). Returns OK, the index of a joint whose
     pivot of a free block of H_a failed (singular), or CYCLE_LIMIT.
 
     Parameters
@@ -204,14 +218,15 @@ def solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, ta
         (kernels/drive.py ``effort_box``); both inf = no limit (HYBRID: the joint is fixed to
         the program; PAPER: not clamped); both 0 = no drive.
     Fpos, Fneg : (n,) Coulomb friction magnitudes >= 0 against positive / negative motion.
-    mode : PAPER or HYBRID.
+    how : ``solve_mode(mode, n)``: the mode (PAPER or HYBRID) and the way H_FF's factor is
+        kept (``Refactor`` or ``Update``; the same solution up to rounding).
     v, qdd, tau, phi, tau_req : (n,) out: new velocity (exactly 0 for a stuck joint, exactly
         v_des_i for a joint on program), acceleration (v - qd) / dt, drive effort, Coulomb
         friction, the program's requirement (joint side; tau - phi = H_a qdd + u'_a).
     sat, stuck : (n,) bool out: saturated, stuck (v == 0 exactly).
     ws : an ACHIEVABLE scratch (its ``drive_solve_buffers``); the arrays above are not in it.
-    update : bool, factor H_FF by updates (long chains) or afresh at every step.
     """
+    mode = how.mode
     n = qd.shape[0]
     # 0. tau_req = H_a qdd_des + u'_a + phi_des (Eq. 42 at the program's motion), and the
     # on-program answer v = v_des, tau = tau_req, kept if it is optimal
@@ -227,18 +242,43 @@ def solve_cycle_by(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, ta
         fast = fast and not _over(tau_req[i], Llo[i], Lhi[i])
     if fast:  # HYBRID: v = v_des satisfies every joint's subgradient condition
         return OK
-    if update:
-        return _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd,
-                                   tau, phi, tau_req, sat, stuck, ws)
-    return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, False)
+    return active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi,
+                      tau_req, sat, stuck, ws)
+
+
+def active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
+               sat, stuck, ws):
+    """Steps 1-4 the way ``how`` names (arguments as :func:`solve_cycle`; tau_req filled). In
+    compiled code its overload (below) compiles that way alone; this body serves Python
+    (NUMBA_DISABLE_JIT)."""
+    return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
+                       tau_req, sat, stuck, ws, isinstance(how, Update))
+
+
+@overload(active_set, inline="always")
+def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
+                   sat, stuck, ws):
+    """The way of ``how``'s type, chosen while typing: the update path is compiled only for a
+    robot that takes it."""
+    kind = getattr(how, "instance_class", None)
+    if kind is Update:
+        return (lambda Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi,
+                tau_req, sat, stuck, ws: _active_set_updated(
+                    Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
+                    tau_req, sat, stuck, ws))
+    if kind is Refactor:
+        return (lambda Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi,
+                tau_req, sat, stuck, ws: _active_set(
+                    Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
+                    tau_req, sat, stuck, ws, False))
+    return None  # not a solve mode: a typing error
 
 
 @nb.njit(**JIT)
 def _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
                         tau_req, sat, stuck, ws):
-    """Steps 1-4 with the factor updated, as a call of its own: the code compiled into the
-    cycle loop (update = False, a constant there) stays that of the refactorising way alone."""
+    """Steps 1-4 with the factor updated, as a call of its own (the refactorising way is
+    compiled into the cycle loop)."""
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
                        tau_req, sat, stuck, ws, True)
 
@@ -246,10 +286,10 @@ def _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qd
 @nb.njit(**INTO)
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws, update):
-    """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle_by`; tau_req
-    filled). With ``update``, idx[:m] lists the free joints in the order of their factor Lc
-    (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in step with the patterns: a joint
-    is appended where it is released, removed where it is held."""
+    """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`, ``mode`` PAPER or
+    HYBRID; tau_req filled). With ``update``, idx[:m] lists the free joints in the order of
+    their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in step with the
+    patterns: a joint is appended where it is released, removed where it is held."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
     Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)

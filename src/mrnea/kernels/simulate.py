@@ -3,7 +3,8 @@ program's own requirement, every cycle at once.
 
 Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions,
 k0, k1, run)``
-with ``compiled = (model, act)``, ``program = (q_cmd, qd_cmd, fext, pe)`` and
+with ``compiled = (model, act)``, ``mode = solve_mode(PAPER or HYBRID, n)``
+(kernels/drive_solve.py), ``program = (q_cmd, qd_cmd, fext, pe)`` and
 ``run = (q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench)``, unpacked
 once per call: the per-cycle ``step`` takes its arrays one by one (docs/design.md).
 ``program_requirement(compiled, program, dt, friction, k0, k1, out, status)`` with
