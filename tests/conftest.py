@@ -457,3 +457,10 @@ def time_marker(page, figure: str) -> tuple[float, float, float]:
   const want = (x0 + (t - a) / (b - a) * (x1 - x0)) * img.clientWidth;
   return [line.getBoundingClientRect().left - img.getBoundingClientRect().left + 1, want, t];
 }})()"""))
+
+
+def figure_scales(page) -> list[float]:
+    """Per ``<figure>`` image of the page: its drawn width over its own pixel width (1: drawn
+    at its own size; below 0.7 a report figure's text is unreadable)."""
+    return page.evaluate("[...document.querySelectorAll('figure img')].map("
+                         "i => i.getBoundingClientRect().width / i.naturalWidth)")
