@@ -350,3 +350,53 @@ def test_demo_report_reads_at_800_and_1400_px(demo, width: int) -> None:
         shot_path = Path(report).with_name(f"report-{width}.png")
         shot_path.write_bytes(page.screenshot(None))
         assert page.errors == [] and page.outside_requests == []
+
+
+TRACKING = """(() => {
+  const fig = document.querySelector("figure[id$='-tracking']"), img = fig.querySelector('img');
+  const W = img.clientWidth, H = img.clientHeight, c = document.createElement('canvas');
+  c.width = W; c.height = H;
+  const g = c.getContext('2d');
+  g.drawImage(img, 0, 0, W, H);  // the figure as drawn on the page, at its scale
+  const px = g.getImageData(0, 0, W, H).data;
+  return JSON.parse(fig.dataset.xaxes).map(([x0, x1, y0, y1]) => {
+    const L = Math.round(x0 * W) + 3, R = Math.round(x1 * W) - 3;
+    const T = Math.round((1 - y1) * H) + 3, B = Math.round((1 - y0) * H) - 3;
+    const line = [], text = [];
+    for (let y = T; y < B; y++) {
+      let ink = 0, grey = 0;
+      for (let x = L; x < R; x++) {
+        const k = 4 * (y * W + x), r = px[k], gr = px[k + 1], b = px[k + 2];
+        const hi = Math.max(r, gr, b), lo = Math.min(r, gr, b);
+        if (lo < 200) ink++;
+        // dark grey (the note's 0.35 grey, not the blue error line nor the red marks) in the
+        // middle third, where the centred note is
+        if (hi - lo < 12 && hi < 150 && x > L + (R - L) / 3 && x < R - (R - L) / 3) grey++;
+      }
+      if (ink > 0.6 * (R - L)) line.push(y);  // a horizontal line across the axes
+      else if (grey >= 2) text.push(y);
+    }
+    return {line: line, text: text};
+  });
+})()"""
+
+
+@pytest.mark.parametrize("width", [800, 1400])
+def test_no_tracking_error_note_clears_the_zero_line(demo, width: int) -> None:
+    """The tracking-error figure as the page draws it (the PNG painted on a canvas at its drawn
+    size, its axes boxes from ``data-xaxes``): in each panel of a joint without tracking error
+    (summary.json: max_tracking_error 0) the note "no tracking error" lies wholly above the
+    zero line, not across it; the joint with an error has no note."""
+    report, summary = demo
+    zero = [j["max_tracking_error"] == 0 for j in summary["joints"]]
+    assert any(zero) and not all(zero)
+    with chromium(width) as b:
+        page = open_report(b, report.as_uri())
+        panels = page.evaluate(TRACKING)
+    assert len(panels) == len(zero)
+    for none, p in zip(zero, panels, strict=True):
+        assert p["line"], p  # the zero line (and, flat, the error on it)
+        if none:
+            assert p["text"] and max(p["text"]) < min(p["line"]) - 1, p
+        else:
+            assert not p["text"], p
