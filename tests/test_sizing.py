@@ -314,6 +314,27 @@ def test_dwell_holds_the_load_in_the_rms():
                                                            rel=1e-12)
 
 
+def test_a_wrench_on_a_named_link_is_in_the_dwell_and_the_program():
+    """A program's wrench by link name (``{"carriage": w}``) is sized with: the carriage
+    pushing down on its environment with 40 N holds m g + 40 N at the dwell, in closed form,
+    and the program's part is the simulation's with that wrench."""
+    robot = Robot([Joint("z", "prismatic", "base", "carriage", axis=(0, 0, 1))],
+                  [Link("carriage", 20.0)])
+    _, q = trapezoidal([[0.5], [0.0]], 0.005, [0.5], [8.0])
+    D, w = 2.0, {"carriage": np.array([0.0, 0.0, 40.0, 0.0, 0.0, 0.0])}
+    res = size_drives(robot, [(q, 0.005, w, None)], loads_catalogue(LIFT), dwell=D)
+    js = res.joints[0]
+    run = mrnea.simulate(by_hand(robot, {"z": res.chosen["z"]}), q, 0.005, f_ext=w,
+                         reactions=False)
+    tau, qd = run.program_effort[:, 0], run.qd_cmd[:, 0]
+    qdd = np.diff(np.append(qd, 0.0)) / 0.005  # the program's next velocity; rest at the end
+    assert np.allclose(tau, 20 * (9.81 + qdd) + 40.0, rtol=1e-9, atol=1e-9)
+    motor = np.where(tau * qd < 0, tau * 0.7 / 500, tau / (500 * 0.9))
+    hold = (20 * 9.81 + 40.0) / (500 * 0.9)
+    want = np.sqrt((np.sum(motor**2) * 0.005 + D * hold**2) / (len(q) * 0.005 + D))
+    assert js.judged.rms[js.chosen] == pytest.approx(want, rel=1e-12)
+
+
 @pytest.mark.parametrize("kw, words", [
     ({"joints": "j1"}, ["joints", "sequence"]), ({"joints": ["elbow"]}, ["elbow", "j1, j2"]),
     ({"objective": "speed"}, ["objective", "mass"]), ({"dwell": -1.0}, ["dwell"]),

@@ -122,9 +122,10 @@ def program_requirement(
     effort (K, n) [N m | N], joint side, each cycle k needs at the program's state q_cmd[k],
     qd_cmd[k] (backward differences at dt [s], starting from rest) to make the program's next
     velocity (0 after the last row), with the full actuator model; and each joint's effort
-    limit at the program's speed (K, n). f_ext (6,) or (K, 6), f_ext_point (3,) or (K, 3) as
-    :func:`mrnea.simulate`. ``friction=False`` leaves Coulomb friction out (its share at rest
-    is set-valued: the drive and static friction share the holding effort)."""
+    limit at the program's speed (K, n). f_ext (6,) or (K, 6), f_ext_point (3,) or (K, 3), or
+    both by link name, as :func:`mrnea.simulate`. ``friction=False`` leaves Coulomb friction
+    out (its share at rest is set-valued: the drive and static friction share the holding
+    effort)."""
     validate.require_robot(robot)
     dt = validate.time_step(dt)
     friction = validate.flag(friction, "friction")
@@ -135,8 +136,7 @@ def program_requirement(
     K = Q.shape[0]
     V = np.zeros_like(Q)
     V[1:] = np.diff(Q, axis=0) / dt
-    program = (Q, V, validate.per_cycle(f_ext, K, 6, "f_ext"),
-               validate.per_cycle(f_ext_point, K, 3, "f_ext_point"))
+    program = (Q, V, *validate.wrench_per_cycle(robot, f_ext, f_ext_point, K))
     m, _, _, act = compiled.of(robot)
     req, limit, status = np.empty_like(Q), np.empty_like(Q), np.empty(K, dtype=np.int64)
     requirement_kernel((m, act), program, dt, friction, 0, K, (req, limit), status)

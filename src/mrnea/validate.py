@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Mapping
-from typing import TypeVar
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -131,15 +131,53 @@ def wrench_per_cycle(robot: Robot, f_ext: object, f_ext_point: object, K: int
     return per_cycle(f_ext, K, 6, "f_ext"), per_cycle(f_ext_point, K, 3, "f_ext_point")
 
 
+def program_wrench(robot: Robot, f_ext: object, f_ext_point: object, K: int
+                   ) -> tuple[Any, Any]:
+    """A program's wrench on its K rows, kept in the form it was given (a retiming moves it with
+    the path, a sizing takes it to every duty): the last link's, f_ext (K, 6) or None and
+    f_ext_point (3,), (K, 3) or None; or by link name (mappings, :func:`link_wrenches` checks
+    them), ``{link: (K, 6)}`` and ``{link: (3,) or (K, 3)}`` with every name the robot's own."""
+    if by_link(f_ext, f_ext_point):
+        fe, pe = link_wrenches(robot, f_ext, f_ext_point, rows=K)
+        loads, where = {}, {}
+        for k in f_ext or {}:
+            i = robot.link_index(k, "f_ext", StateError)
+            loads[robot.link_names[i]] = np.ascontiguousarray(fe[:, i])
+        for k, v in (f_ext_point or {}).items():
+            i = robot.link_index(k, "f_ext_point", StateError)
+            where[robot.link_names[i]] = (pe[0, i].copy() if np.ndim(v) == 1
+                                          else np.ascontiguousarray(pe[:, i]))
+        return loads, where
+    fe = None if f_ext is None else per_cycle(f_ext, K, 6, "f_ext")
+    pe = None
+    if f_ext_point is not None:
+        pe = array(f_ext_point, "f_ext_point", 3)
+        if pe.ndim == 2 and pe.shape[0] != K:
+            raise StateError(f"f_ext_point: expected (3,) or ({K}, 3), got {pe.shape}")
+    return fe, pe
+
+
+def wrench_map(x: Any, f: Callable[[NDArray], NDArray]) -> Any:
+    """``f`` applied to a wrench or its point in either form of :func:`program_wrench`: the
+    last link's array, or each link's of a mapping by link name; None stays None."""
+    if x is None:
+        return None
+    if isinstance(x, Mapping):
+        return {k: f(v) for k, v in x.items()}
+    return f(x)
+
+
+def wrench_rows(x: Any, rows: Any) -> Any:
+    """The rows ``rows`` (an index, a slice or an index array) of a wrench or its point in
+    either form of :func:`program_wrench`; a single row (m,), every instant's, stays."""
+    return wrench_map(x, lambda a: a if a.ndim == 1 else a[rows])
+
+
 def per_cycle(x: ArrayLike | None, K: int, width: int, name: str) -> NDArray[np.float64]:
     """A value per simulation cycle, (K, width): ``None`` (zeros), one row for every cycle, or
     K rows."""
     if x is None:
         return np.zeros((K, width))
-    if isinstance(x, Mapping):
-        raise StateError(f"{name}: wrenches on named links are taken by the dynamics "
-                         f"functions, simulate, check and sweep, not yet here (retime, "
-                         f"sizing, the drive requirement); give the last link's wrench")
     a = array(x, name, width)
     if a.ndim == 1:
         return np.ascontiguousarray(np.broadcast_to(a, (K, width)))

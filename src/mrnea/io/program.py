@@ -312,18 +312,22 @@ def _toml_value(v: Any) -> str:
 
 
 def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any] | None,
-                  wrench: Mapping[str, Any] | None = None, comment: str = "",
+                  wrench: Mapping[str, Any] | Sequence[Mapping[str, Any]] | None = None,
+                  comment: str = "",
                   moves: Sequence[Mapping[str, Any]] = ()) -> str:
     """The text of a program file (the format :func:`loads_program` reads) from the keys of its
-    ``[program]``, ``[path]`` (None for a Cartesian program) and optional ``[wrench]`` tables,
-    and a Cartesian program's ``[[move]]`` tables (``moves``, each with its ``type``);
-    ``comment``: lines put first as TOML comments. Numbers are written as their shortest
-    repr, so they read back bit for bit. A list of rows (the wrench's values) gets one row per
-    line. A key the table does not know
+    ``[program]``, ``[path]`` (None for a Cartesian program) and optional ``[wrench]`` table (a
+    list of them: ``[[wrench]]`` tables, each naming its ``link``), and a Cartesian program's
+    ``[[move]]`` tables (``moves``, each with its ``type``); ``comment``: lines put first as
+    TOML comments. Numbers are written as their shortest repr, so they read back bit for bit.
+    A list of rows (the wrench's values) gets one row per line. A key the table does not know
     is a StateError (the file would not load)."""
     lines = [f"# {c}" if c else "#" for c in comment.splitlines()]
-    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": WRENCH_KEYS}
-    tables = [("program", program), ("path", path), ("wrench", wrench),
+    allowed = {"program": _PROGRAM_KEYS, "path": _PATH_KEYS, "wrench": WRENCH_KEYS,
+               "[wrench]": WRENCH_KEYS}
+    wrenches = ([("[wrench]", w) for w in wrench] if isinstance(wrench, Sequence)
+                else [("wrench", wrench)])
+    tables = [("program", program), ("path", path), *wrenches,
               *(("[move]", m) for m in moves)]
     for table, keys in tables:
         if keys is None:
@@ -345,7 +349,8 @@ def dumps_program(program: Mapping[str, Any], path: Mapping[str, Any] | None,
 
 
 def save_program(path: str | os.PathLike[str], program: Mapping[str, Any],
-                 path_table: Mapping[str, Any] | None, wrench: Mapping[str, Any] | None = None,
+                 path_table: Mapping[str, Any] | None,
+                 wrench: Mapping[str, Any] | Sequence[Mapping[str, Any]] | None = None,
                  comment: str = "", overwrite: bool = False,
                  moves: Sequence[Mapping[str, Any]] = ()) -> Path:
     """Write :func:`dumps_program`'s text to ``path`` through :func:`mrnea.io.writer.create`

@@ -50,7 +50,7 @@ def read_wrenches(check: TomlCheck, given: Any, robot: str | None
     """A program's ``[wrench]`` (one table) or ``[[wrench]]`` (a list of tables): (wrench,
     point). One table without ``link``: ``(times, values)`` and its point (3,) or None, the
     last link's wrench as before. Otherwise a :class:`LinkWrenches` and None (the points are
-    in it); two tables on one link are an error naming it."""
+    in it); two tables on one link are added (:func:`added`)."""
     tables = given if isinstance(given, list) else [check.table(given, "top level", "wrench")]
     if not tables:
         raise check.error("top level", "'wrench' is an empty list: give at least one [[wrench]]")
@@ -61,12 +61,34 @@ def read_wrenches(check: TomlCheck, given: Any, robot: str | None
         return read[0][1:3], read[0][3]
     out = LinkWrenches()
     for k, (link, times, values, point) in enumerate(read):
-        if link in out:
-            raise check.error(f"[[wrench]] {k + 1}", f"a second wrench on link "
-                                                     f"{quote(link or 'the last link')}: "
-                                                     f"give one table per link")
-        out[link] = (times, values, point)
+        here = (times, values, point)
+        out[link] = added(out[link], here, f"{check.source}: [[wrench]] {k + 1}", link) \
+            if link in out else here
     return out, None
+
+
+def added(a: tuple, b: tuple, where: str, link: str | None) -> tuple:
+    """Two wrench tables on one link, (times, values, point) each, as one: their sum at every
+    instant (each linear between its breakpoints and held outside them, so the sum is so
+    between the union of the breakpoints). Both must act at the same point (or both at the
+    link frame's origin): wrenches at two points add only through the link's pose, which the
+    table cannot know; a ProgramFileError naming ``where`` and the link says so."""
+    pa, pb = a[2], b[2]
+    if not ((pa is None and pb is None)
+            or (pa is not None and pb is not None and np.array_equal(pa, pb))):
+        raise ProgramFileError(
+            f"{where}: a second wrench on link {quote(link or 'the last link')} at another "
+            f"point ({_point(pb)} against {_point(pa)}): wrenches on one link add only at one "
+            f"point; give their sum at one point (each force's moment about it added)")
+    times = np.union1d(a[0], b[0])
+    values = wrench_at(*a[:2], times) + wrench_at(*b[:2], times)
+    for x in (times, values):
+        x.setflags(write=False)
+    return times, values, pa
+
+
+def _point(p: NDArray | None) -> str:
+    return "the link frame's origin" if p is None else f"point {p.tolist()}"
 
 
 def wrenches_on(wrenches: LinkWrenches, robot: Robot, t: NDArray, where: str,
@@ -76,18 +98,20 @@ def wrenches_on(wrenches: LinkWrenches, robot: Robot, t: NDArray, where: str,
     its point (3,) where given (``tcp``: the point of a table without ``link`` and without
     ``point``, a Cartesian program's tool point). A link the robot does not have is a
     ProgramFileError naming ``where`` (the file) and the link, with a close match."""
-    f_ext, points = {}, {}
+    f_ext, points, times0, values0 = {}, {}, {}, {}
     for link, (times, values, point) in wrenches.items():
         name = (robot.link_names[-1] if link is None else
                 robot.link_names[robot.link_index(link, f"{where}: [wrench] 'link'",
                                                   ProgramFileError)])
-        if name in f_ext:
-            raise ProgramFileError(f"{where}: [wrench]: two wrenches on link {quote(name)} (the "
-                                   f"last link: a table without 'link'); give one per link")
-        f_ext[name] = wrench_at(times, values, t)
-        f_ext[name].setflags(write=False)
         if point is None and link is None:
             point = tcp
+        if name in f_ext:  # the last link named and a table without 'link'
+            times, values, point = added((times, values, point),
+                                         (times0[name], values0[name], points.get(name)),
+                                         f"{where}: [wrench]", name)
+        times0[name], values0[name] = times, values
+        f_ext[name] = wrench_at(times, values, t)
+        f_ext[name].setflags(write=False)
         if point is not None:
             points[name] = point
     return f_ext, points

@@ -156,7 +156,7 @@ def retime(
     return _result(job, Q, FE, PE, sim, "toppra", m, phase, logs, None, None, margin, jerk)
 
 
-def _result(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None, sim: Any,
+def _result(job: Job, Q: NDArray, FE: Any, PE: Any, sim: Any,
             method: str, margin: float, phase: tuple, log: list, factor: float | None,
             estimate: float | None, margin_asked: float | None = None,
             jerk: NDArray | None = None) -> RetimeResult:
@@ -177,9 +177,7 @@ def _check_holds(job: Job, margin: float) -> None:
                            if kind == "hold"] or [np.zeros(0, dtype=int)])
     if rows.size == 0:
         return
-    fe = None if job.f_ext is None else job.f_ext[rows]
-    pe = job.f_ext_point
-    pe = pe if pe is None or pe.ndim == 1 else pe[rows]
+    fe, pe = validate.wrench_rows(job.f_ext, rows), validate.wrench_rows(job.f_ext_point, rows)
     q = job.q[rows]
     _, c = actuator_mass_matrix_and_bias(job.robot, q, np.zeros_like(q), fe, pe)
     need = holding_need(job.robot, c, np.zeros_like(c), np.zeros(c.shape, dtype=bool))

@@ -49,15 +49,16 @@ def _never() -> None:
 class Job:
     """A program to retime (module docstring). ``q`` (K, n) rows at ``program_dt`` [s]; ``dt``
     the retimed program's cycle [s]; ``f_ext`` (K, 6) or None and ``f_ext_point`` (3,), (K, 3)
-    or None on the program's clock; ``mode`` the simulation's; ``runs`` :func:`pieces`;
+    or None on the program's clock, or both by link name
+    (:func:`mrnea.validate.program_wrench`); ``mode`` the simulation's; ``runs`` :func:`pieces`;
     ``checkpoint`` called between the steps of the retiming (raising from it stops it)."""
 
     robot: Robot
     q: NDArray
     program_dt: float
     dt: float
-    f_ext: NDArray | None
-    f_ext_point: NDArray | None
+    f_ext: Any
+    f_ext_point: Any
     mode: str
     runs: list[tuple[str, int, int]]
     timings: dict[str, float] = field(default_factory=lambda: dict.fromkeys(TIMINGS, 0.0))
@@ -100,12 +101,7 @@ class Job:
         pdt = validate.time_step(pdt, "program dt")
         dt = pdt if dt is None else validate.time_step(dt)
         K = q.shape[0]
-        fe = None if f_ext is None else validate.per_cycle(f_ext, K, 6, "f_ext")
-        pe = None
-        if f_ext_point is not None:
-            pe = validate.array(f_ext_point, "f_ext_point", 3)
-            if pe.ndim == 2 and pe.shape[0] != K:
-                raise StateError(f"f_ext_point: expected (3,) or ({K}, 3), got {pe.shape}")
+        fe, pe = validate.program_wrench(robot, f_ext, f_ext_point, K)
         mode = mode or pmode or "hybrid"
         validate.choice("mode", mode, MODES)
         lower, upper = robot.lower, robot.upper
@@ -137,9 +133,7 @@ class Job:
 
     def wrench_at(self, t: NDArray) -> tuple[NDArray | None, NDArray | None]:
         """The wrench (M, 6) and its point ((3,) or (M, 3)) at program instants t (M,)."""
-        pe = self.f_ext_point
-        return (at_clock(t, self.clock, self.f_ext),
-                pe if pe is None or pe.ndim == 1 else at_clock(t, self.clock, pe))
+        return at_clock(t, self.clock, self.f_ext), at_clock(t, self.clock, self.f_ext_point)
 
     def assemble(self, retimed: dict[int, tuple[NDArray, NDArray]]
                  ) -> tuple[NDArray, NDArray | None, NDArray | None, NDArray]:
@@ -162,7 +156,7 @@ class Job:
         self.timings["sampling"] += time.perf_counter() - t0
         return Q, FE, PE, clk
 
-    def verify(self, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
+    def verify(self, Q: NDArray, FE: Any, PE: Any,
                reactions: bool = True) -> SimulationResult:
         """Simulate the retimed rows with the job's robot, mode and wrench."""
         t0 = time.perf_counter()

@@ -24,13 +24,14 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.actuators import actuator_mass_matrix_and_bias, coulomb_effort
 from mrnea.model import Robot
+from mrnea.validate import wrench_map
 
 if TYPE_CHECKING:
     from scipy.interpolate import CubicSpline
@@ -57,11 +58,15 @@ def friction_pair(robot: Robot) -> tuple[NDArray, NDArray]:
     return F[:, 0], F[:, 1]
 
 
-def at_clock(t: NDArray, tk: NDArray, rows: NDArray | None) -> NDArray | None:
-    """Rows given at the program's instants tk, at the instants t of the same clock (linear)."""
-    if rows is None:
-        return None
-    return np.stack([np.interp(t, tk, rows[:, c]) for c in range(rows.shape[1])], axis=1)
+def at_clock(t: NDArray, tk: NDArray, rows: Any) -> Any:
+    """A wrench or its point given at the program's instants tk (rows (K, m); one row (m,) is
+    every instant's), at the instants t of the same clock (linear), per link for a mapping."""
+    def interp(a: NDArray) -> NDArray:
+        if a.ndim == 1:
+            return a
+        return np.stack([np.interp(t, tk, a[:, c]) for c in range(a.shape[1])], axis=1)
+
+    return wrench_map(rows, interp)
 
 
 def piece_spline(q: NDArray, dt: float) -> CubicSpline:
@@ -213,11 +218,11 @@ class PathCoefficients:
         return self._range(2)
 
 
-def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDArray | None,
-                      f_ext_point: NDArray | None) -> PathCoefficients:
+def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: Any,
+                      f_ext_point: Any) -> PathCoefficients:
     """a, b, c at every grid point s from ONE batched call on the 2 (N + 1) states (q, q_s) and
     (q, 0) (module docstring). ``f_ext`` (N + 1, 6) or None, ``f_ext_point`` (3,), (N + 1, 3)
-    or None: the wrench at each grid point."""
+    or None: the wrench at each grid point; or both by link name (each link's arrays so)."""
     q, qs, qss = spline(s), spline(s, 1), spline(s, 2)
     # a spline's coefficients decay away from a change but reach zero only far below any
     # meaning (1e-323 seen on the SDT, which broke the rows' scaling)
@@ -226,8 +231,8 @@ def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: NDAr
     qss[rest & (np.abs(qss) < REST * np.abs(qss).max())] = 0.0
     G = s.size
 
-    def twice(x: NDArray | None) -> NDArray | None:
-        return x if x is None or x.ndim == 1 else np.concatenate([x, x])
+    def twice(x: Any) -> Any:
+        return wrench_map(x, lambda a: a if a.ndim == 1 else np.concatenate([a, a]))
 
     H2, u2 = actuator_mass_matrix_and_bias(robot, np.concatenate([q, q]),
                                            np.concatenate([qs, np.zeros_like(qs)]),

@@ -67,6 +67,8 @@ class RetimeResult:
     t : (M,) time [s]. q_cmd : (M, n) the retimed program [rad | m].
     f_ext : (M, 6) the wrench moved with the path [N, N m] (base frame, what the end effector
         exerts), or None; f_ext_point : (3,) or (M, 3) its point in the last link's frame [m].
+        Or both by link name, as the program gave them: ``{link: (M, 6)}`` and ``{link: (3,)
+        or (M, 3)}``, each point in its link's frame.
     dt : the retimed program's cycle [s]. mode : the simulation's mode.
     duration, original_duration : (M - 1) dt and the program's (K - 1) dt [s].
     method : ``"toppra"`` or ``"scale"``.
@@ -89,8 +91,8 @@ class RetimeResult:
 
     t: NDArray
     q_cmd: NDArray
-    f_ext: NDArray | None
-    f_ext_point: NDArray | None
+    f_ext: Any
+    f_ext_point: Any
     dt: float
     mode: str
     duration: float
@@ -104,8 +106,8 @@ class RetimeResult:
     phase: tuple[PhasePiece, ...]
     original_q_cmd: NDArray
     original_dt: float
-    original_f_ext: NDArray | None
-    original_f_ext_point: NDArray | None
+    original_f_ext: Any
+    original_f_ext_point: Any
     log: list[dict[str, Any]] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     margin_asked: float | None = None
@@ -231,16 +233,25 @@ class RetimeResult:
         if program_keys is not None and not isinstance(program_keys, Mapping):
             raise StateError(f"program_keys: expected a mapping of [program] keys, got "
                              f"{type(program_keys).__name__}")
-        if self.f_ext_point is not None and np.ndim(self.f_ext_point) == 2:
+        points = self.f_ext_point
+        if not isinstance(points, Mapping):
+            points = {None: points}
+        if any(p is not None and np.ndim(p) == 2 for p in points.values()):
             raise StateError("f_ext_point: a program file holds one point, not one per cycle")
         program = {"name": name, "robot": robot, "dt": self.dt, "mode": self.mode,
                    **(program_keys or {})}
-        wrench = None
-        if self.f_ext is not None and np.any(self.f_ext):
-            k = _breakpoints(self.f_ext)
-            wrench = {"times": self.t[k], "values": self.f_ext[k]}
-            if self.f_ext_point is not None:
-                wrench["point"] = np.asarray(self.f_ext_point)
+        loads = self.f_ext if isinstance(self.f_ext, Mapping) else {None: self.f_ext}
+        tables = []
+        for link, f in loads.items():  # one [wrench] table, or a [[wrench]] table per link
+            if f is None or not np.any(f):
+                continue
+            k = _breakpoints(f)
+            table = {**({} if link is None else {"link": link}), "times": self.t[k],
+                     "values": f[k]}
+            if points.get(link) is not None:
+                table["point"] = np.asarray(points[link])
+            tables.append(table)
+        wrench = (tables or None) if isinstance(self.f_ext, Mapping) else next(iter(tables), None)
         how = ("TOPP-RA, planning margin " + f"{self.margin:.4g}"
                if self.method == "toppra" else f"uniform time scaling by {self.factor:.6g}")
         comment = (f"Retimed by mrnea ({how}): {self.duration:.6g} s instead of "

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -77,19 +77,19 @@ class Hollerbach:
     upper: NDArray
 
 
-def hollerbach(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = None,
-               f_ext_point: NDArray | None = None) -> Hollerbach:
+def hollerbach(robot: Robot, q: NDArray, dt: float, f_ext: Any = None,
+               f_ext_point: Any = None) -> Hollerbach:
     """The coefficients of a program (K, n) at dt [s] with its wrench (K, 6) and point ((3,) or
-    (K, 3)): A + B + C at y = 1 is the program's own requirement
-    (:func:`mrnea.actuators.program_requirement`, the simulation's ``program_effort``) with
-    Coulomb friction apart; c from batched calls on (q, 0), :data:`CHUNK` rows at a time."""
+    (K, 3)), or both by link name (:func:`mrnea.validate.program_wrench`): A + B + C at y = 1
+    is the program's own requirement (:func:`mrnea.actuators.program_requirement`, the
+    simulation's ``program_effort``) with Coulomb friction apart; c from batched calls on
+    (q, 0), :data:`CHUNK` rows at a time."""
     h, _ = program_requirement(robot, q, dt, f_ext, f_ext_point, friction=False)
     K, n = q.shape
     c = np.empty((K, n))
     for k0 in range(0, K, CHUNK):
         r = slice(k0, min(K, k0 + CHUNK))
-        fe = f_ext if f_ext is None or f_ext.ndim == 1 else f_ext[r]
-        pe = f_ext_point if f_ext_point is None or f_ext_point.ndim == 1 else f_ext_point[r]
+        fe, pe = validate.wrench_rows(f_ext, r), validate.wrench_rows(f_ext_point, r)
         c[r] = actuator_mass_matrix_and_bias(robot, q[r], np.zeros((r.stop - r.start, n)),
                                              fe, pe)[1]
     qd = np.zeros_like(q)
@@ -116,11 +116,12 @@ def _first_root(A: NDArray, B: NDArray, C: NDArray) -> NDArray:
     return np.min(np.where(roots > 0, roots, np.inf), axis=0)
 
 
-def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = None,
-                   f_ext_point: NDArray | None = None, t0: float = 0.0) -> float:
+def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: Any = None,
+                   f_ext_point: Any = None, t0: float = 0.0) -> float:
     """The smallest factor f (time -> f time) with ``|tau(1/f)| <= L(|qd| / f)`` and the velocity
     limits at every cycle, in closed form (module docstring). q (K, n) at dt [s]; f_ext (K, 6) or
-    None; f_ext_point (3,), (K, 3) or None; t0 [s]: the instant of q's first row, for messages.
+    None; f_ext_point (3,), (K, 3) or None; or both by link name (mappings); t0 [s]: the
+    instant of q's first row, for messages.
 
     Raises
     ------
@@ -136,11 +137,7 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: NDArray | None = 
     if q.ndim != 2 or q.shape[0] < 2:
         raise StateError(f"q: expected (K, {robot.n}) rows with K >= 2, got {q.shape}")
     K = q.shape[0]
-    f_ext = None if f_ext is None else validate.per_cycle(f_ext, K, 6, "f_ext")
-    if f_ext_point is not None:
-        f_ext_point = validate.array(f_ext_point, "f_ext_point", 3)
-        if f_ext_point.ndim == 2 and f_ext_point.shape[0] != K:
-            raise StateError(f"f_ext_point: expected (3,) or ({K}, 3), got {f_ext_point.shape}")
+    f_ext, f_ext_point = validate.program_wrench(robot, f_ext, f_ext_point, K)
     t0 = validate.real(t0, "t0")
     h = hollerbach(robot, q, dt, f_ext, f_ext_point)
     static_check(robot, holding_need(robot, h.c, h.direction, h.direction != 0),

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea import validate
 from mrnea.actuators import program_requirement
 from mrnea.errors import NoTimingError
 from mrnea.retime.jerk import jerk_profile, jerks, sample_smooth
@@ -67,7 +68,7 @@ class Plan:
 
     margin: float
     Q: NDArray
-    FE: NDArray | None
+    FE: Any
     PE: NDArray | None
     clock: NDArray
     speeds: dict[int, NDArray]
@@ -82,7 +83,7 @@ class Plan:
         return int(self.Q.shape[0])
 
 
-def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
+def cycle_ratios(job: Job, Q: NDArray, FE: Any, PE: Any,
                  acc: NDArray | None) -> NDArray:
     """(M,) per cycle, the largest ratio over joints of the program's own requirement to its
     effort limit at speed (:func:`mrnea.actuators.program_requirement`), of the commanded
@@ -94,7 +95,7 @@ def cycle_ratios(job: Job, Q: NDArray, FE: NDArray | None, PE: NDArray | None,
         job.checkpoint()
         b = min(a + CHUNK, Q.shape[0])
         lo, hi = max(a - 1, 0), min(b + 1, Q.shape[0])  # the cycle rule's neighbours
-        part = [X if X is None or X.ndim == 1 else X[lo:hi] for X in (FE, PE)]
+        part = [validate.wrench_rows(X, slice(lo, hi)) for X in (FE, PE)]
         t, L = program_requirement(job.robot, Q[lo:hi], job.dt, *part)
         if lo < a:  # the chunk's first row starts from the row before it, not from rest
             t, L = t[1:], L[1:]

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea import validate
 from mrnea.actuators import program_requirement
 from mrnea.cartesian import solve
 from mrnea.errors import SizingError, listing, quote
@@ -58,13 +59,15 @@ OBJECTIVES = ("mass", "price", "margin")
 
 @dataclass(frozen=True)
 class Case:
-    """One program to size for: q_cmd (K, n) [rad | m], dt [s], the wrench and its point."""
+    """One program to size for: q_cmd (K, n) [rad | m], dt [s], the wrench and its point: the
+    last link's (f_ext (K, 6) or (6,), f_ext_point (3,) or (K, 3)) or by link name (mappings of
+    those, as :func:`mrnea.simulate` takes them)."""
 
     name: str
     q_cmd: NDArray
     dt: float
-    f_ext: NDArray | None = None
-    f_ext_point: NDArray | None = None
+    f_ext: Any = None
+    f_ext_point: Any = None
 
 
 @dataclass(frozen=True)
@@ -162,9 +165,6 @@ def _cases(programs: object, robot: Robot) -> list[Case]:
             p = training_program() if str(p) == DEMO_PROGRAM else load_program(p)
         if isinstance(p, Program):
             p = solve(p, robot)  # joints by name, Cartesian moves: the robot's joint path
-            if isinstance(p.f_ext, dict):
-                raise SizingError(f"{p.source or p.name}: sizing takes the last link's wrench; "
-                                 f"wrenches on named links ([[wrench]] link) are not sized yet")
             out.append(Case(p.name, np.asarray(p.q_cmd), p.dt, p.f_ext, p.f_ext_point))
         elif isinstance(p, Case):
             out.append(p)
@@ -221,8 +221,8 @@ def _duties(robot: Robot, cases: list[Case], sized: list[int], dwell: float) -> 
     if dwell > 0:  # held at rest at the last program's final pose
         last = cases[-1]
         hold, _ = program_requirement(bare, np.repeat(last.q_cmd[-1:], 2, axis=0), last.dt,
-                                      None if last.f_ext is None else last.f_ext[-1],
-                                      last.f_ext_point, friction=False)
+                                      validate.wrench_rows(last.f_ext, -1),
+                                      validate.wrench_rows(last.f_ext_point, -1), friction=False)
         z = np.zeros((1, robot.n))
         parts.append((hold[1:], z, z, z, np.array([dwell])))
     h0, qd, qdd, v, dt = (np.concatenate(a) for a in zip(*parts, strict=True))
