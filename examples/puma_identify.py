@@ -41,6 +41,7 @@ from mrnea.identify.fourier import coefficients, evaluate
 from mrnea.identify.log import log_columns
 from mrnea.io.writer import check_new, create
 from mrnea.model import Link, Robot
+from mrnea.simulate import SimulationResult
 
 HERE = Path(__file__).resolve().parent
 RATE = 100.0  # [Hz] the log's sample rate
@@ -52,8 +53,10 @@ COM_SHIFT = np.array([0.010, -0.005, 0.008])  # [m]
 FILES = ("puma_identify_truth.toml", "puma_identify_log.csv", "puma_identify_validate.csv")
 
 
-def truth_robot(prior: Robot) -> Robot:
-    """The known robot the logs are simulated from (module docstring)."""
+def changed_links(prior: Robot) -> tuple[Link, ...]:
+    """The prior's links changed as the truth's are (module docstring): masses x 1.1, centres of
+    mass moved by COM_SHIFT, inertias about the centre of mass x 1.2 plus the smallest
+    isotropic term that makes each a rigid body, plus 1e-4 kg m^2."""
     links = []
     for lk in prior.links:
         inertia = 1.2 * np.asarray(lk.inertia)
@@ -61,7 +64,12 @@ def truth_robot(prior: Robot) -> Robot:
         inertia = inertia + (max(0.0, e[2] - e[0] - e[1]) + 1e-4) * np.eye(3)
         links.append(Link(lk.name, 1.1 * lk.mass, np.asarray(lk.com) + COM_SHIFT, inertia,
                           lk.visuals))
-    return prior._replace(links=tuple(links), name="puma560_truth").with_actuators(
+    return tuple(links)
+
+
+def truth_robot(prior: Robot) -> Robot:
+    """The known robot the logs are simulated from (module docstring)."""
+    return prior._replace(links=changed_links(prior), name="puma560_truth").with_actuators(
         viscous_friction=1.3 * prior.viscous_friction,
         coulomb_friction=[(1.2 * p, 0.8 * m) for p, m in prior.coulomb_friction],
         rotor_inertia=0.9 * prior.rotor_inertia)
@@ -77,16 +85,23 @@ def fourier_motion(robot: Robot, seed: int, duration: float) -> np.ndarray:
     return evaluate(c, a, b, BASE_FREQUENCY, t)[0]
 
 
+def logged(res: SimulationResult, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """What the log of a run at CYCLE keeps (module docstring): t [s], q [rad] rounded to
+    QUANTUM, tau [N m] plus Gaussian noise, every RATE-th of a second; and that noise's standard
+    deviation per joint (NOISE x the joint's largest effort) [N m]."""
+    every = round(1.0 / (RATE * CYCLE))
+    t, q, tau = res.t[::every], res.q[::every], res.tau[::every]
+    noise = NOISE * np.abs(tau).max(axis=0)
+    return (t, np.round(q / QUANTUM) * QUANTUM, tau + rng.normal(size=tau.shape) * noise,
+            noise)
+
+
 def write_log(path: Path, truth: Robot, seed: int, duration: float, force: bool) -> None:
     """Simulate the truth along the trajectory of ``seed`` and write its noisy log."""
     res = mrnea.simulate(truth, fourier_motion(truth, seed, duration), CYCLE, reactions=False)
     if not res.achievable:
         raise SystemExit(f"{path.name}: the truth cannot follow its trajectory: {res.verdict()}")
-    every = round(1.0 / (RATE * CYCLE))
-    t, q, tau = res.t[::every], res.q[::every], res.tau[::every]
-    rng = np.random.default_rng(1000 + seed)
-    q = np.round(q / QUANTUM) * QUANTUM
-    tau = tau + rng.normal(size=tau.shape) * NOISE * np.abs(tau).max(axis=0)
+    t, q, tau, _ = logged(res, np.random.default_rng(1000 + seed))
     with create(path, force) as fh:
         fh.write(",".join(log_columns(truth)) + "\n")
         for k in range(t.size):

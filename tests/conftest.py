@@ -20,6 +20,8 @@ import site
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -416,3 +418,49 @@ def scheduler_address(tmp_path_factory):
             p.terminate()
             p.wait(timeout=60)
         log.close()
+
+
+# --- pages in headless Chromium (tests/chromium_cdp.py) ------------------------------------------
+
+@contextmanager
+def chromium(width: int, height: int = 1000, extra_flags: tuple[str, ...] = ()) -> Iterator:
+    """A headless Chromium window of ``width`` x ``height`` CSS px (``extra_flags`` on its
+    command line); skips the test, saying why, only where no Chromium can be started."""
+    from chromium_cdp import Browser, ChromiumUnavailable
+
+    try:
+        b = Browser(width=width, height=height, extra_flags=extra_flags)
+    except ChromiumUnavailable as exc:
+        pytest.skip(f"no Chromium for the browser tests: {exc}")
+    with b:
+        yield b
+
+
+def open_report(browser, url: str):
+    """The report at ``url`` opened in ``browser``, its 3D view ready (asserts WebGL) and two
+    frames drawn; the page."""
+    page = browser.open(url)
+    assert page.evaluate("mrneaView3d.ready.then(a => a !== null)"), "no WebGL in Chromium"
+    page.next_frames(2)
+    return page
+
+
+def time_marker(page, figure: str) -> tuple[float, float, float]:
+    """On the report figure whose id ends in ``-figure``: where the 3D view's time line is
+    drawn, where its first time axes (``data-xaxes``) puts the view's time (both CSS px from
+    the image's left edge), and that time [s]."""
+    return tuple(page.evaluate(f"""(async () => {{
+  const fig = document.querySelector("figure[id$='-{figure}']");
+  const img = fig.querySelector('img'), line = fig.querySelector('.mv3d-tline');
+  const [x0, x1, , , a, b] = JSON.parse(fig.dataset.xaxes)[0];
+  const t = await mrneaView3d.time();
+  const want = (x0 + (t - a) / (b - a) * (x1 - x0)) * img.clientWidth;
+  return [line.getBoundingClientRect().left - img.getBoundingClientRect().left + 1, want, t];
+}})()"""))
+
+
+def figure_scales(page) -> list[float]:
+    """Per ``<figure>`` image of the page: its drawn width over its own pixel width (1: drawn
+    at its own size; below 0.7 a report figure's text is unreadable)."""
+    return page.evaluate("[...document.querySelectorAll('figure img')].map("
+                         "i => i.getBoundingClientRect().width / i.naturalWidth)")

@@ -36,6 +36,7 @@ from chromium_cdp import Browser, ChromiumUnavailable
 from conftest import (
     PinChain,
     environment,
+    figure_scales,
     mrnea_cli,
     one_error_line,
     sines_trajectory,
@@ -280,10 +281,13 @@ def test_the_page_in_chromium(work, width):
             overflow = page.evaluate("document.documentElement.scrollWidth - innerWidth")
             tables = page.evaluate("document.querySelectorAll('table').length")
             text = page.evaluate("document.body.innerText")
+            scales = figure_scales(page)
             assert not page.errors and not page.outside_requests
     except ChromiumUnavailable as exc:
         pytest.skip(str(exc))
     assert len(shown) == 4 and all(c and w >= 600 and 0 < r <= width for c, w, r in shown)
+    # below 960 px a figure keeps its own pixels (and pans in its box), as the reports' do
+    assert len(scales) == 4 and min(scales) >= (0.999 if width < 960 else 0.7), scales
     assert overflow <= 0 and tables == 3
     assert "(in l1.Iyy)" in text and "condition number" in text
 

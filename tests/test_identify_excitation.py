@@ -32,6 +32,7 @@ Independent checks:
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -41,14 +42,16 @@ from conftest import PinChain, erd_path, pinocchio_base_condition, sines_traject
 import mrnea
 from mrnea.identify import Log, actuator_parameters, identify, inertial_parameters
 from mrnea.identify.excite import excitation
-from mrnea.model import Link, Robot
+from mrnea.model import Robot
 
 F, L, DT = 0.1, 3, 0.01  # [Hz], harmonics, [s] the excitation program's cycle
 V, A = 2.0, 10.0  # [rad/s], [rad/s^2] the excitation's limits
-CYCLE, EVERY = 0.001, 10  # [s] the simulation's cycle; the log keeps every 10th (100 Hz)
-QUANTUM, NOISE = 1e-5, 0.005  # [rad]; a fraction of each joint's largest effort
-COM_SHIFT = np.array([0.010, -0.005, 0.008])  # [m]
-PUMA_TRUTH = Path(__file__).resolve().parents[1] / "examples" / "puma_identify_truth.toml"
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+PUMA_TRUTH = EXAMPLES / "puma_identify_truth.toml"
+# the example's set-up: the truth's links, the simulation's cycle and what its log keeps
+_spec = importlib.util.spec_from_file_location("puma_identify", EXAMPLES / "puma_identify.py")
+EXAMPLE = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(EXAMPLE)
 
 
 def _ur5_prior() -> Robot:
@@ -57,14 +60,7 @@ def _ur5_prior() -> Robot:
 
 
 def _ur5_truth(prior: Robot) -> Robot:
-    links = []
-    for lk in prior.links:
-        inertia = 1.2 * np.asarray(lk.inertia)
-        e = np.linalg.eigvalsh(inertia)
-        inertia = inertia + (max(0.0, e[2] - e[0] - e[1]) + 1e-4) * np.eye(3)
-        links.append(Link(lk.name, 1.1 * lk.mass, np.asarray(lk.com) + COM_SHIFT, inertia,
-                          lk.visuals))
-    return prior._replace(links=tuple(links), name="ur5_truth").with_actuators(
+    return prior._replace(links=EXAMPLE.changed_links(prior), name="ur5_truth").with_actuators(
         rotor_inertia=[5e-5, 5e-5, 4e-5, 2e-5, 2e-5, 2e-5],
         viscous_friction=[4.0, 4.0, 3.0, 1.0, 1.0, 1.0],
         coulomb_friction=[(5.0, 4.0), (6.0, 4.5), (3.0, 3.5), (1.0, 0.7), (1.0, 1.2),
@@ -123,15 +119,12 @@ def _case(name: str):
     prior, truth = _robots(name)
     exc = excitation(prior, base_frequency=F, harmonics=L, dt=DT, velocity_limit=V,
                      acceleration_limit=A, candidates=8, starts=1, maxiter=30, seed=5)
-    t = np.arange(round(2 / (F * CYCLE)) + 1) * CYCLE  # two periods, 1 ms
+    t = np.arange(round(2 / (F * EXAMPLE.CYCLE)) + 1) * EXAMPLE.CYCLE  # two periods, 1 ms
     q_cmd = _closed_form(exc.c, exc.a, exc.b, t)[0]
-    sim = mrnea.simulate(truth, q_cmd, CYCLE, reactions=False)
+    sim = mrnea.simulate(truth, q_cmd, EXAMPLE.CYCLE, reactions=False)
     assert sim.achievable, sim.verdict()
-    tl, q, tau = sim.t[::EVERY], sim.q[::EVERY], sim.tau[::EVERY]
-    rng = np.random.default_rng(28)
-    noise = NOISE * np.abs(tau).max(axis=0)
-    log = Log(tl, np.round(q / QUANTUM) * QUANTUM, tau + rng.normal(size=tau.shape) * noise)
-    return prior, truth, exc, noise, identify(prior, log)
+    tl, q, tau, noise = EXAMPLE.logged(sim, np.random.default_rng(28))
+    return prior, truth, exc, noise, identify(prior, Log(tl, q, tau))
 
 
 @pytest.fixture(scope="module",

@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from chromium_cdp import Browser, ChromiumUnavailable
+from chromium_cdp import Browser
 from click.testing import CliRunner
+from conftest import chromium, open_report, time_marker
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from PIL import Image  # matplotlib's dependency
@@ -75,17 +76,12 @@ def closed_form_page() -> str:
 
 @pytest.fixture(scope="module")
 def browser():
-    try:
-        b = Browser(width=1100, height=1300)
-    except ChromiumUnavailable as exc:
-        pytest.skip(f"no Chromium for the browser tests: {exc}")
-    with b:
+    with chromium(1100, 1300) as b:
         yield b
 
 
 def open_view(browser: Browser, url: str):
-    page = browser.open(url)
-    assert page.evaluate("mrneaView3d.ready.then(a => a !== null)"), "no WebGL in Chromium"
+    page = open_report(browser, url)
     page.evaluate("document.querySelectorAll('.mv3d-legend, .mv3d-sat, .mv3d-hint')"
                   ".forEach(e => e.style.visibility = 'hidden')")  # the 3D scene alone in shots
     page.next_frames(2)
@@ -204,12 +200,7 @@ def test_no_webgl_says_so_and_raises_nothing(tmp_path) -> None:
     its controls; the rest of the page is there and nothing is logged as an error."""
     path = tmp_path / "page.html"
     path.write_text(closed_form_page(), encoding="utf-8")
-    try:
-        b = Browser(width=900, height=900,
-                    extra_flags=("--disable-gpu", "--disable-software-rasterizer"))
-    except ChromiumUnavailable as exc:
-        pytest.skip(f"no Chromium for the browser tests: {exc}")
-    with b:
+    with chromium(900, 900, ("--disable-gpu", "--disable-software-rasterizer")) as b:
         page = b.open(path.as_uri())
         if page.evaluate("!!document.createElement('canvas').getContext('webgl2')"):
             pytest.skip("this Chromium gives WebGL 2 even with the GPU and rasteriser off")
@@ -328,16 +319,6 @@ LAYOUT = """(() => {
   };
 })()"""
 
-MARKER = """(async () => {
-  const fig = document.querySelector("figure[id$='-motion']");
-  const img = fig.querySelector('img'), line = fig.querySelector('.mv3d-tline');
-  const [x0, x1, , , a, b] = JSON.parse(fig.dataset.xaxes)[0];
-  const t = await mrneaView3d.time();
-  const want = (x0 + (t - a) / (b - a) * (x1 - x0)) * img.clientWidth;
-  return [line.getBoundingClientRect().left - img.getBoundingClientRect().left + 1, want];
-})()"""
-
-
 @pytest.mark.parametrize("width", [800, 1400])
 def test_demo_report_reads_at_800_and_1400_px(demo, width: int) -> None:
     """No sideways scroll of the page or of a table; the per-joint tables split (what the
@@ -346,11 +327,7 @@ def test_demo_report_reads_at_800_and_1400_px(demo, width: int) -> None:
     their pixels (at 800 px a figure pans inside its own box); Fig. 3's caption; the labels of
     the verdict and of the first infeasible instant; the time marker where the time is."""
     report, _ = demo
-    try:
-        b = Browser(width=width, height=1000)
-    except ChromiumUnavailable as exc:
-        pytest.skip(f"no Chromium for the browser tests: {exc}")
-    with b:
+    with chromium(width) as b:
         page = open_view(b, f"{report.as_uri()}#t=14.21")
         got = page.evaluate(LAYOUT)
         assert got["inner"] == width
@@ -368,8 +345,58 @@ def test_demo_report_reads_at_800_and_1400_px(demo, width: int) -> None:
         assert "6485\u00a0N\u00a0m, 1.62 \u00d7 its 4000\u00a0N\u00a0m limit" in got["verdict"]
         assert "program's own requirement" in " ".join(got["verdictNote"].split())
         assert "first cycle over a limit" in " ".join(got["firstNote"].split())
-        have, want = page.evaluate(MARKER)
+        have, want, _ = time_marker(page, "motion")
         assert abs(have - want) <= 2.0, (have, want)
         shot_path = Path(report).with_name(f"report-{width}.png")
         shot_path.write_bytes(page.screenshot(None))
         assert page.errors == [] and page.outside_requests == []
+
+
+TRACKING = """(() => {
+  const fig = document.querySelector("figure[id$='-tracking']"), img = fig.querySelector('img');
+  const W = img.clientWidth, H = img.clientHeight, c = document.createElement('canvas');
+  c.width = W; c.height = H;
+  const g = c.getContext('2d');
+  g.drawImage(img, 0, 0, W, H);  // the figure as drawn on the page, at its scale
+  const px = g.getImageData(0, 0, W, H).data;
+  return JSON.parse(fig.dataset.xaxes).map(([x0, x1, y0, y1]) => {
+    const L = Math.round(x0 * W) + 3, R = Math.round(x1 * W) - 3;
+    const T = Math.round((1 - y1) * H) + 3, B = Math.round((1 - y0) * H) - 3;
+    const line = [], text = [];
+    for (let y = T; y < B; y++) {
+      let ink = 0, grey = 0;
+      for (let x = L; x < R; x++) {
+        const k = 4 * (y * W + x), r = px[k], gr = px[k + 1], b = px[k + 2];
+        const hi = Math.max(r, gr, b), lo = Math.min(r, gr, b);
+        if (lo < 200) ink++;
+        // dark grey (the note's 0.35 grey, not the blue error line nor the red marks) in the
+        // middle third, where the centred note is
+        if (hi - lo < 12 && hi < 150 && x > L + (R - L) / 3 && x < R - (R - L) / 3) grey++;
+      }
+      if (ink > 0.6 * (R - L)) line.push(y);  // a horizontal line across the axes
+      else if (grey >= 2) text.push(y);
+    }
+    return {line: line, text: text};
+  });
+})()"""
+
+
+@pytest.mark.parametrize("width", [800, 1400])
+def test_no_tracking_error_note_clears_the_zero_line(demo, width: int) -> None:
+    """The tracking-error figure as the page draws it (the PNG painted on a canvas at its drawn
+    size, its axes boxes from ``data-xaxes``): in each panel of a joint without tracking error
+    (summary.json: max_tracking_error 0) the note "no tracking error" lies wholly above the
+    zero line, not across it; the joint with an error has no note."""
+    report, summary = demo
+    zero = [j["max_tracking_error"] == 0 for j in summary["joints"]]
+    assert any(zero) and not all(zero)
+    with chromium(width) as b:
+        page = open_report(b, report.as_uri())
+        panels = page.evaluate(TRACKING)
+    assert len(panels) == len(zero)
+    for none, p in zip(zero, panels, strict=True):
+        assert p["line"], p  # the zero line (and, flat, the error on it)
+        if none:
+            assert p["text"] and max(p["text"]) < min(p["line"]) - 1, p
+        else:
+            assert not p["text"], p

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from chromium_cdp import Browser, ChromiumUnavailable
+from conftest import chromium, open_report
 
 import mrnea
 from mrnea.report import shapes as shp
@@ -80,14 +80,8 @@ def test_the_tables_are_grouped_by_branch(run, tmp_path) -> None:
 @pytest.mark.parametrize("width", [800, 1400])
 def test_the_tree_report_reads_at_800_and_1400_px(run, tmp_path, width) -> None:
     report = write_report(run, tmp_path / "report.html")
-    try:
-        b = Browser(width=width, height=1000)
-    except ChromiumUnavailable as exc:
-        pytest.skip(f"no Chromium for the browser tests: {exc}")
-    with b:
-        page = b.open(report.as_uri() + "#t=3.0")
-        assert page.evaluate("mrneaView3d.ready.then(a => a !== null)"), "no WebGL"
-        page.next_frames(2)
+    with chromium(width) as b:
+        page = open_report(b, report.as_uri() + "#t=3.0")
         got = page.evaluate("""(() => ({
           inner: window.innerWidth, page: document.documentElement.scrollWidth,
           tables: [...document.querySelectorAll('.scroll')].map(

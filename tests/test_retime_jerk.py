@@ -168,3 +168,20 @@ def test_search_failing_on_the_rows_says_so(monkeypatch):
     monkeypatch.setattr(rsearch, "plan_at", plan_at)
     with pytest.raises(RetimeError, match="acceleration and jerk limits"):
         rsearch.search(None, {}, 1.0, None, [], np.ones(1))
+
+
+@pytest.mark.parametrize("value, code", [("1e-9", 2), ("1", 1)])
+def test_cli_tiny_jerk_limit_is_an_error_or_a_verdict_never_highs_model_error(tmp_path, value,
+                                                                              code):
+    """Jerk limits far below the Puma pick's needs: 1e-9 rad/s^3 (no linear program solves at
+    HiGHS's tolerances) is one error line naming --jerk-limit; 1 rad/s^3 (HiGHS refused its
+    rows' coefficients beyond 1e15 as a "Model error" before the rows were equilibrated) is
+    a verdict: no timing keeps it. Neither writes anything."""
+    res = mrnea_cli("retime", "puma560", "examples/puma_pick.toml", "--out", tmp_path / "o",
+                    "--jerk-limit", value, cwd=ROOT)
+    assert "Model error" not in res.stderr + res.stdout
+    if code == 2:
+        one_error_line(res, "--jerk-limit", "too small", "give larger jerk limits")
+    else:
+        assert res.returncode == 1 and "NOT ACHIEVABLE" in res.stdout + res.stderr, res
+    assert not (tmp_path / "o").exists()

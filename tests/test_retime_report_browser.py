@@ -20,8 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from chromium_cdp import Browser, ChromiumUnavailable
-from conftest import erd_path, to_pinocchio
+from conftest import chromium, erd_path, open_report, time_marker, to_pinocchio
 from drive_oracle import torque_speed
 
 import mrnea
@@ -103,27 +102,11 @@ LAYOUT = """(() => ({
 }))()"""
 
 
-MARKER = """(async () => {
-  const fig = document.querySelector("figure[id$='-effort_ratio']");
-  const img = fig.querySelector('img'), line = fig.querySelector('.mv3d-tline');
-  const [x0, x1, , , a, b] = JSON.parse(fig.dataset.xaxes)[0];
-  const t = await mrneaView3d.time();
-  const want = (x0 + (t - a) / (b - a) * (x1 - x0)) * img.clientWidth;
-  return [line.getBoundingClientRect().left - img.getBoundingClientRect().left + 1, want, t];
-})()"""
-
-
 @pytest.mark.parametrize("width", [800, 1400])
 def test_the_retime_report_reads_at_800_and_1400_px(retimed, width: int) -> None:
     res, report = retimed
-    try:
-        b = Browser(width=width, height=1000)
-    except ChromiumUnavailable as exc:
-        pytest.skip(f"no Chromium for the browser tests: {exc}")
-    with b:
-        page = b.open(report.as_uri() + "#t=1.2")
-        assert page.evaluate("mrneaView3d.ready.then(a => a !== null)"), "no WebGL"
-        page.next_frames(2)
+    with chromium(width) as b:
+        page = open_report(b, report.as_uri() + "#t=1.2")
         got = page.evaluate(LAYOUT)
         assert got["page"] <= got["inner"] == width
         for scroll, box in got["tables"]:
@@ -138,6 +121,6 @@ def test_the_retime_report_reads_at_800_and_1400_px(retimed, width: int) -> None
         assert [float(s) for s in said] == [pytest.approx(first_last, abs=5e-4)], verdict
         assert (f"({rows} rows; simulated as {rows} cycles of {res.dt:g} s, "
                 f"{rows * res.dt:.4g} s)") in verdict
-        have, want, t = page.evaluate(MARKER)  # the 3D view's time marked on the figure
+        have, want, t = time_marker(page, "effort_ratio")  # the 3D view's time marked on the figure
         assert t == pytest.approx(1.2, abs=res.dt) and abs(have - want) <= 2.0, (have, want)
         (Path(report).parent / f"retime-{width}.png").write_bytes(page.screenshot(None))

@@ -10,7 +10,7 @@ import json
 import pandas as pd
 import pytest
 from chromium_cdp import Browser, ChromiumUnavailable
-from conftest import mrnea_cli, one_error_line
+from conftest import figure_scales, mrnea_cli, one_error_line
 from test_sizing import CATALOGUE, arm
 
 PROGRAM = """[program]
@@ -82,11 +82,14 @@ def test_the_page_in_chromium(work, width):
                 "i.getBoundingClientRect().width])")
             overflow = page.evaluate("document.documentElement.scrollWidth - innerWidth")
             tables = page.evaluate("document.querySelectorAll('table').length")
+            scales = figure_scales(page)
             assert not page.errors and not page.outside_requests
     except ChromiumUnavailable as exc:
         pytest.skip(str(exc))
     assert len(shown) == 2 and all(c and w > 500 and 0 < r <= width for c, w, r in shown)
     assert overflow <= 0 and tables == 2
+    # below 960 px a figure keeps its own pixels (and pans in its box), as the reports' do
+    assert len(scales) == 2 and min(scales) >= (0.999 if width < 960 else 0.7), scales
 
 
 def test_nothing_fits_is_a_verdict(work, tmp_path):

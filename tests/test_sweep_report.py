@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import chromium, figure_scales
 from matplotlib.patches import Rectangle
 from test_cli import EXAMPLES, html_text
 
@@ -100,3 +101,23 @@ def test_a_parameter_that_does_not_vary_cannot_be_an_axis(rows):
     with pytest.raises(StateError, match="y: 'time_scale' is not a swept numeric parameter"):
         feasibility_map(one, "payload", "time_scale")
     assert math.isfinite(float(np.nanmax(rows["worst_effort_ratio"])))
+
+
+@pytest.mark.parametrize("width", [800, 1400])
+def test_the_page_reads_at_800_and_1400_px(rows, tmp_path, width):
+    """Headless Chromium: no sideways scroll of the page or of the rows' table box; both
+    figures drawn at least at 0.7 of their pixels, and below 960 px at their own size (panning
+    in their own box, as the reports' figures do: scaled to 800 px their text was
+    unreadable)."""
+    path = write_sweep_html(rows, tmp_path / "s.html", "puma560")
+    with chromium(width) as b:
+        page = b.open(path.as_uri())
+        scales = figure_scales(page)
+        got = page.evaluate("""(() => ({inner: innerWidth,
+          page: document.documentElement.scrollWidth,
+          boxes: [...document.querySelectorAll('.figscroll')].map(
+            d => d.getBoundingClientRect().right)}))()""")
+        assert not page.errors and not page.outside_requests
+    assert got["page"] <= got["inner"] == width
+    assert len(got["boxes"]) == 2 and max(got["boxes"]) <= width
+    assert len(scales) == 2 and min(scales) >= (0.999 if width < 960 else 0.7), scales

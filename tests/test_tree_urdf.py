@@ -169,13 +169,30 @@ def test_a_program_keeps_several_tips(tmp_path) -> None:
         _options(check, {"tip": ["head", 3]}, tmp_path)
 
 
+def assert_frame_jacobian(robot: mrnea.Robot, pc: PinChain, q: np.ndarray, p: np.ndarray,
+                          name: str) -> None:
+    """``mrnea.jacobian(robot, q, link=name)`` is Pinocchio's ``computeFrameJacobian`` of the
+    frame of that name in ``LOCAL_WORLD_ALIGNED`` (velocity of the frame's origin, base axes),
+    and at the point p (the frame's axes) that Jacobian with v_p = v_o + w x (R p)."""
+    import pinocchio as pin
+
+    fid = pc.model.getFrameId(name)
+    assert fid < len(pc.model.frames), name
+    Jo = np.array(pin.computeFrameJacobian(pc.model, pc.data, pc.config(q), fid,
+                                           pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
+    pin.updateFramePlacements(pc.model, pc.data)
+    assert rel_err(mrnea.jacobian(robot, q, link=name), Jo) <= TOL, name
+    Jp = Jo.copy()
+    Jp[:3] += np.cross(Jp[3:].T, pc.data.oMf[fid].rotation @ p).T
+    assert rel_err(mrnea.jacobian(robot, q, p, link=name), Jp) <= TOL, name
+
+
 def test_jacobian_of_a_named_link_equals_pinocchios_frame_jacobian() -> None:
     """``mrnea.jacobian(robot, q, point, link=...)`` on Baxter: at the origin of the head's,
     either wrist's and the left finger's link frame it equals Pinocchio's
     ``computeFrameJacobian`` of that body frame in ``LOCAL_WORLD_ALIGNED`` (base axes, velocity
     of the frame's origin); at a point p of the link (link frame), that Jacobian with
     v_p = v_o + w x (R p). A batch equals its states; an unknown link is one StateError."""
-    import pinocchio as pin
 
     from mrnea.errors import StateError
 
@@ -191,15 +208,8 @@ def test_jacobian_of_a_named_link_equals_pinocchios_frame_jacobian() -> None:
     Q = rng.uniform(lo, hi, size=(4, robot.n))
     P = rng.normal(0, 0.1, size=(4, 3))
     for link in ("head", "right_wrist", "left_wrist", "l_gripper_l_finger"):
-        fid = pc.model.getFrameId(link)
         for q, p in zip(Q, P, strict=True):
-            Jo = np.array(pin.computeFrameJacobian(pc.model, pc.data, pc.config(q), fid,
-                                                   pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
-            pin.updateFramePlacements(pc.model, pc.data)
-            assert rel_err(mrnea.jacobian(robot, q, link=link), Jo) <= TOL, link
-            Jp = Jo.copy()
-            Jp[:3] += np.cross(Jp[3:].T, pc.data.oMf[fid].rotation @ p).T
-            assert rel_err(mrnea.jacobian(robot, q, p, link=link), Jp) <= TOL, link
+            assert_frame_jacobian(robot, pc, q, p, link)
         batch = mrnea.jacobian(robot, Q, P, link=link)
         assert batch.shape == (4, 6, robot.n)
         for b in range(4):
@@ -218,7 +228,6 @@ def test_jacobian_of_every_named_frame_equals_pinocchios(name) -> None:
     links (``Link.frames``: the URDF links merged by fixed joints, e.g. Baxter's ``left_hand``,
     its cameras): Pinocchio's ``computeFrameJacobian`` of the frame of that name in
     ``LOCAL_WORLD_ALIGNED``, at the frame's origin and at a point given in the frame's axes."""
-    import pinocchio as pin
 
     rel, tips, _ = TREES[name]
     path = erd_path(rel)
@@ -234,15 +243,7 @@ def test_jacobian_of_every_named_frame_equals_pinocchios(name) -> None:
     for q in rng.uniform(lo, hi, size=(2, robot.n)):
         p = rng.normal(0, 0.1, 3)
         for f in frames:
-            fid = pc.model.getFrameId(f)
-            assert fid < len(pc.model.frames), f
-            Jo = np.array(pin.computeFrameJacobian(pc.model, pc.data, pc.config(q), fid,
-                                                   pin.LOCAL_WORLD_ALIGNED))[:, pc.iv]
-            pin.updateFramePlacements(pc.model, pc.data)
-            assert rel_err(mrnea.jacobian(robot, q, link=f), Jo) <= TOL, f
-            Jp = Jo.copy()
-            Jp[:3] += np.cross(Jp[3:].T, pc.data.oMf[fid].rotation @ p).T
-            assert rel_err(mrnea.jacobian(robot, q, p, link=f), Jp) <= TOL, f
+            assert_frame_jacobian(robot, pc, q, p, f)
 
 
 @pytest.mark.parametrize("rel", ["pr2_description/urdf/pr2.urdf",

@@ -211,6 +211,8 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                 except NoTimingError:
                     raise
                 except RetimeError as exc:  # about the program: say which file it is
+                    if str(exc).startswith("jerk_limit: "):  # about the option: name it
+                        raise MrneaError(f"--jerk-limit: {str(exc)[12:]}") from None
                     raise RetimeError(f"{program_arg}: {exc}") from None
             _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
                    force, not no_3d, (tool, run.cartesian))

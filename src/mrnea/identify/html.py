@@ -24,7 +24,7 @@ from matplotlib.patches import Patch
 
 from mrnea.identify.estimate import IdentificationResult, Prediction
 from mrnea.report.drawing import fmt_number, label, new_figure, plot_line, png_data_uri
-from mrnea.report.html import page, stamp
+from mrnea.report.html import FIGSCROLL_CSS, page, stamp
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -39,7 +39,7 @@ th{background:#f0f0f0}td.t{text-align:left}.note{color:#555;font-size:0.88em}
 .figs{display:flex;flex-wrap:wrap;gap:0.5em 1em}.figs figure{margin:0.3em 0;flex:1 1 560px;
 max-width:700px;min-width:0}figure img{max-width:100%;height:auto;border:1px solid #ddd}
 .scroll{overflow-x:auto}tr.folded td{color:#666}
-@media (max-width:960px){body{padding:0.6em 0.8em}}"""
+@media (max-width:960px){body{padding:0.6em 0.8em}}""" + FIGSCROLL_CSS
 FIT, CHECK, MEASURED, REST = "tab:blue", "tab:orange", "0.55", "0.8"
 
 
@@ -172,8 +172,9 @@ def _figures(result: IdentificationResult) -> str:
         for which in logs:
             uri = png_data_uri(efforts_figure(result, j, which))
             what = "validation log" if which == "validation" else "log"
-            out.append(f"<figure><img alt='measured and predicted efforts of "
-                       f"{html.escape(jt.name, quote=True)}, {what}' src='{uri}'></figure>")
+            out.append(f"<figure><div class='figscroll'><img alt='measured and predicted "
+                       f"efforts of {html.escape(jt.name, quote=True)}, {what}' src='{uri}'>"
+                       "</div></figure>")
     return "\n".join(out) + "</div>"
 
 

@@ -242,7 +242,8 @@ def _tracking_figure(r: SimulationResult) -> Figure:
             title += ": none"
             ax.set_ylim(-1.0, 1.0)
             ax.set_yticks([0.0])
-            ax.text(0.5, 0.5, "no tracking error", transform=ax.transAxes, ha="center",
+            # above the zero line (axes-relative: the line is at 0.5), never across it
+            ax.text(0.5, 0.78, "no tracking error", transform=ax.transAxes, ha="center",
                     va="center", color="0.35", fontsize="medium")
         else:
             k = int(np.argmax(np.abs(e)))

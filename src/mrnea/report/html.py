@@ -66,6 +66,13 @@ figcaption { font-size: 0.9em; color: #444; margin-top: 0.3em; }
 pre { background: #f7f7f7; padding: 0.6em; overflow-x: auto; font-size: 0.85em; }
 """
 
+# Below 960 px a figure of the sweep, sizing and identification pages keeps its own pixels and
+# pans inside its own box (``<figure><div class="figscroll"><img ...>``), as the reports' do
+# (their _CSS above, at a fixed 1040 px for their 13-inch figures); scaled to an 800 px page the
+# figures' text was unreadable.
+FIGSCROLL_CSS = ("@media (max-width:960px){.figscroll{overflow-x:auto}"
+                 ".figscroll img{max-width:none;width:auto}}")
+
 _CAPTIONS = {
     "motion": "Programmed (dashed) vs achieved (solid) position, velocity and acceleration per "
               "joint; shaded: command clamped to a joint limit; dotted red: first infeasible "

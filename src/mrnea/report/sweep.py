@@ -32,7 +32,7 @@ from mrnea.errors import OutputError, StateError, quote, shorten
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, write_file
 from mrnea.report.drawing import MAX_JOINTS, label, new_figure, png_data_uri
-from mrnea.report.html import page, stamp
+from mrnea.report.html import FIGSCROLL_CSS, page, stamp
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -51,7 +51,8 @@ margin:0 auto;padding:1em 2em;color:#222}h1{font-size:1.4em}h2{font-size:1.15em;
 border-bottom:1px solid #ccc}table{border-collapse:collapse;font-size:0.85em}
 td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}th{background:#f0f0f0}
 tr.bad td{background:#fdecea}tr.err td{background:#eee}.note{color:#555;font-size:0.88em}
-figure img{max-width:100%;height:auto;border:1px solid #ddd}.scroll{overflow-x:auto}"""
+figure img{max-width:100%;height:auto;border:1px solid #ddd}.scroll{overflow-x:auto}
+""" + FIGSCROLL_CSS
 
 
 def _require_frame(df: object) -> None:
@@ -370,8 +371,9 @@ def write_sweep_html(df: pd.DataFrame, path: str | os.PathLike[str], robot: str,
               + ("" if done else f"; INTERRUPTED: {len(df)} of {df.attrs.get('cases')} done"))
     more = (f'<p class="note">The first {MAX_TABLE_ROWS} of {len(df)} rows; sweep.csv has all '
             "of them.</p>" if len(df) > MAX_TABLE_ROWS else "")
-    images = "".join(f'<figure><img alt="{e(n)}" src="{png_data_uri(f)}"><figcaption>{e(n)}'
-                     "</figcaption></figure>" for n, f in figs)
+    images = "".join(f'<figure><div class="figscroll"><img alt="{e(n)}" '
+                     f'src="{png_data_uri(f)}"></div><figcaption>{e(n)}</figcaption></figure>'
+                     for n, f in figs)
     content = f"""<p>{e(counts)}</p>
 <p class="note">Generated {e(stamp())} by mrnea. Effort ratio: the largest |effort the program
 asks for| / the limit at that speed, over the cycles and the joints; above 1 the program needs

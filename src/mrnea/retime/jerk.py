@@ -102,6 +102,16 @@ def _jerk_matrix(pc: PathCoefficients, q_sss: NDArray, sd_bar: NDArray, dt_bar: 
     return sparse.vstack([J, -J]).tocsr()
 
 
+def _equilibrate(A: sparse.csr_matrix, b: NDArray) -> tuple[sparse.csr_matrix, NDArray]:
+    """``A x <= b`` with every row divided by its largest |coefficient| (the same set of x).
+    A small jerk limit (or a fine grid near a rest) gives jerk rows with coefficients beyond
+    HiGHS's 1e15, which it refuses as a "Model error"; scaled, they solve, and any slack of the
+    solver's tolerances is caught by the check of the written rows
+    (:func:`mrnea.retime.search.within_jerk`)."""
+    big = np.maximum(abs(A).max(axis=1).toarray().ravel(), 1e-300)
+    return sparse.diags(1.0 / big) @ A, b / big
+
+
 def _active(G: sparse.csr_matrix, h: NDArray, hi: NDArray) -> tuple:
     """The rows ``G x <= h`` that some x in the box [0, hi] can violate (the others never
     bind)."""
@@ -151,11 +161,16 @@ def jerk_profile(pc: PathCoefficients, q_sss: NDArray, rows: tuple[NDArray, NDAr
         Jm = _jerk_matrix(pc, q_sss, sd_bar, dt_bar, jmax)
         # the duration sum ds / sd, linearised in x at sd_bar: weights ds / sd_bar^3
         w = ds / np.maximum(sd_bar, FLOOR * sd_bar.max()) ** 3
-        res = linprog(-w / w.max(), A_ub=sparse.vstack([G, Jm]),
-                      b_ub=np.concatenate([h, np.ones(Jm.shape[0])]),
+        A_ub, b_ub = _equilibrate(sparse.vstack([G, Jm]).tocsr(),
+                                  np.concatenate([h, np.ones(Jm.shape[0])]))
+        res = linprog(-w / w.max(), A_ub=A_ub, b_ub=b_ub,
                       bounds=np.stack([np.zeros_like(hi), sd_bar ** 2], 1), method="highs")
-        if res.status != 0:
-            raise RetimeError(f"the jerk-limited path speed has no solution ({res.message})")
+        if res.status != 0:  # x = 0 is feasible: only limits too small for HiGHS's tolerances
+            raise RetimeError(
+                f"jerk_limit: too small to plan this path with (the smallest planning limit "
+                f"{jmax.min():.3g} [rad/s^3 | m/s^3]; the linear program of the jerk-limited "
+                f"path speed has no solution at HiGHS's tolerances: {res.message}); give "
+                f"larger jerk limits")
         new = np.sqrt(np.maximum(res.x, 0.0))
         try:
             T = float(np.sum(interval_times(s, new, _accelerations(s, new))))

@@ -21,7 +21,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from mrnea.report.drawing import fmt_number, label, new_figure, png_data_uri
-from mrnea.report.html import page, stamp
+from mrnea.report.html import FIGSCROLL_CSS, page, stamp
 from mrnea.sizing.checks import CHECKS, motor_limit
 from mrnea.sizing.core import JointSizing, SizingResult
 from mrnea.sizing.output import sizing_table
@@ -37,7 +37,7 @@ td.t{text-align:left}td.t:first-child{white-space:nowrap}
 tr.chosen td{background:#e6f4ea;font-weight:bold}tr.rejected td{color:#777}
 .note{color:#555;font-size:0.88em}.bad{color:#b00020;font-weight:bold}
 figure{margin:0.5em 0}figure img{max-width:100%;height:auto;border:1px solid #ddd}
-.scroll{overflow-x:auto}"""
+.scroll{overflow-x:auto}""" + FIGSCROLL_CSS
 
 
 def sizing_figure(js: JointSizing) -> Figure:
@@ -122,8 +122,9 @@ def sizing_html(result: SizingResult, path: str | os.PathLike[str],
     for js in result.joints:
         parts.append(f"<h2>{html.escape(js.joint)}</h2>")
         parts.append(f"<p>{html.escape(js.message())}</p>")
-        parts.append(f"<figure><img alt='torque-speed plane of {html.escape(js.joint)}' "
-                     f"src='{png_data_uri(sizing_figure(js))}'></figure>")
+        parts.append(f"<figure><div class='figscroll'><img alt='torque-speed plane of "
+                     f"{html.escape(js.joint)}' src='{png_data_uri(sizing_figure(js))}'></div>"
+                     "</figure>")
         parts.append(_table(df, js.joint))
     title = f"Drive sizing: {result.robot.name}"
     return write_file(path, page(title, title, "\n".join(parts), _CSS), overwrite)
