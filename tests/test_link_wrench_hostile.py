@@ -80,6 +80,9 @@ ONE = 'times = [0.0]\nvalues = [[1, 0, 0, 0, 0, 0]]\n'
      ("hold.toml", "'hand_x'", "did you mean")),
     (f'[[wrench]]\nlink = "hand_l"\n{ONE}point = [0, 0, 0.1]\n\n[[wrench]]\nlink = "hand_l"\n'
      f'{ONE}', ("[[wrench]] 2", "second wrench on link 'hand_l'", "another point")),
+    # [wrench] and [[wrench]] in one file is not TOML: the parser's error, with its line, not
+    # "taken as ROBOT" (a file that does not parse is neither a program nor a robot)
+    (f'[wrench]\n{ONE}\n[[wrench]]\nlink = "hand_l"\n{ONE}', ("hold.toml", "invalid TOML", "line")),
 ])
 def test_bad_wrench_tables_are_one_error_line(tmp_path, wrenches, words) -> None:
     one_error_line(mrnea_cli("check", _hold_program(tmp_path, wrenches)), *words)

@@ -26,7 +26,7 @@ from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.pathcsv import CSV_UNITS, INTERPOLATIONS
 from mrnea.io.payload import parse_payload, parse_vector
-from mrnea.io.program import Program
+from mrnea.io.program import Program, parse_toml
 from mrnea.io.source import parse_number
 from mrnea.model import Robot
 from mrnea.robots.sdt_profile import training_program
@@ -217,6 +217,8 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
                                "its [path]")
     if robot is None and program != DEMO_PROGRAM and (suffix not in (".csv", ".toml") or (
             suffix == ".toml" and os.path.isfile(program) and not is_program_file(program))):
+        if suffix == ".toml" and os.path.isfile(program):
+            parse_toml(program)  # one that does not parse: its own error, with the line
         raise click.UsageError(f"Missing argument 'PROGRAM' ({quote(program)} is taken as ROBOT: a "
                                f"program is a .toml file with a [program] table, a path .csv or "
                                f"{DEMO_PROGRAM!r})")

@@ -367,8 +367,14 @@ def is_program_file(path: str | Path) -> bool:
     its reader says what is wrong."""
     if not isinstance(path, (str, os.PathLike)) or Path(path).suffix.lower() != ".toml":
         return False
-    try:  # read and parsed as every reader does (a regular file of bounded size, bounded depth)
-        check = TomlCheck(str(path), ProgramFileError)
-        return "program" in check.parse(read_text(path, "program file", ProgramFileError))
+    try:
+        return "program" in parse_toml(path)
     except MrneaError:
         return False
+
+
+def parse_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A ``.toml`` file read and parsed as every reader does (a regular file of bounded size,
+    bounded depth); a ProgramFileError names the file and, for a syntax error, its line."""
+    return TomlCheck(str(path), ProgramFileError).parse(
+        read_text(path, "program file", ProgramFileError))
