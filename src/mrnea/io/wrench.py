@@ -71,11 +71,11 @@ def added(a: tuple, b: tuple, where: str, link: str | None) -> tuple:
     """Two wrench tables on one link, (times, values, point) each, as one: their sum at every
     instant (each linear between its breakpoints and held outside them, so the sum is so
     between the union of the breakpoints). Both must act at the same point (or both at the
-    link frame's origin): wrenches at two points add only through the link's pose, which the
-    table cannot know; a ProgramFileError naming ``where`` and the link says so."""
+    link frame's origin; no point and ``point = [0, 0, 0]`` are the same): wrenches at two
+    points add only through the link's pose, which the table cannot know; a ProgramFileError
+    naming ``where`` and the link says so."""
     pa, pb = a[2], b[2]
-    if not ((pa is None and pb is None)
-            or (pa is not None and pb is not None and np.array_equal(pa, pb))):
+    if not np.array_equal(_ORIGIN if pa is None else pa, _ORIGIN if pb is None else pb):
         raise ProgramFileError(
             f"{where}: a second wrench on link {quote(link or 'the last link')} at another "
             f"point ({_point(pb)} against {_point(pa)}): wrenches on one link add only at one "
@@ -84,7 +84,10 @@ def added(a: tuple, b: tuple, where: str, link: str | None) -> tuple:
     values = wrench_at(*a[:2], times) + wrench_at(*b[:2], times)
     for x in (times, values):
         x.setflags(write=False)
-    return times, values, pa
+    return times, values, pb if pa is None else pa
+
+
+_ORIGIN = np.zeros(3)
 
 
 def _point(p: NDArray | None) -> str:
