@@ -226,6 +226,27 @@ def test_fig3_rnea_equals_mrnea(sdt: Robot) -> None:
         fig3(sdt, t[:-1], q, qd, qdd)
 
 
+def test_fig3_eq2_solve_against_scipy() -> None:
+    """Fig. 3 (b) solves Eq. 2 with NumPy over K states: each against SciPy's Cholesky solve,
+    and a mass matrix that is not positive definite is refused naming its state."""
+    from scipy.linalg import cho_factor, cho_solve
+
+    from mrnea import SingularMassMatrixError
+    from mrnea.report.paper import _solve_eq2
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(7, 4, 4))
+    H = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(4)
+    rhs = rng.normal(size=(7, 4))
+    got = _solve_eq2(H, rhs)
+    for k in range(7):
+        want = cho_solve(cho_factor(H[k]), rhs[k])
+        assert np.allclose(got[k], want, rtol=1e-12, atol=1e-12)
+    H[5, 2, 2] = -1.0
+    with pytest.raises(SingularMassMatrixError, match="state 5"):
+        _solve_eq2(H, rhs)
+
+
 # --- write_report --------------------------------------------------------------------------------
 def test_report_not_achievable(saturating: SimulationResult, sdt: Robot, tmp_path: Path) -> None:
     t, q, qd, qdd = sdt_trajectory(101)

@@ -115,10 +115,6 @@ SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held t
 # step: module docstring, 'Cost'); below it, refactorised at every step (measured:
 # benchmarks/long_chain.py, docs/performance.md)
 UPDATE_FROM = 16
-# compiled into the caller: the active set into solve_cycle, solve_cycle into step and
-# achievable_ws. As calls of their own (17 array arguments) they cost 0.1-0.25 us a cycle in
-# paper mode (measured: docs/design.md)
-INTO = {**JIT, "inline": "always"}
 
 
 class Refactor(NamedTuple):
@@ -201,7 +197,7 @@ def _start(v0, nb_, i, bp):
     return 2 * k
 
 
-@nb.njit(**INTO)
+@nb.njit(**JIT)
 def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws):
     """Solve one cycle exactly (module docstring). Returns OK, the index of a joint whose
@@ -283,7 +279,7 @@ def _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qd
                        tau_req, sat, stuck, ws, True)
 
 
-@nb.njit(**INTO)
+@nb.njit(**JIT)
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws, update):
     """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`, ``mode`` PAPER or

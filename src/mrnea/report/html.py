@@ -87,8 +87,8 @@ _CAPTIONS = {
                 "error\u201d.",
     "fig3": "The paper's Fig. 3 along the simulated motion: (a) each joint's torque by the RNEA "
             "(lines) and by the mRNEA, H q\u0308 + u\u2032 from one pass (markers); (b) the "
-            "accelerations of the motion (lines) and those forward dynamics (the mRNEA and one "
-            "Cholesky solve) recovers from the RNEA torques (markers). The titles give the "
+            "accelerations of the motion (lines) and those forward dynamics (Eq. 2 solved with the "
+            "mRNEA's H and u\u2032) recovers from the RNEA torques (markers). The titles give the "
             "largest differences: rounding, so the two algorithms agree.",
 }
 
