@@ -60,10 +60,10 @@ def read_wrenches(check: TomlCheck, given: Any, robot: str | None
     if len(read) == 1 and read[0][0] is None:
         return read[0][1:3], read[0][3]
     out = LinkWrenches()
-    for k, (link, times, values, point) in enumerate(read):
-        here = (times, values, point)
-        out[link] = added(out[link], here, f"{check.source}: [[wrench]] {k + 1}", link) \
-            if link in out else here
+    for k, (link, *here) in enumerate(read):
+        if link in out:
+            here = added(out[link], here, f"{check.source}: [[wrench]] {k + 1}", link)
+        out[link] = tuple(here)
     return out, None
 
 
@@ -101,18 +101,17 @@ def wrenches_on(wrenches: LinkWrenches, robot: Robot, t: NDArray, where: str,
     its point (3,) where given (``tcp``: the point of a table without ``link`` and without
     ``point``, a Cartesian program's tool point). A link the robot does not have is a
     ProgramFileError naming ``where`` (the file) and the link, with a close match."""
-    f_ext, points, times0, values0 = {}, {}, {}, {}
+    tables: dict[str, tuple] = {}
     for link, (times, values, point) in wrenches.items():
         name = (robot.link_names[-1] if link is None else
                 robot.link_names[robot.link_index(link, f"{where}: [wrench] 'link'",
                                                   ProgramFileError)])
-        if point is None and link is None:
-            point = tcp
-        if name in f_ext:  # the last link named and a table without 'link'
-            times, values, point = added((times, values, point),
-                                         (times0[name], values0[name], points.get(name)),
-                                         f"{where}: [wrench]", name)
-        times0[name], values0[name] = times, values
+        here = (times, values, tcp if point is None and link is None else point)
+        if name in tables:  # the last link named and a table without 'link'
+            here = added(tables[name], here, f"{where}: [wrench]", name)
+        tables[name] = here
+    f_ext, points = {}, {}
+    for name, (times, values, point) in tables.items():
         f_ext[name] = wrench_at(times, values, t)
         f_ext[name].setflags(write=False)
         if point is not None:

@@ -257,26 +257,15 @@ def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau
     """The way of ``how``'s type, chosen while typing: the update path is compiled only for a
     robot that takes it."""
     kind = getattr(how, "instance_class", None)
-    if kind is Update:
-        return (lambda Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi,
-                tau_req, sat, stuck, ws: _active_set_updated(
-                    Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
-                    tau_req, sat, stuck, ws))
-    if kind is Refactor:
-        return (lambda Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi,
-                tau_req, sat, stuck, ws: _active_set(
-                    Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
-                    tau_req, sat, stuck, ws, False))
-    return None  # not a solve mode: a typing error
+    if kind is not Update and kind is not Refactor:
+        return None  # not a solve mode: a typing error
+    update = kind is Update  # a constant of the implementation (typed a literal bool)
 
-
-@nb.njit(**JIT)
-def _active_set_updated(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
-                        tau_req, sat, stuck, ws):
-    """Steps 1-4 with the factor updated, as a call of its own (the refactorising way is
-    compiled into the cycle loop)."""
-    return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, True)
+    def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req, sat,
+             stuck, ws):
+        return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau,
+                           phi, tau_req, sat, stuck, ws, update)
+    return impl
 
 
 @nb.njit(**JIT)

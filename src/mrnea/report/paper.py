@@ -26,9 +26,13 @@ def _solve_eq2(H: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     try:
         np.linalg.cholesky(H)  # the check forward_dynamics makes: H positive definite
     except np.linalg.LinAlgError:
-        bad = next(k for k in range(H.shape[0]) if np.any(np.linalg.eigvalsh(H[k]) <= 0.0))
-        raise SingularMassMatrixError(f"fig3: the mass matrix H is not positive definite at "
-                                      f"state {bad}") from None
+        for k, Hk in enumerate(H):  # the first state whose factorisation fails
+            try:
+                np.linalg.cholesky(Hk)
+            except np.linalg.LinAlgError:
+                raise SingularMassMatrixError(f"fig3: the mass matrix H is not positive "
+                                              f"definite at state {k}") from None
+        raise
     return np.linalg.solve(H, rhs[..., None])[..., 0]
 
 
