@@ -71,6 +71,7 @@ from mrnea.kernels.layout import (
     STASH,
     SUBEND,
     TREE,
+    branch_buffers,
     carries,
     column_stash,
     is_prismatic,
@@ -159,7 +160,10 @@ def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
     # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
-    link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws, tree)
+    if tree is None:
+        link_forces(model, o, z, c, Ic, qd, None, g, e, d, None)
+    else:
+        link_forces(model, o, z, c, Ic, qd, None, g, e, d, branch_buffers(ws, n))
     fold_wrenches(R, o, c, fext, pe, e, d)  # a wrench per link, if given (kernels/common.py)
     # a tree's later children put their sums aside here (docs/notation.md, Trees)
     Sc, Sn = stash_buffers(ws, n)

@@ -63,30 +63,33 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
-def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree):
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, kept):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
     centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
 
     ``qdd=None`` means qdd = 0 (the velocity terms alone, as mRNEA needs them): Numba compiles
     that case without the qdd terms. On a tree, the parent's w, wd, a_o are carried from the
-    previous link when λ(i) = i - 1, else read back from the scratch ``ws``'s
-    ``branch_buffers``, where each link with a second child keeps them (docs/notation.md).
-    ``tree=None`` compiles a serial chain's copy, without those branches (kernels/mrnea.py
-    ``mrnea_ws``); ``tree=True`` runs any tree (passed by every caller, as ``kinematics``'s).
+    previous link when λ(i) = i - 1, else read back from ``kept``, the scratch's
+    ``branch_buffers`` (w, wd, a), where each link with a second child keeps them
+    (docs/notation.md). ``kept=None`` compiles a serial chain's copy, without those branches
+    and without the scratch among its arguments (kernels/mrnea.py ``mrnea_ws``): every array
+    argument is passed as a dozen scalars, and the scratch's four cost a chain's pass a few
+    per cent (docs/performance.md, section 16).
     """
     n = qd.shape[0]
-    Wb, WDb, Ab = branch_buffers(ws, n)
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
     wd = (0.0, 0.0, 0.0)  # its angular acceleration
     a_o = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
     for i in range(n):
         zi, oi = vec(z, i), vec(o, i)
-        p = i - 1 if tree is None else parent(model, i)
-        if p != i - 1:  # a later child: its parent's values (the base's: zero)
-            if p >= 0:
-                w, wd, a_o = vec(Wb, p), vec(WDb, p), vec(Ab, p)
-            else:
-                w, wd, a_o = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        p = i - 1
+        if kept is not None:
+            p = parent(model, i)
+            if p != i - 1:  # a later child: its parent's values (the base's: zero)
+                if p >= 0:
+                    w, wd, a_o = vec(kept[0], p), vec(kept[1], p), vec(kept[2], p)
+                else:
+                    w, wd, a_o = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if not model[i + 1, NOPOS]:  # p*: from the parent's origin to o_i (zero: skipped)
             p_star = sub(oi, vec(o, p)) if p >= 0 else oi
             # acceleration of the point of the parent coinciding with o_i
@@ -100,10 +103,10 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree):
             if qdd is not None:
                 wd = add(wd, scale(zi, qdd[i]))
             w = add(w, scale(zi, qd[i]))
-        if tree is not None and model[i + 1, BRANCH]:  # kept for the later children
-            put(Wb, i, w)
-            put(WDb, i, wd)
-            put(Ab, i, a_o)
+        if kept is not None and model[i + 1, BRANCH]:  # kept for the later children
+            put(kept[0], i, w)
+            put(kept[1], i, wd)
+            put(kept[2], i, a_o)
         # Eq. 4: acceleration of the centre of mass
         a_cm = a_o
         if not model[i + 1, NOCOM]:
@@ -125,7 +128,7 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     until the parent's step adds them (Eqs. 18-19 summed over the children).
     """
     n = qd.shape[0]
-    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws, True)
+    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, branch_buffers(ws, n))
     fold_wrenches(R, o, c, fext, pe, f, nm)  # a wrench per link, if given (kernels/common.py)
     Sf, Sn = stash_buffers(ws, n)
 
