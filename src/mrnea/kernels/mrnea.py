@@ -64,6 +64,7 @@ from mrnea.kernels.layout import (
     DEPTH,
     ENTRY,
     INLINE,
+    INTO_CALLER,
     JIT,
     MASS,
     NOCOM,
@@ -144,7 +145,7 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     return mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, None)
 
 
-@nb.njit(**JIT)
+@nb.njit(**INTO_CALLER)
 def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
     """The pass of :func:`mrnea_ws` on finite inputs; ``tree``: None on a serial chain (the
     tree's branches compiled out), True on a tree."""
