@@ -85,16 +85,17 @@ def log3(R00, R01, R02, R10, R11, R12, R20, R21, R22):
 
 @nb.njit(**INLINE)
 def pose_error(model, q, target, t, pe, Rt, idx, Jn, J, e, M, ws):
-    """The Jacobian of the tool point on link t into Jn (6, n), its columns idx into J (6, m),
-    and the error twist ``[p* - p; log(R* R^T)]`` into e (6,), at q (M: a 3x3 buffer);
-    returns (status, |e_p| [m], |e_w| [rad])."""
+    """The Jacobian of the tool point on link t into Jn (6, n), its columns idx into J (6, m)
+    (J is Jn when every joint moves), and the error twist ``[p* - p; log(R* R^T)]`` into e
+    (6,), at q (M: a 3x3 buffer); returns (status, |e_p| [m], |e_w| [rad])."""
     n = q.shape[0]
     status = link_jacobian_ws(model, q, t, pe, Jn, ws)
     if status != OK:
         return status, math.inf, math.inf
-    for a in range(6):
-        for c in range(idx.shape[0]):
-            J[a, c] = Jn[a, idx[c]]
+    if idx.shape[0] < n:
+        for a in range(6):
+            for c in range(idx.shape[0]):
+                J[a, c] = Jn[a, idx[c]]
     R, o, _, _, _ = pose_buffers(ws, n)  # link t's pose, left by the pass
     p = tip_point(o, R, t + 1, pe)
     for a in range(3):
@@ -158,7 +159,8 @@ def ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter):
     n, m = q0.shape[0], idx.shape[0]
     mm = max(m, 6)
     ws = scratch(n, POSE)
-    Jn, J, e, M = np.empty((6, n)), np.empty((6, m)), np.empty(6), np.empty((3, 3))
+    Jn, e, M = np.empty((6, n)), np.empty(6), np.empty((3, 3))
+    J = Jn if m == n else np.empty((6, m))  # every joint moves (a chain): no columns to pick
     A, L = np.empty((mm, mm)), np.empty((mm, mm))
     rhs, x = np.empty(mm), np.empty(mm)
     q, q_new, dq, q_prev = q0.copy(), np.empty(n), np.empty(m), q0.copy()
