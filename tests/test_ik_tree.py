@@ -192,3 +192,17 @@ def test_bad_tree_programs_give_one_error_line(baxter, tmp_path, change, words) 
     with pytest.raises(MrneaError):
         mrnea.load_program(bad, robot=_load(path, TIPS)[0])
     one_error_line(mrnea_cli("check", path, bad), *words)
+
+
+def test_simulated_tool_errors_by_pinocchio(baxter) -> None:
+    """``simulate(..., cartesian=)`` on a tree: each cycle's tool error is that of its move's
+    tool, as Pinocchio places it at the simulated q, against the programmed pose."""
+    _, robot, pc = baxter
+    prog = mrnea.load_program(PROGRAM, robot=robot)
+    res = mrnea.simulate(robot, prog.q_cmd, prog.dt, cartesian=prog.cartesian, reactions=False)
+    tools = {1: "left_gripper", 2: "right_gripper", 3: "left_gripper", 4: "right_gripper"}
+    for k in range(0, prog.q_cmd.shape[0], 11):
+        T = _placement(pc, res.q[k], tools[int(prog.cartesian.move[k])])
+        gap = np.linalg.norm(T[:3, 3] - prog.cartesian.pose[k, :3, 3])
+        assert abs(res.tool_position_error[k] - gap) <= 1e-12 + 1e-9 * gap, k
+    assert res.tool_point is None  # several tools: the 3D view traces every branch's tip
