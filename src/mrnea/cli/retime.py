@@ -45,7 +45,7 @@ from mrnea.cli.options import (
     robot_options,
     units_opt,
 )
-from mrnea.errors import MrneaError, NoTimingError, RetimeError
+from mrnea.errors import JerkLimitError, MrneaError, NoTimingError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, Payload, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import parse_number
@@ -210,9 +210,9 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                                          checkpoint=checkpoint, jerk_limit=jerk_limit)
                 except NoTimingError:
                     raise
+                except JerkLimitError as exc:  # about the option: name it
+                    raise MrneaError(f"--jerk-limit: {exc.detail}") from None
                 except RetimeError as exc:  # about the program: say which file it is
-                    if str(exc).startswith("jerk_limit: "):  # about the option: name it
-                        raise MrneaError(f"--jerk-limit: {str(exc)[12:]}") from None
                     raise RetimeError(f"{program_arg}: {exc}") from None
             _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
                    force, not no_3d, (tool, cartesian))
