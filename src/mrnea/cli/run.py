@@ -162,7 +162,7 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
         check_new(_outputs(folder, ("fig3",)), force)
         res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
-        with compile_notice(quiet):  # the batch dynamics kernels fig3 calls
+        with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)
     _print_result(res, report, as_json, quiet)
