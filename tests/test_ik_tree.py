@@ -206,3 +206,39 @@ def test_simulated_tool_errors_by_pinocchio(baxter) -> None:
         gap = np.linalg.norm(T[:3, 3] - prog.cartesian.pose[k, :3, 3])
         assert abs(res.tool_position_error[k] - gap) <= 1e-12 + 1e-9 * gap, k
     assert res.tool_point is None  # several tools: the 3D view traces every branch's tip
+
+
+WAIST_PROGRAM = """[program]
+name = "reach"
+robot = "{urdf}"
+dt = 0.01
+{tool}
+q0 = {q0}
+
+[[move]]
+type = "linear"
+xyz = [0.3, 0.3, 1.2]
+speed = 0.2
+acceleration = 1.0
+
+[[move]]
+type = "joint"
+target = {target}
+velocity_limit = {vel}
+acceleration_limit = 2.0
+"""
+
+
+@pytest.mark.parametrize("keys, words", [
+    ({"tool": ""}, ["[program]", "kinematic tree: name the tool"]),
+    ({"q0": "{waist = 0.1, elbo_l = 0.3}"}, ["[program] q0", "'elbo_l'", "'elbow_l'"]),
+    ({"vel": "{elbow_l = 1.0}"}, ["[[move]] 2 (joint)", "velocity_limit", "'waist'"]),
+    ({"target": "[0.2]"}, ["[[move]] 2 (joint) target", "9 joints"]),
+    ({"tool": "tool = {link = 5}"}, ["[program]", "'tool.link'"]),
+])
+def test_bad_waist_programs_give_one_error_line(tmp_path, keys, words) -> None:
+    fields = {"urdf": WAIST.as_posix(), "tool": 'tool = "hand_l"', "q0": "{waist = 0.1}",
+              "target": "{waist = 0.2}", "vel": "1.0", **keys}
+    bad = tmp_path / "bad.toml"
+    bad.write_text(WAIST_PROGRAM.format(**fields), encoding="utf-8")
+    one_error_line(mrnea_cli("check", bad), *words)
