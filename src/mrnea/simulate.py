@@ -454,7 +454,11 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
     actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
                    entry_scratch(n))  # SOLVE's rows: a tree's mRNEA stashes columns in S[n:2n]
-    j = cholesky_solve(Ha, zero, np.empty((n, n)), np.empty(n))
+    # H_a and L as (n, n) views of wider buffers, typed layout A as the drive solve's blocks
+    # are (kernels/drive_solve.py): one compiled cholesky_solve serves both (issue 22)
+    H, L = np.empty((n, n + 1))[:, :n], np.empty((n, n + 1))[:, :n]
+    H[...] = Ha
+    j = cholesky_solve(H, zero, L, np.empty(n))
     if j == OK:
         return
     joint = robot.joints[j]

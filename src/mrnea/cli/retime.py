@@ -31,6 +31,8 @@ from typing import Any, NoReturn
 import click
 import numpy as np
 
+from mrnea import validate
+from mrnea.cli import ahead
 from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, checkpoint, compile_notice, main
 from mrnea.cli.options import (
     FRACTION,
@@ -202,6 +204,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                                              *((POSES, CARTESIAN) if cartesian else ()))}
             check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
+            ahead.start(run.robot.n, validate.by_link(run.f_ext, run.f_ext_point), True)
             with compile_notice(quiet):
                 try:
                     res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,

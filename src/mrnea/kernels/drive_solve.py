@@ -248,7 +248,7 @@ def active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, ph
     compiled code its overload (below) compiles that way alone; this body serves Python
     (NUMBA_DISABLE_JIT)."""
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, isinstance(how, Update))
+                       tau_req, sat, stuck, ws, True if isinstance(how, Update) else None)
 
 
 @overload(active_set, inline="always")
@@ -259,7 +259,10 @@ def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau
     kind = getattr(how, "instance_class", None)
     if kind is not Update and kind is not Refactor:
         return None  # not a solve mode: a typing error
-    update = kind is Update  # a constant of the implementation (typed a literal bool)
+    # True or None, not True or False: Numba prunes a branch on an argument's None-ness while
+    # compiling (``update is None``), not on a literal bool's value, so a robot on the
+    # refactorising way compiles no factor update (a fresh demo: about 3 s; docs/performance.md)
+    update = True if kind is Update else None
 
     def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req, sat,
              stuck, ws):
@@ -272,9 +275,11 @@ def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws, update):
     """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`, ``mode`` PAPER or
-    HYBRID; tau_req filled). With ``update``, idx[:m] lists the free joints in the order of
-    their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in step with the
-    patterns: a joint is appended where it is released, removed where it is held."""
+    HYBRID; tau_req filled). ``update``: True on the update way, None on the refactorising
+    one (compiled out: ``_active_set_of``). With ``update``, idx[:m] lists the free joints in
+    the order of their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in
+    step with the patterns: a joint is appended where it is released, removed where it is
+    held."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
     Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)
@@ -296,7 +301,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     max_iter *= n + 1  # the exact-arithmetic bound (module docstring)
     m = 0  # number of free joints
     qw = Hs[0]  # update: qdd on the held joints, 0 on the free ones (H_FW qdd_W = (H_a qw)_F)
-    if update:  # the start's free joints, in index order: the row-by-row Cholesky of H_FF
+    if update is not None:  # the start's free joints in index order: the Cholesky of H_FF by rows
         for i in range(n):
             qw[i] = qdd[i] if pat[i] % 2 == 1 else 0.0
             if pat[i] % 2 == 0:
@@ -308,7 +313,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     # and its pattern before
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
-        if not update:  # idx[:m]: the free joints in index order
+        if update is None:  # idx[:m]: the free joints in index order
             m = 0
             for i in range(n):
                 if pat[i] % 2 == 0:
@@ -317,7 +322,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         for a in range(m):
             i = idx[a]
             r = -ua[i] - sl[pat[i] // 2, i]
-            if update:
+            if update is not None:
                 r -= dot(Ha[i], qw, n)
             else:
                 for j in range(n):
@@ -326,7 +331,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 for c in range(m):
                     Hs[a, c] = Ha[i, idx[c]]
             rhs[a] = r
-        if update:
+        if update is not None:
             factor_solve(Lc, m, rhs, x)
         elif m > 0:
             status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
@@ -339,7 +344,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             pat[released] -= side
             tabu[released] = 1
             released = -1
-            if update:
+            if update is not None:
                 m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
         else:
             # 3. step towards v*; the first free joint to reach a breakpoint blocks it
@@ -370,7 +375,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                     continue
                 qdd[i] = (v[i] - qd[i]) / dt
                 held_new = True
-            if update and held_new:
+            if update is not None and held_new:
                 m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
             if released >= 0:
                 if pat[released] == pat_from:  # back on its breakpoint at once: rounding
@@ -405,7 +410,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             return OK
         released, side, pat_from = worst, worst_side, pat[worst]
         pat[worst] += worst_side  # onto the piece its multiplier points to
-        if update:
+        if update is not None:
             if not factor_append(Ha, Lc, idx, m, worst):
                 return worst
             m += 1
@@ -430,13 +435,13 @@ def _drop_held(L, idx, m, pat, qdd, qw, c, s):
 @nb.njit(**INLINE)
 def _residual(Ha, ua, qdd, i, update):
     """h_i = (H_a qdd + u'_a)_i and its scale |u'_a,i| + sum_j |H_a,ij qdd_j| (step 4). The
-    update path sums in four partial sums (kernels/solve.py ``dot``), the other in index order
-    as before it."""
+    update path (``update`` True) sums in four partial sums (kernels/solve.py ``dot``), the
+    other (None) in index order as before it."""
     n = qdd.shape[0]
     row = Ha[i]
     h = h1 = h2 = h3 = 0.0
     a0 = a1 = a2 = a3 = 0.0
-    n4 = n - n % 4 if update else 0
+    n4 = n - n % 4 if update is not None else 0
     for j in range(0, n4, 4):
         t0, t1, t2, t3 = row[j] * qdd[j], row[j + 1] * qdd[j + 1], row[j + 2] * qdd[j + 2], \
             row[j + 3] * qdd[j + 3]
