@@ -72,7 +72,6 @@ from mrnea.kernels.layout import (
     STASH,
     SUBEND,
     TREE,
-    branch_buffers,
     carries,
     column_stash,
     is_prismatic,
@@ -167,7 +166,7 @@ def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
     if tree is None:
         link_forces(model, o, z, c, Ic, qd, None, g, e, d, None)
     else:
-        link_forces(model, o, z, c, Ic, qd, None, g, e, d, branch_buffers(ws, n))
+        link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws)
     fold_wrenches(R, o, c, fext, pe, e, d)  # a wrench per link, if given (kernels/common.py)
     # a tree's later children put their sums aside here (docs/notation.md, Trees)
     Sc, Sn = stash_buffers(ws, n)

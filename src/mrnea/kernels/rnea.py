@@ -64,18 +64,18 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
-def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, kept):
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
     centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
 
     ``qdd=None`` means qdd = 0 (the velocity terms alone, as mRNEA needs them): Numba compiles
     that case without the qdd terms. On a tree, the parent's w, wd, a_o are carried from the
-    previous link when λ(i) = i - 1, else read back from ``kept``, the scratch's
-    ``branch_buffers`` (w, wd, a), where each link with a second child keeps them
-    (docs/notation.md). ``kept=None`` compiles a serial chain's copy, without those branches
-    and without the scratch among its arguments (kernels/mrnea.py ``mrnea_ws``): every array
-    argument is passed as a dozen scalars, and the scratch's four cost a chain's pass a few
-    per cent (docs/performance.md, section 16).
+    previous link when λ(i) = i - 1, else read back from the scratch ``ws``'s
+    ``branch_buffers``, where each link with a second child keeps them (docs/notation.md).
+    ``ws=None`` compiles a serial chain's copy, without those branches and without the scratch
+    among its arguments (kernels/mrnea.py ``mrnea_ws``): every array argument is passed as
+    about a dozen scalars, and the scratch's four cost a chain's pass a few per cent
+    (docs/performance.md, section 16).
     """
     n = qd.shape[0]
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
@@ -84,11 +84,12 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, kept):
     for i in range(n):
         zi, oi = vec(z, i), vec(o, i)
         p = i - 1
-        if kept is not None:
+        if ws is not None:
             p = parent(model, i)
             if p != i - 1:  # a later child: its parent's values (the base's: zero)
                 if p >= 0:
-                    w, wd, a_o = vec(kept[0], p), vec(kept[1], p), vec(kept[2], p)
+                    Wb, WDb, Ab = branch_buffers(ws, n)
+                    w, wd, a_o = vec(Wb, p), vec(WDb, p), vec(Ab, p)
                 else:
                     w, wd, a_o = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if not model[i + 1, NOPOS]:  # p*: from the parent's origin to o_i (zero: skipped)
@@ -104,10 +105,12 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, kept):
             if qdd is not None:
                 wd = add(wd, scale(zi, qdd[i]))
             w = add(w, scale(zi, qd[i]))
-        if kept is not None and model[i + 1, BRANCH]:  # kept for the later children
-            put(kept[0], i, w)
-            put(kept[1], i, wd)
-            put(kept[2], i, a_o)
+        if ws is not None:
+            if model[i + 1, BRANCH]:  # kept for the later children
+                Wb, WDb, Ab = branch_buffers(ws, n)
+                put(Wb, i, w)
+                put(WDb, i, wd)
+                put(Ab, i, a_o)
         # Eq. 4: acceleration of the centre of mass
         a_cm = a_o
         if not model[i + 1, NOCOM]:
@@ -128,14 +131,13 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     later child's are moved to its parent's point and stashed (``ws``'s ``stash_buffers``)
     until the parent's step adds them (Eqs. 18-19 summed over the children). ``ws=None``
     compiles a serial chain's copy, without the tree's branches and without the scratch among
-    its arguments (as ``link_forces``'s ``kept``; :func:`rnea_ws` chooses by the model's TREE
-    flag); any scratch runs any tree.
+    its arguments (as ``link_forces``'s; :func:`rnea_ws` chooses by the model's TREE flag); any
+    scratch runs any tree.
     """
     n = qd.shape[0]
-    if ws is None:
-        link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, None)
-    else:
-        link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, branch_buffers(ws, n))
+    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws)
+    if ws is not None:
+        Sf, Sn = stash_buffers(ws, n)
     fold_wrenches(R, o, c, fext, pe, f, nm)  # a wrench per link, if given (kernels/common.py)
 
     # backward pass: forces and moments, tip to base
@@ -155,7 +157,6 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
             ni = add(ni, cross(sub(p_next, oi), f_next))
         if ws is not None:
             if model[i + 1, BRANCH]:  # the later children's, stashed at o_i
-                Sf, Sn = stash_buffers(ws, n)
                 fi, ni = add(fi, vec(Sf, i)), add(ni, vec(Sn, i))
         put(f, i, fi)
         put(nm, i, ni)
@@ -166,7 +167,6 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
             b = parent(model, i)
             if b != i - 1:  # a later child: to its parent's stash, moved to o_b; then a leaf
                 if b >= 0:
-                    Sf, Sn = stash_buffers(ws, n)
                     n_b = add(ni, cross(sub(oi, vec(o, b)), fi))
                     if model[i + 1, SUBEND] == model[b + 1, SUBEND]:  # b's last child: opens
                         put(Sf, b, fi)
