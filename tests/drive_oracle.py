@@ -46,10 +46,12 @@ def cycle_terms(robot: Robot, q, qd, f_ext=None, f_ext_point=None):
             u + robot.viscous_friction * np.asarray(qd, float))
 
 
-def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None):
+def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None,
+          parents=None):
     """The compiled cycle solve with its own outputs and scratch; the effort box
     -Llo <= tau <= Lhi. ``update``: None, the factorisation ``solve_mode`` picks by n; True or
-    False, H_FF's factor updated or made afresh at every step.
+    False, H_FF's factor updated or made afresh at every step. ``parents``: a tree's parent
+    array (H_a with its sparsity), for the tree's factorisation (``solve_mode``).
 
     Returns (status, v, qdd, tau, phi, tau_req, sat, stuck)."""
     args = [np.ascontiguousarray(a, dtype=float) for a in (Ha, ua, qd, v_des)]
@@ -58,7 +60,7 @@ def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | Non
     out = [np.empty(n) for _ in range(5)]
     flags = [np.empty(n, dtype=np.bool_) for _ in range(2)]
     ws = entry_scratch(n, ACHIEVABLE)
-    status = solve_cycle(*args, float(dt), *lim, solve_mode(CODE[mode], n, update), *out,
+    status = solve_cycle(*args, float(dt), *lim, solve_mode(CODE[mode], n, update, parents), *out,
                          *flags, ws)
     return (status, *out, *flags)
 

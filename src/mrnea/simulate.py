@@ -348,7 +348,7 @@ def simulate(
     catch_up = validate.catch_up(catch_up, dt)
     reactions = validate.flag(reactions, "reactions")
     n = robot.n
-    how = solve_mode(code, n)  # the drive solve's way for n joints, a compile-time choice
+    how = solve_mode(code, n, parents=robot.parents)  # the drive solve's way, chosen here
     Qc = validate.array(q_cmd, "q_cmd", n)
     if Qc.ndim != 2 or Qc.shape[0] < 2:
         raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")

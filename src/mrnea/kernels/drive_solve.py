@@ -2,8 +2,8 @@
 and V, Eqs. 42-44).
 
 Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau,
-phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n)`` (the mode, and
-how H_FF's factor is kept: 'Cost' below) and ``ws`` an ``ACHIEVABLE`` scratch
+phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n, parents=λ)`` (the
+mode, and how H_FF's factor is kept: 'Cost' and 'Trees' below) and ``ws`` an ``ACHIEVABLE`` scratch
 (kernels/layout.py, ``drive_solve_buffers``).
 
 Everything is joint side. The cycle starts at speed qd [rad/s | m/s]; the drives hold the new
@@ -84,6 +84,20 @@ appended when updating. Which way a cycle takes is a compile-time choice, made i
 kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea demo`` (4
 joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first run").
 
+Trees. On a tree H_a keeps the branch-induced zeros (H_ij = 0 unless one of i, j carries the
+other; the rotor term is diagonal), and so does every free block: for the free joints F, each
+free joint's free ancestors form a path in the forest λ_F (λ_F(i): i's nearest ancestor in F,
+-1 for none; docs/notation.md, Trees), and H_FF_ij != 0 only where one of i, j is an ancestor of
+the other in λ_F. So on a tree (``TreeRefactor``, chosen in Python by ``solve_mode`` from the
+parent array) step 2 factors H_FF = L^T L in λ_F's order, Featherstone's LTL with no fill-in
+(kernels/solve.py ``ltl_factor``, as a tree's forward dynamics), reading only the entries on
+each free joint's path; λ_F is rebuilt in O(n) each step (``_free_forest``), and the products
+with H_a in steps 2 and 4 run over a row's nonzeros alone (its ancestors and its subtree). The
+cost of a step's factor is sum_F d_F(i)^2 / 2 (d_F(i): the free joints on i's path) instead of
+m^3 / 6: for the two-arm torso about a third, for Baxter's three chains from the base a fifth
+(docs/performance.md, "The drive solve on trees"). A singular free block is reported at the
+joint whose pivot fails, the pivots taken tip to base. The serial paths compile none of it.
+
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
 (H_a qdd + u'_a)_i is: friction takes up to its capacity first, the drive the rest
@@ -98,14 +112,24 @@ holds the joint).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numba as nb
+import numpy as np
 from numba.extending import overload
 
 from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
-from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
-from mrnea.kernels.solve import cholesky_solve, dot, factor_append, factor_remove, factor_solve
+from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers, tree_solve_buffers
+from mrnea.kernels.solve import (
+    cholesky_solve,
+    dot,
+    factor_append,
+    factor_remove,
+    factor_solve,
+    ltl_factor,
+    ltl_substitute,
+)
 from mrnea.kernels.status import CYCLE_LIMIT, OK
 
 PAPER, HYBRID = 0, 1  # how the drives meet their limits (module docstring)
@@ -129,10 +153,32 @@ class Update(NamedTuple):
     mode: int
 
 
-def solve_mode(mode: int, n: int, update: bool | None = None) -> Refactor | Update:
-    """``mode`` (PAPER or HYBRID) in the form the kernels take for an n-joint robot: the way
-    H_FF's factor is kept chosen by n (module docstring, 'Cost'); ``update`` True or False forces
-    one (tests, benchmarks/long_chain.py). Its class is the choice: a kernel compiles one way."""
+class TreeRefactor(NamedTuple):
+    """A tree's cycle solve: H_FF factored afresh at every step as L^T L in the order of the
+    free joints' parent array λ_F (module docstring, 'Trees'); ``mode``: PAPER or HYBRID;
+    ``parent`` (n,) int64, λ(i) (-1: the base); ``subend`` (n,) int64, the end of joint i's
+    subtree [i, subend[i]) in depth-first order."""
+    mode: int
+    parent: np.ndarray
+    subend: np.ndarray
+
+
+def solve_mode(mode: int, n: int, update: bool | None = None,
+               parents: Sequence[int] | None = None) -> Refactor | Update | TreeRefactor:
+    """``mode`` (PAPER or HYBRID) in the form the kernels take for an n-joint robot whose
+    joints hang from ``parents`` (λ(i), depth-first, -1: the base; None: a serial chain): on a
+    tree (some λ(i) != i - 1) the tree's factorisation (``TreeRefactor``, module docstring,
+    'Trees') unless ``update`` is True; else the way H_FF's factor is kept chosen by n (module
+    docstring, 'Cost'), ``update`` True or False forcing one (tests, benchmarks). Its class is
+    the choice: a kernel compiles one way."""
+    if parents is not None and update is not True \
+            and any(p != i - 1 for i, p in enumerate(parents)):
+        lam = np.asarray(parents, dtype=np.int64)
+        end = np.arange(1, n + 1, dtype=np.int64)
+        for i in range(n - 1, -1, -1):  # depth-first: a subtree is a contiguous range
+            if lam[i] >= 0:
+                end[lam[i]] = max(end[lam[i]], end[i])
+        return TreeRefactor(mode, lam, end)
     return Update(mode) if (n >= UPDATE_FROM if update is None else update) else Refactor(mode)
 
 
@@ -214,8 +260,9 @@ def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, p
         (kernels/drive.py ``effort_box``); both inf = no limit (HYBRID: the joint is fixed to
         the program; PAPER: not clamped); both 0 = no drive.
     Fpos, Fneg : (n,) Coulomb friction magnitudes >= 0 against positive / negative motion.
-    how : ``solve_mode(mode, n)``: the mode (PAPER or HYBRID) and the way H_FF's factor is
-        kept (``Refactor`` or ``Update``; the same solution up to rounding).
+    how : ``solve_mode(mode, n, parents=...)``: the mode (PAPER or HYBRID) and the way H_FF's
+        factor is kept (``Refactor``, ``Update`` or a tree's ``TreeRefactor``; the same
+        solution up to rounding).
     v, qdd, tau, phi, tau_req : (n,) out: new velocity (exactly 0 for a stuck joint, exactly
         v_des_i for a joint on program), acceleration (v - qd) / dt, drive effort, Coulomb
         friction, the program's requirement (joint side; tau - phi = H_a qdd + u'_a).
@@ -247,37 +294,51 @@ def active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, ph
     """Steps 1-4 the way ``how`` names (arguments as :func:`solve_cycle`; tau_req filled). In
     compiled code its overload (below) compiles that way alone; this body serves Python
     (NUMBA_DISABLE_JIT)."""
+    tree = isinstance(how, TreeRefactor)
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, isinstance(how, Update))
+                       tau_req, sat, stuck, ws, isinstance(how, Update),
+                       how.parent if tree else None, how.subend if tree else None)
 
 
 @overload(active_set, inline="always")
 def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
                    sat, stuck, ws):
-    """The way of ``how``'s type, chosen while typing: the update path is compiled only for a
-    robot that takes it."""
+    """The way of ``how``'s type, chosen while typing: the update path and the tree's path are
+    compiled only for a robot that takes them."""
     kind = getattr(how, "instance_class", None)
-    if kind is not Update and kind is not Refactor:
+    if kind not in (Update, Refactor, TreeRefactor):
         return None  # not a solve mode: a typing error
-    update = kind is Update  # a constant of the implementation (typed a literal bool)
+    update = kind is Update  # constants of the implementation (typed literal bools)
+
+    if kind is TreeRefactor:
+        def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
+                 sat, stuck, ws):
+            return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd,
+                               tau, phi, tau_req, sat, stuck, ws, False, how.parent,
+                               how.subend)
+        return impl
 
     def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req, sat,
              stuck, ws):
         return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau,
-                           phi, tau_req, sat, stuck, ws, update)
+                           phi, tau_req, sat, stuck, ws, update, None, None)
     return impl
 
 
 @nb.njit(**JIT)
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
-                sat, stuck, ws, update):
+                sat, stuck, ws, update, lam, nu):
     """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`, ``mode`` PAPER or
     HYBRID; tau_req filled). With ``update``, idx[:m] lists the free joints in the order of
     their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in step with the
-    patterns: a joint is appended where it is released, removed where it is held."""
+    patterns: a joint is appended where it is released, removed where it is held. On a tree
+    (``lam`` λ, ``nu`` the subtrees' ends; both None otherwise: Numba then drops every branch
+    on ``lam is not None``), H_FF = L^T L in the order of λ_F (module docstring, 'Trees')."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
     Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)
+    if lam is not None:
+        near, lam_f = tree_solve_buffers(ws, n)
 
     # 1. breakpoints, slopes and the start point
     max_iter = 1
@@ -308,7 +369,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     # and its pattern before
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
-        if not update:  # idx[:m]: the free joints in index order
+        if lam is not None:  # idx[:m] in index order and their parent array λ_F (positions)
+            m = _free_forest(lam, pat, idx, near, lam_f)
+        elif not update:  # idx[:m]: the free joints in index order
             m = 0
             for i in range(n):
                 if pat[i] % 2 == 0:
@@ -319,6 +382,12 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             r = -ua[i] - sl[pat[i] // 2, i]
             if update:
                 r -= dot(Ha[i], qw, n)
+            elif lam is not None:
+                r -= _held_row(Ha, qdd, pat, i, lam, nu)
+                c = a
+                while c >= 0:  # the entries of H_FF that L^T L holds: c on a's path in λ_F
+                    Lc[a, c] = Ha[i, idx[c]]
+                    c = lam_f[c]
             else:
                 for j in range(n):
                     if pat[j] % 2 == 1:
@@ -329,7 +398,12 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         if update:
             factor_solve(Lc, m, rhs, x)
         elif m > 0:
-            status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
+            if lam is not None:
+                status = ltl_factor(lam_f[:m], Lc[:m, :m])
+                if status == OK:
+                    ltl_substitute(lam_f[:m], Lc[:m, :m], rhs[:m], x[:m])
+            else:
+                status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
             if status != OK:
                 return idx[status]
         for a in range(m):
@@ -387,7 +461,10 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             if pat[i] % 2 == 0 or tabu[i] == 1:
                 continue
             k = pat[i] // 2
-            h, scale = _residual(Ha, ua, qdd, i, update)
+            if lam is not None:
+                h, scale = _tree_residual(Ha, ua, qdd, i, lam, nu)
+            else:
+                h, scale = _residual(Ha, ua, qdd, i, update)
             lo, hi = sl[k, i], sl[k + 1, i]
             scale += (abs(lo) if lo > -math.inf else 0.0) + (abs(hi) if hi < math.inf else 0.0)
             if -h > hi + MULT_TOL * scale:
@@ -425,6 +502,60 @@ def _drop_held(L, idx, m, pat, qdd, qw, c, s):
             m -= 1
             qw[i] = qdd[i]
     return m
+
+
+@nb.njit(**INLINE)
+def _free_forest(lam, pat, idx, near, lam_f):
+    """The free joints (pattern even) in index order, idx[:m], and their parent array λ_F by
+    position, lam_f[:m]: lam_f[a] is the position of idx[a]'s nearest free ancestor (-1: none;
+    docs/notation.md, Trees). ``near`` (n,) scratch: by joint, the position of its nearest free
+    ancestor-or-self. Returns m. O(n)."""
+    m = 0
+    for i in range(lam.shape[0]):
+        p = lam[i]
+        up = near[p] if p >= 0 else -1
+        if pat[i] % 2 == 0:
+            idx[m] = i
+            lam_f[m] = up
+            near[i] = m
+            m += 1
+        else:
+            near[i] = up
+    return m
+
+
+@nb.njit(**INLINE)
+def _held_row(Ha, qdd, pat, i, lam, nu):
+    """(H_FW qdd_W)_i on a tree: row i of H_a is zero but for i's ancestors and its subtree
+    [i, nu[i]) (branch-induced sparsity), so only those held joints are summed."""
+    r = 0.0
+    j = lam[i]
+    while j >= 0:
+        if pat[j] % 2 == 1:
+            r += Ha[i, j] * qdd[j]
+        j = lam[j]
+    for j in range(i + 1, nu[i]):
+        if pat[j] % 2 == 1:
+            r += Ha[i, j] * qdd[j]
+    return r
+
+
+@nb.njit(**INLINE)
+def _tree_residual(Ha, ua, qdd, i, lam, nu):
+    """:func:`_residual` on a tree: the sums over row i's nonzeros alone (i's ancestors and its
+    subtree [i, nu[i]))."""
+    h, scale = ua[i], abs(ua[i])
+    j = lam[i]
+    while j >= 0:
+        t = Ha[i, j] * qdd[j]
+        h += t
+        scale += abs(t)
+        j = lam[j]
+    for j in range(i, nu[i]):
+        t = Ha[i, j] * qdd[j]
+        h += t
+        scale += abs(t)
+    return h, scale
 
 
 @nb.njit(**INLINE)
