@@ -6,13 +6,16 @@ updated factor) against the tree's L^T L in the order of the free joints' parent
 Usage: ``PYTHONPATH=<tree>/src python benchmarks/tree_drive_solve.py [--rounds R]
 [--states S]``. Robots: the two-arm torso of examples/waist_two_arms.urdf (a waist joint
 carrying two 4-joint arms, n = 9); Baxter (example-robot-data, the head and both arms: three
-chains from the base, n = 15); the Allegro hand (four 4-joint fingers, n = 16); a synthetic
-torso with four 7-joint arms (n = 29). For each robot S random states (pose, speed 0.5 rad/s
-normal), effort limits at a tenth of each joint's gravity-and-Coriolis effort plus 0.1 N m, a
-program asking 2000 rad/s^2 (normal) of each joint, hybrid mode: every drive saturates. Prints
-per robot the CPU time of one cycle's solve on each path [us] (the best of 5 timed loops of R
-compiled repeats, summed over the states), the ratios, the share of saturated joints and the
-largest relative difference of the paths' accelerations.
+chains from the base, n = 15); the Allegro hand (four 4-joint fingers, n = 16); synthetic
+waists carrying four and eight 7-joint arms (n = 29, 57) and two arms of 20 and of 50 joints
+(n = 41, 101: long paths, where the tree's factor costs more than a step of the updated
+one). For each robot S random states (pose, speed 0.5 rad/s normal), effort limits at a tenth
+of each joint's gravity-and-Coriolis effort plus 0.1 N m, a program asking 2000 rad/s^2
+(normal) of each joint, hybrid mode: every drive saturates. Prints per robot the CPU time of
+one cycle's solve on each path [us] (the best of 5 timed loops of R compiled repeats, R
+scaled by (15 / n)^3, averaged over the states), the ratios, the share of saturated joints,
+the largest relative difference of the paths' accelerations, and the way ``solve_mode``
+picks.
 """
 
 from __future__ import annotations
@@ -47,21 +50,21 @@ def _repeat(R, Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, out, sat, stuck, ws, how
     return status
 
 
-def four_arms() -> mrnea.Robot:
-    """A waist joint carrying four 7-joint arms (0.3 m links of 2 kg), n = 29."""
+def arms(count: int, length: int) -> mrnea.Robot:
+    """A waist joint carrying ``count`` arms of ``length`` joints (0.3 m links of 2 kg)."""
     J, L = mrnea.Joint, mrnea.Link
     rod = np.diag([0.002, 0.015, 0.015])
     joints, links = [J("waist", "revolute", "base", "torso", axis=(0, 0, 1))], [
         L("torso", mass=20.0, com=(0, 0, 0.3), inertia=np.eye(3))]
-    for a in range(4):
-        for k in range(7):
+    for a in range(count):
+        for k in range(length):
             origin = np.eye(4)
             origin[:3, 3] = (0.3, 0.0, 0.0) if k else (0.2 * np.cos(a * np.pi / 2),
                                                        0.2 * np.sin(a * np.pi / 2), 0.5)
             joints.append(J(f"a{a}j{k}", "revolute", f"a{a}l{k - 1}" if k else "torso",
                             f"a{a}l{k}", origin=origin, axis=(0, 0, 1) if k % 2 else (0, 1, 0)))
             links.append(L(f"a{a}l{k}", mass=2.0, com=(0.15, 0, 0), inertia=rod))
-    return mrnea.Robot(joints, links, name="four_arms")
+    return mrnea.Robot(joints, links, name=f"{count}_arms_of_{length}")
 
 
 def robots() -> list[mrnea.Robot]:
@@ -76,7 +79,7 @@ def robots() -> list[mrnea.Robot]:
                                        "allegro_right_hand.urdf"))
     else:
         print("example-robot-data is not installed: Baxter and the Allegro hand left out")
-    out.append(four_arms())
+    out += [arms(4, 7), arms(8, 7), arms(2, 20), arms(2, 50)]
     return out
 
 
@@ -121,21 +124,22 @@ def main() -> None:
     a = ap.parse_args()
     rng = np.random.default_rng(34)
     print(f"{'robot':22s} {'n':>3s} {'dense':>9s} {'update':>9s} {'tree':>9s}  "
-          f"dense/tree update/tree  saturated  qdd rel diff")
+          f"dense/tree update/tree  saturated  qdd rel diff  solve_mode's choice")
     for robot in robots():
         n = robot.n
         cases = problems(robot, rng, a.states)
-        t_d, q_d, s_d = run(cases, a.rounds, solve_mode(HYBRID, n, update=False))
-        t_u, q_u, _ = run(cases, a.rounds, solve_mode(HYBRID, n, update=True))
-        tree = solve_mode(HYBRID, n, parents=robot.parents)
-        assert type(tree).__name__ == "TreeRefactor"
-        t_t, q_t, s_t = run(cases, a.rounds, tree)
+        R = max(1, a.rounds * 15**3 // n**3)  # about the same time per robot
+        t_d, q_d, s_d = run(cases, R, solve_mode(HYBRID, n, update=False))
+        t_u, q_u, _ = run(cases, R, solve_mode(HYBRID, n, update=True))
+        t_t, q_t, s_t = run(cases, R, solve_mode(HYBRID, n, parents=robot.parents,
+                                                         tree=True))
+        chosen = type(solve_mode(HYBRID, n, parents=robot.parents)).__name__
         assert s_d == s_t
         diff = max(float(np.max(np.abs(x - y)) / max(1.0, np.max(np.abs(y))))
                    for x, y in zip(q_t + q_u, q_d + q_d, strict=True))
         print(f"{robot.name:22s} {n:3d} {t_d * 1e6:7.2f}us {t_u * 1e6:7.2f}us "
               f"{t_t * 1e6:7.2f}us  {t_d / t_t:10.2f} {t_u / t_t:11.2f}  "
-              f"{s_t:4d}/{n * len(cases):<4d}  {diff:.1e}")
+              f"{s_t:4d}/{n * len(cases):<4d}  {diff:.1e}  {chosen}")
 
 
 if __name__ == "__main__":

@@ -47,11 +47,12 @@ def cycle_terms(robot: Robot, q, qd, f_ext=None, f_ext_point=None):
 
 
 def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None,
-          parents=None):
+          parents=None, tree: bool | None = None):
     """The compiled cycle solve with its own outputs and scratch; the effort box
     -Llo <= tau <= Lhi. ``update``: None, the factorisation ``solve_mode`` picks by n; True or
     False, H_FF's factor updated or made afresh at every step. ``parents``: a tree's parent
-    array (H_a with its sparsity), for the tree's factorisation (``solve_mode``).
+    array (H_a with its sparsity); ``tree`` True forces the tree's factorisation on it, None
+    lets ``solve_mode`` choose.
 
     Returns (status, v, qdd, tau, phi, tau_req, sat, stuck)."""
     args = [np.ascontiguousarray(a, dtype=float) for a in (Ha, ua, qd, v_des)]
@@ -60,8 +61,8 @@ def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | Non
     out = [np.empty(n) for _ in range(5)]
     flags = [np.empty(n, dtype=np.bool_) for _ in range(2)]
     ws = entry_scratch(n, ACHIEVABLE)
-    status = solve_cycle(*args, float(dt), *lim, solve_mode(CODE[mode], n, update, parents), *out,
-                         *flags, ws)
+    how = solve_mode(CODE[mode], n, update, parents, tree)
+    status = solve_cycle(*args, float(dt), *lim, how, *out, *flags, ws)
     return (status, *out, *flags)
 
 

@@ -12,8 +12,9 @@ independent references.
 * n = 8 ... 60, Baxter's shape (three chains from the base) and the Allegro hand's (four
   fingers): the law's optimality conditions from v (drive_oracle.law_violation), and the same
   solution as the dense path.
-* ``solve_mode``: a tree takes the tree's path, a chain the paths it took before; the subtree
-  ends it computes against the descendants found by walking the parent array.
+* ``solve_mode``: a tree takes the tree's path where its factor's flop count says it pays
+  (counted here from the parent array), a chain and other trees the paths they took before;
+  the subtree ends against the descendants found by walking the parent array.
 """
 
 from __future__ import annotations
@@ -25,7 +26,14 @@ from drive_oracle import enumerate_solutions, law_violation, rel, solve
 from test_drive_solve import random_problem
 from test_tree_pinocchio import random_tree
 
-from mrnea.kernels.drive_solve import UPDATE_FROM, Refactor, TreeRefactor, Update, solve_mode
+from mrnea.kernels.drive_solve import (
+    TREE_FROM,
+    UPDATE_FROM,
+    Refactor,
+    TreeRefactor,
+    Update,
+    solve_mode,
+)
 from mrnea.kernels.solve import ltl_factor, ltl_substitute
 from mrnea.kernels.status import OK
 
@@ -145,10 +153,10 @@ def test_every_path_on_trees_equals_enumeration(n):
         qd, dt = args[2], args[4]
         v0, tau0, phi0, _ = sols[0]
         qdd0 = (v0 - qd) / dt
-        for way, update, par in (("dense", False, None), ("update", True, None),
-                                 ("tree", None, parents)):
+        for way, update, tree in (("dense", False, None), ("update", True, None),
+                                  ("tree", None, True)):
             where = f"n={n} state {s} ({mode}, {way}, parents {parents})"
-            status, v, qdd, tau, phi, treq, sat, _ = solve(*args, mode, update, par)
+            status, v, qdd, tau, phi, treq, sat, _ = solve(*args, mode, update, parents, tree)
             assert status == OK, f"{where}: status {status}"
             assert rel(qdd, qdd0) < 1e-9, f"{where}: qdd {qdd} vs {qdd0}"
             assert rel(v, v0, floor=dt) < 1e-9, f"{where}: v"
@@ -183,7 +191,7 @@ def test_tree_path_satisfies_the_law_and_equals_dense(n):
         else:
             parents, args, mode = tree_problem(rng, n)
         a = solve(*args, mode, False)
-        b = solve(*args, mode, None, parents)
+        b = solve(*args, mode, None, parents, True)
         where = f"n={n} state {s} ({mode})"
         assert a[0] == b[0] == OK, where
         assert law_violation(*args, mode, b[1]) < 1e-9, f"{where}: KKT (tree)"
@@ -209,23 +217,42 @@ def test_a_singular_free_block_on_a_tree_names_its_joint():
         Ha[leaf, :] = Ha[:, leaf] = 0.0
         z = np.zeros(n)
         args = [Ha, rng.normal(size=n), z, z + 1e-3, 1e-3, z, z, z, z]
-        for update, par in ((False, None), (True, None), (None, parents)):
-            assert solve(*args, "paper", update, par)[0] == leaf, (leaf, update, par)
+        for update, tree in ((False, None), (True, None), (None, True)):
+            assert solve(*args, "paper", update, parents, tree)[0] == leaf, (leaf, update, tree)
 
 
-def test_solve_mode_chooses_by_the_parent_array():
+def test_solve_mode_takes_the_trees_path_where_it_pays():
+    """The tree's path where its factor costs at most n^2 multiply-adds (sum of the squared
+    depths over 2, counted here by walking the parent array) from TREE_FROM joints on; a chain,
+    a small tree and a tree of long arms keep the dense paths, by n as before trees."""
     rng = np.random.default_rng(2570)
+    arms = [-1, *range(0, 50), 0, *range(51, 100)]  # two 50-joint arms on a waist: long paths
+    cases = [shaped(rng, "baxter"), shaped(rng, "allegro"), list(range(-1, 19)), arms,
+             [-1, 0, 1, 2, 3, 0, 5, 6, 7]]  # the two-arm torso: under TREE_FROM
+    cases += [random_parents(rng, int(rng.integers(2, 40))) for _ in range(30)]
+    for parents in cases:
+        n = len(parents)
+        flops = sum(len(path(parents, i)) ** 2 for i in range(n)) / 2
+        pays = is_tree(parents) and n >= TREE_FROM and flops <= n * n
+        how = solve_mode(1, n, parents=parents)
+        if pays:
+            assert type(how) is TreeRefactor and how.mode == 1
+        else:
+            assert type(how) is (Update if n >= UPDATE_FROM else Refactor), parents
+        assert type(solve_mode(0, n, update=True, parents=parents)) is Update
+        assert type(solve_mode(0, n, update=False, parents=parents)) is Refactor
+    assert type(solve_mode(1, 15, parents=cases[0])) is TreeRefactor  # Baxter
+    assert type(solve_mode(1, 101, parents=arms)) is Update
+
+
+def test_the_trees_path_knows_each_subtree():
+    rng = np.random.default_rng(2571)
     for _ in range(30):
         n = int(rng.integers(2, 40))
         parents = random_parents(rng, n)
-        how = solve_mode(1, n, parents=parents)
-        if not is_tree(parents):  # a chain: as before trees
-            assert type(how) is (Update if n >= UPDATE_FROM else Refactor)
-            continue
+        how = solve_mode(1, n, parents=parents, tree=True)
         assert type(how) is TreeRefactor and how.mode == 1
         np.testing.assert_array_equal(how.parent, parents)
         for i in range(n):  # the subtree [i, subend[i]): exactly i's descendants and i
             below = [j for j in range(n) if i in path(parents, j)]
             assert below == list(range(i, how.subend[i]))
-        assert type(solve_mode(0, n, update=True, parents=parents)) is Update
-        assert type(solve_mode(0, n, update=False)) is Refactor

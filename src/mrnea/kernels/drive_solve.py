@@ -88,15 +88,19 @@ Trees. On a tree H_a keeps the branch-induced zeros (H_ij = 0 unless one of i, j
 other; the rotor term is diagonal), and so does every free block: for the free joints F, each
 free joint's free ancestors form a path in the forest λ_F (λ_F(i): i's nearest ancestor in F,
 -1 for none; docs/notation.md, Trees), and H_FF_ij != 0 only where one of i, j is an ancestor of
-the other in λ_F. So on a tree (``TreeRefactor``, chosen in Python by ``solve_mode`` from the
-parent array) step 2 factors H_FF = L^T L in λ_F's order, Featherstone's LTL with no fill-in
-(kernels/solve.py ``ltl_factor``, as a tree's forward dynamics), reading only the entries on
-each free joint's path; λ_F is rebuilt in O(n) each step (``_free_forest``), and the products
-with H_a in steps 2 and 4 run over a row's nonzeros alone (its ancestors and its subtree). The
-cost of a step's factor is sum_F d_F(i)^2 / 2 (d_F(i): the free joints on i's path) instead of
-m^3 / 6: for the two-arm torso about a third, for Baxter's three chains from the base a fifth
-(docs/performance.md, "The drive solve on trees"). A singular free block is reported at the
-joint whose pivot fails, the pivots taken tip to base. The serial paths compile none of it.
+the other in λ_F. So on a tree (``TreeRefactor``) step 2 factors H_FF = L^T L in λ_F's order,
+Featherstone's LTL with no fill-in (kernels/solve.py ``ltl_factor``, as a tree's forward
+dynamics), reading only the entries on each free joint's path; λ_F is rebuilt in O(n) each step
+(``_free_forest``), and the products with H_a in steps 2 and 4 run over a row's nonzeros alone
+(its ancestors and its subtree). A step's factor then costs sum_F d_F(i)^2 / 2 multiply-adds
+(d_F(i): the free joints on i's path) instead of m^3 / 6, but every inner step walks λ_F (a
+dependent load), so it pays only from about a dozen joints on and while the paths are short:
+``solve_mode`` takes it on a tree from TREE_FROM joints on where sum_i d_i^2 / 2 <= n^2
+(``tree_pays``; measured, benchmarks/tree_drive_solve.py, docs/performance.md "The drive
+solve on trees": Baxter 1.2 times faster than the dense path, eight 7-joint arms on a waist
+3.9 times; the two-arm torso, 9 joints, and arms of 20 joints and more keep the dense paths).
+A singular free block is reported at the joint whose pivot fails, the pivots taken tip to base.
+Chains compile none of it (``lam`` None: Numba drops those branches).
 
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
@@ -139,6 +143,9 @@ SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held t
 # step: module docstring, 'Cost'); below it, refactorised at every step (measured:
 # benchmarks/long_chain.py, docs/performance.md)
 UPDATE_FROM = 16
+# a tree from this many joints on takes its own factorisation where it pays (``tree_pays``);
+# below it the dense refactorising path is faster (measured: benchmarks/tree_drive_solve.py)
+TREE_FROM = 12
 
 
 class Refactor(NamedTuple):
@@ -164,15 +171,16 @@ class TreeRefactor(NamedTuple):
 
 
 def solve_mode(mode: int, n: int, update: bool | None = None,
-               parents: Sequence[int] | None = None) -> Refactor | Update | TreeRefactor:
+               parents: Sequence[int] | None = None,
+               tree: bool | None = None) -> Refactor | Update | TreeRefactor:
     """``mode`` (PAPER or HYBRID) in the form the kernels take for an n-joint robot whose
-    joints hang from ``parents`` (λ(i), depth-first, -1: the base; None: a serial chain): on a
-    tree (some λ(i) != i - 1) the tree's factorisation (``TreeRefactor``, module docstring,
-    'Trees') unless ``update`` is True; else the way H_FF's factor is kept chosen by n (module
-    docstring, 'Cost'), ``update`` True or False forcing one (tests, benchmarks). Its class is
-    the choice: a kernel compiles one way."""
-    if parents is not None and update is not True \
-            and any(p != i - 1 for i, p in enumerate(parents)):
+    joints hang from ``parents`` (λ(i), depth-first, -1: the base; None: a serial chain). On a
+    tree (some λ(i) != i - 1) where the tree's factorisation pays (:func:`tree_pays`) it is
+    ``TreeRefactor`` (module docstring, 'Trees'); else the way H_FF's factor is kept is chosen
+    by n (module docstring, 'Cost'). ``tree`` True or False, ``update`` True or False force a
+    way (tests, benchmarks). Its class is the choice: a kernel compiles one way."""
+    is_tree = parents is not None and any(p != i - 1 for i, p in enumerate(parents))
+    if tree or (tree is None and update is None and is_tree and tree_pays(parents)):
         lam = np.asarray(parents, dtype=np.int64)
         end = np.arange(1, n + 1, dtype=np.int64)
         for i in range(n - 1, -1, -1):  # depth-first: a subtree is a contiguous range
@@ -180,6 +188,17 @@ def solve_mode(mode: int, n: int, update: bool | None = None,
                 end[lam[i]] = max(end[lam[i]], end[i])
         return TreeRefactor(mode, lam, end)
     return Update(mode) if (n >= UPDATE_FROM if update is None else update) else Refactor(mode)
+
+
+def tree_pays(parents: Sequence[int]) -> bool:
+    """Whether a tree's drive solve takes its own factorisation: from TREE_FROM joints on, if
+    its factor's cost, sum_i d_i^2 / 2 multiply-adds (d_i: the joints carrying link i, i
+    included), is at most n^2, about a step's cost on the updated path (measured:
+    benchmarks/tree_drive_solve.py, docs/performance.md "The drive solve on trees")."""
+    n, depth = len(parents), []
+    for p in parents:
+        depth.append(1 + (depth[p] if p >= 0 else 0))
+    return n >= TREE_FROM and sum(d * d for d in depth) / 2 <= n * n
 
 
 @nb.njit(**INLINE)
