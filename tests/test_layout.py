@@ -45,6 +45,7 @@ from mrnea.kernels.layout import (
     solve_buffers,
     stash_buffers,
     tree_solve_buffers,
+    update_buffers,
 )
 
 SRC = Path(mrnea.__file__).parent
@@ -68,6 +69,7 @@ def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndar
         out["achievable"] = list(_py(achievable_buffers)(ws, n))
         out["drive_solve"] = list(_py(drive_solve_buffers)(ws, n))
         out["tree_solve"] = list(_py(tree_solve_buffers)(ws, n))
+        out["update"] = list(_py(update_buffers)(ws, n))
     return out
 
 
@@ -77,7 +79,7 @@ SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's d
     "column": ["nn"], "solve_hu": ["nn", "n"],
     "achievable": ["nn", *["n"] * 7],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
-    "tree_solve": ["n", "n"],
+    "tree_solve": ["n", "n"], "update": ["n", "n"],
 }
 
 
@@ -95,8 +97,8 @@ TOGETHER = {
            ("pose", "force", "branch"), ("pose", "force", "effort", "stash")],
     SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve"), ("pose", "mrnea", "branch"),
             ("pose", "mrnea", "stash", "column", "solve_hu"), ("pose", "force", "stash", "solve")],
-    ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve", "tree_solve"),
-                 ("pose", "force", "achievable", "drive_solve", "tree_solve"),
+    ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve", "tree_solve", "update"),
+                 ("pose", "force", "achievable", "drive_solve", "tree_solve", "update"),
                  ("pose", "force", "effort"),
                  ("pose", "mrnea", "stash", "column", "achievable"),
                  ("pose", "mrnea", "branch", "achievable")],

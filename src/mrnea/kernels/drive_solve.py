@@ -124,10 +124,15 @@ import numpy as np
 from numba.extending import overload
 
 from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
-from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers, tree_solve_buffers
+from mrnea.kernels.layout import (
+    INLINE,
+    JIT,
+    drive_solve_buffers,
+    tree_solve_buffers,
+    update_buffers,
+)
 from mrnea.kernels.solve import (
     cholesky_solve,
-    dot,
     factor_append,
     factor_remove,
     factor_solve,
@@ -375,10 +380,13 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         max_iter = min(max_iter * (2 * nbp[i] + 1), 1 << 40)
     max_iter *= n + 1  # the exact-arithmetic bound (module docstring)
     m = 0  # number of free joints
-    qw = Hs[0]  # update: qdd on the held joints, 0 on the free ones (H_FW qdd_W = (H_a qw)_F)
     if update:  # the start's free joints, in index order: the row-by-row Cholesky of H_FF
+        # g = H_a qw, qw: qdd on the held joints, 0 on the free ones (H_FW qdd_W = g_F), and
+        # |H_a| |qw|, kept as joints are held and released; made afresh once there have been
+        # more such moves since than joints held (rounding; O(n) a move on average)
+        g, gabs = update_buffers(ws, n)
+        moves = _held_product(Ha, qdd, pat, g, gabs)
         for i in range(n):
-            qw[i] = qdd[i] if pat[i] % 2 == 1 else 0.0
             if pat[i] % 2 == 0:
                 if not factor_append(Ha, Lc, idx, m, i):
                     return i
@@ -388,6 +396,8 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     # and its pattern before
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
+        if update and moves > n - m:
+            moves = _held_product(Ha, qdd, pat, g, gabs)
         if lam is not None:  # idx[:m] in index order and their parent array λ_F (positions)
             m = _free_forest(lam, pat, idx, near, lam_f)
         elif not update:  # idx[:m]: the free joints in index order
@@ -400,7 +410,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             i = idx[a]
             r = -ua[i] - sl[pat[i] // 2, i]
             if update:
-                r -= dot(Ha[i], qw, n)
+                r -= g[i]
             elif lam is not None:
                 r -= _held_row(Ha, qdd, pat, i, lam, nu)
                 c = a
@@ -433,7 +443,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             tabu[released] = 1
             released = -1
             if update:
-                m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
+                moves += m
+                m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
+                moves -= m
         else:
             # 3. step towards v*; the first free joint to reach a breakpoint blocks it
             alpha, block = 1.0, -1
@@ -464,7 +476,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 qdd[i] = (v[i] - qd[i]) / dt
                 held_new = True
             if update and held_new:
-                m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
+                moves += m
+                m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
+                moves -= m
             if released >= 0:
                 if pat[released] == pat_from:  # back on its breakpoint at once: rounding
                     tabu[released] = 1
@@ -482,8 +496,11 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             k = pat[i] // 2
             if lam is not None:
                 h, scale = _tree_residual(Ha, ua, qdd, i, lam, nu)
+            elif update:  # H_a qdd = g + the free joints' columns
+                h, scale = _free_residual(Ha[i], qdd, idx, m)
+                h, scale = h + ua[i] + g[i], scale + abs(ua[i]) + abs(gabs[i])
             else:
-                h, scale = _residual(Ha, ua, qdd, i, update)
+                h, scale = _residual(Ha, ua, qdd, i)
             lo, hi = sl[k, i], sl[k + 1, i]
             scale += (abs(lo) if lo > -math.inf else 0.0) + (abs(hi) if hi < math.inf else 0.0)
             if -h > hi + MULT_TOL * scale:
@@ -505,22 +522,66 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             if not factor_append(Ha, Lc, idx, m, worst):
                 return worst
             m += 1
-            qw[worst] = 0.0
+            _shift(Ha[worst], -qdd[worst], g, gabs)
+            moves += 1
     return CYCLE_LIMIT
 
 
 @nb.njit(**INLINE)
-def _drop_held(L, idx, m, pat, qdd, qw, c, s):
+def _drop_held(Ha, L, idx, m, pat, qdd, g, gabs, c, s):
     """Remove the joints held since the last step from the updated factor (positions from the
-    last, so that those before stay put) and give them their held qdd in qw; c, s (n,) scratch
-    for the rotations. Returns the new number of free joints."""
+    last, so that those before stay put) and add their held qdd's columns to g, gabs; c, s (n,)
+    scratch for the rotations. Returns the new number of free joints."""
     for a in range(m - 1, -1, -1):
         i = idx[a]
         if pat[i] % 2 == 1:
             factor_remove(L, idx, m, a, c, s)
             m -= 1
-            qw[i] = qdd[i]
+            _shift(Ha[i], qdd[i], g, gabs)
     return m
+
+
+@nb.njit(**INLINE)
+def _shift(row, c, g, gabs):
+    """g += c row, gabs += |c row| (c < 0: gabs -= |c row|): a joint's column of H_a (its row:
+    H_a is symmetric) times its held qdd c, added when it is held, taken away (-c) when it is
+    released."""
+    sign = 1.0 if c >= 0.0 else -1.0
+    for k in range(g.shape[0]):
+        t = c * row[k]
+        g[k] += t
+        gabs[k] += sign * abs(t)
+
+
+@nb.njit(**INLINE)
+def _held_product(Ha, qdd, pat, g, gabs):
+    """g = H_a qw and gabs = |H_a| |qw| afresh (qw: qdd on the held joints, 0 on the free
+    ones), a held joint's row at a time; returns 0, the moves since."""
+    for k in range(g.shape[0]):
+        g[k] = gabs[k] = 0.0
+    for j in range(g.shape[0]):
+        if pat[j] % 2 == 1:
+            _shift(Ha[j], qdd[j], g, gabs)
+    return 0
+
+
+@nb.njit(**INLINE)
+def _free_residual(row, qdd, idx, m):
+    """sum_a row[idx[a]] qdd[idx[a]] over the free joints idx[:m] and the sum of the terms'
+    magnitudes, in four partial sums (as kernels/solve.py ``dot``)."""
+    h0 = h1 = h2 = h3 = a0 = a1 = a2 = a3 = 0.0
+    m4 = m - m % 4
+    for a in range(0, m4, 4):
+        i0, i1, i2, i3 = idx[a], idx[a + 1], idx[a + 2], idx[a + 3]
+        t0, t1, t2, t3 = row[i0] * qdd[i0], row[i1] * qdd[i1], row[i2] * qdd[i2], \
+            row[i3] * qdd[i3]
+        h0, h1, h2, h3 = h0 + t0, h1 + t1, h2 + t2, h3 + t3
+        a0, a1, a2, a3 = a0 + abs(t0), a1 + abs(t1), a2 + abs(t2), a3 + abs(t3)
+    for a in range(m4, m):
+        t = row[idx[a]] * qdd[idx[a]]
+        h0 += t
+        a0 += abs(t)
+    return (h0 + h1) + (h2 + h3), (a0 + a1) + (a2 + a3)
 
 
 @nb.njit(**INLINE)
@@ -578,26 +639,15 @@ def _tree_residual(Ha, ua, qdd, i, lam, nu):
 
 
 @nb.njit(**INLINE)
-def _residual(Ha, ua, qdd, i, update):
-    """h_i = (H_a qdd + u'_a)_i and its scale |u'_a,i| + sum_j |H_a,ij qdd_j| (step 4). The
-    update path sums in four partial sums (kernels/solve.py ``dot``), the other in index order
-    as before it."""
-    n = qdd.shape[0]
-    row = Ha[i]
-    h = h1 = h2 = h3 = 0.0
-    a0 = a1 = a2 = a3 = 0.0
-    n4 = n - n % 4 if update else 0
-    for j in range(0, n4, 4):
-        t0, t1, t2, t3 = row[j] * qdd[j], row[j + 1] * qdd[j + 1], row[j + 2] * qdd[j + 2], \
-            row[j + 3] * qdd[j + 3]
-        h, h1, h2, h3 = h + t0, h1 + t1, h2 + t2, h3 + t3
-        a0, a1, a2, a3 = a0 + abs(t0), a1 + abs(t1), a2 + abs(t2), a3 + abs(t3)
-    h, scale = ua[i] + h, abs(ua[i]) + a0
-    for j in range(n4, n):
-        t = row[j] * qdd[j]
+def _residual(Ha, ua, qdd, i):
+    """h_i = (H_a qdd + u'_a)_i and its scale |u'_a,i| + sum_j |H_a,ij qdd_j| (step 4), summed
+    in index order (the refactorising paths)."""
+    h, scale = ua[i], abs(ua[i])
+    for j in range(qdd.shape[0]):
+        t = Ha[i, j] * qdd[j]
         h += t
         scale += abs(t)
-    return h + ((h1 + h2) + h3), scale + ((a1 + a2) + a3)
+    return h, scale
 
 
 @nb.njit(**INLINE)

@@ -66,6 +66,7 @@ holds because every kernel writes a slot before it reads it::
     achievable_buffers  H_a = S[:n]; S[3n:3n + 6], S[3n + 15]      one cycle's problem
     drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
     tree_solve_buffers   I[4:6]                                      on a tree's free joints
+    update_buffers       S[3n + 16:3n + 18]                          with its factor updated
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
 scratch, the largest an entry needs); a batch kernel takes a stack of them, one per thread
@@ -241,7 +242,7 @@ BATCH_PAD = 8  # unused rows after each thread's scratch in a batch stack (``new
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
-        return 3 * n + 16, 6
+        return 3 * n + 18, 6
     if kind == SOLVE:
         return 2 * n + 2, 0
     return 1, 0  # POSE: S[0], the reactions' efforts
@@ -397,6 +398,15 @@ def tree_solve_buffers(ws, n):
     docs/notation.md)."""
     ints = ws[3]
     return ints[4], ints[5]
+
+
+@nb.njit(**INTO_CALLER)
+def update_buffers(ws, n):
+    """The exact cycle solve with H_FF's factor updated (kernels/drive_solve.py, ``Update``):
+    the (n,) rows g = H_a qw and |H_a| |qw| (qw: qdd on the held joints, 0 on the free ones),
+    kept as joints are held and released."""
+    S = ws[2]
+    return S[3 * n + 16], S[3 * n + 17]
 
 
 @nb.njit(**ALLOC)
