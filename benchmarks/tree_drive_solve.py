@@ -40,7 +40,7 @@ from conftest import robots_dir
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@nb.njit(cache=True)
+@nb.njit  # not cached: Numba would not see a change in the kernels it calls
 def _repeat(R, Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, out, sat, stuck, ws, how):
     """R solves of the same cycle the way ``how`` names; returns the last status."""
     status = 0

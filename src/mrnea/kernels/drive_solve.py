@@ -73,9 +73,13 @@ O(n^4); from UPDATE_FROM joints on it is instead kept and updated (``update``,
 kernels/solve.py): the joint released in step 4 is appended as the factor's last row
 (``factor_append``, O(m^2)), a joint held in step 3 is removed (``factor_remove``: a rank-one
 update of the rows after it, O(m^2)), so a cycle is O(n^3). The free joints then sit in the
-factor's order (idx[:m]), the held joints' part of step 2's right-hand side is H_a's product
-with qw (qdd on the held joints, 0 on the free ones), and the long sums run in four partial
-sums. The two ways give the same solution up to rounding (tests/test_drive_solve_update.py);
+factor's order (idx[:m]), and the held joints' part of step 2's right-hand side, g = H_a qw
+(qw: qdd on the held joints, 0 on the free ones), is kept as a running product: a joint's
+column times its held qdd is added where it is held and taken away where it is released, O(n)
+a move (``_shift``), and g is made afresh (``_held_product``, O(n |W|)) once there have been
+more moves since than joints held, which bounds the rounding it gathers. Step 4's residuals are
+then g plus the free joints' columns (O(m) each instead of O(n)), and the long sums run in four
+partial sums. The two ways give the same solution up to rounding (tests/test_drive_solve_update.py);
 below UPDATE_FROM the refactorising way is kept operation for operation (no faster to update
 there, measured: benchmarks/long_chain.py, docs/performance.md). A singular free block is
 reported at the joint whose pivot fails: in index order when refactorising, the joint being
