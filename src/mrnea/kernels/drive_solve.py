@@ -101,10 +101,10 @@ dynamics), reading only the entries on each free joint's path; λ_F is rebuilt i
 dependent load), so it pays only from about a dozen joints on and while the paths are short:
 ``solve_mode`` takes it on a tree from TREE_FROM joints on where sum_i d_i^2 / 2 <= n^2
 (``tree_pays``; measured, benchmarks/tree_drive_solve.py, docs/performance.md "The drive
-solve on trees": Baxter 1.2 times faster than the dense path, eight 7-joint arms on a waist
-3.9 times; the two-arm torso, 9 joints, and arms of 20 joints and more keep the dense paths).
-A singular free block is reported at the joint whose pivot fails, the pivots taken tip to base.
-Chains compile none of it (``lam`` None: Numba drops those branches).
+solve on trees": Baxter 1.1-1.2 times faster than the dense path, eight 7-joint arms on a
+waist 3.5-3.9 times; the two-arm torso, 9 joints, and arms of 20 joints and more keep the
+dense paths). A singular free block is reported at the joint whose pivot fails, the pivots
+taken tip to base. Chains compile none of it (``lam`` None: Numba drops those branches).
 
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
