@@ -138,8 +138,9 @@ from mrnea.kernels.layout import (
 from mrnea.kernels.solve import (
     cholesky_solve,
     factor_append,
+    factor_backward,
+    factor_forward,
     factor_remove,
-    factor_solve,
     ltl_factor,
     ltl_substitute,
 )
@@ -390,6 +391,10 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         # more such moves since than joints held (rounding; O(n) a move on average)
         g, gabs = update_buffers(ws, n)
         moves = _held_product(Ha, qdd, pat, g, gabs)
+        # y = L^-1 rhs, its rows [:solved] current: a release appends one row and moves the
+        # others by its qdd times the new row of L (the held part of rhs loses that column);
+        # a hold, and g made afresh, start it over
+        y, solved = Hs[0], 0
         for i in range(n):
             if pat[i] % 2 == 0:
                 if not factor_append(Ha, Lc, idx, m, i):
@@ -401,7 +406,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
         if update and moves > n - m:
-            moves = _held_product(Ha, qdd, pat, g, gabs)
+            moves = solved = _held_product(Ha, qdd, pat, g, gabs)
         if lam is not None:  # idx[:m] in index order and their parent array λ_F (positions)
             m = _free_forest(lam, pat, idx, near, lam_f)
         elif not update:  # idx[:m]: the free joints in index order
@@ -429,7 +434,11 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                     Hs[a, c] = Ha[i, idx[c]]
             rhs[a] = r
         if update:
-            factor_solve(Lc, m, rhs, x)
+            factor_forward(Lc, solved, m, rhs, y)
+            solved = m
+            for a in range(m):
+                x[a] = y[a]
+            factor_backward(Lc, m, x)
         elif m > 0:
             if lam is not None:
                 status = ltl_factor(lam_f[:m], Lc[:m, :m])
@@ -450,6 +459,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 moves += m
                 m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
                 moves -= m
+                solved = 0
         else:
             # 3. step towards v*; the first free joint to reach a breakpoint blocks it
             alpha, block = 1.0, -1
@@ -483,6 +493,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 moves += m
                 m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
                 moves -= m
+                solved = 0
             if released >= 0:
                 if pat[released] == pat_from:  # back on its breakpoint at once: rounding
                     tabu[released] = 1
@@ -525,6 +536,8 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         if update:
             if not factor_append(Ha, Lc, idx, m, worst):
                 return worst
+            for a in range(m):  # y += qdd_worst L^-1 H_a[F, worst], the new row's l
+                y[a] += qdd[worst] * Lc[m, a]
             m += 1
             _shift(Ha[worst], -qdd[worst], g, gabs)
             moves += 1

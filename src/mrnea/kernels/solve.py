@@ -232,9 +232,24 @@ def factor_remove(L, idx, m, p, c, s):
 @nb.njit(**JIT)
 def factor_solve(L, m, rhs, x):
     """x (m,) = (L L^T)^-1 rhs for the updated factor L (m, m): two triangular solves."""
-    for a in range(m):  # L y = rhs
-        x[a] = (rhs[a] - dot(L[a], x, a)) / L[a, a]
-    for a in range(m - 1, -1, -1):  # L^T x = y, column a of L^T being row a of L
+    factor_forward(L, 0, m, rhs, x)
+    factor_backward(L, m, x)
+
+
+@nb.njit(**JIT)
+def factor_forward(L, start, m, rhs, y):
+    """Rows start .. m - 1 of L y = rhs (forward substitution), y[:start] already solved:
+    after ``factor_append`` only the new last row is left when the others' right-hand side
+    has not changed (or changed by a known multiple of the appended row's l, added to y by
+    the caller: kernels/drive_solve.py)."""
+    for a in range(start, m):
+        y[a] = (rhs[a] - dot(L[a], y, a)) / L[a, a]
+
+
+@nb.njit(**JIT)
+def factor_backward(L, m, x):
+    """x (m,) = L^-T x in place (back substitution; column a of L^T being row a of L)."""
+    for a in range(m - 1, -1, -1):
         x[a] /= L[a, a]
         for k in range(a):
             x[k] -= L[a, k] * x[a]
