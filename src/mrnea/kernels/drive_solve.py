@@ -78,13 +78,18 @@ factor's order (idx[:m]), and the held joints' part of step 2's right-hand side,
 column times its held qdd is added where it is held and taken away where it is released, O(n)
 a move (``_shift``), and g is made afresh (``_held_product``, O(n |W|)) once there have been
 more moves since than joints held, which bounds the rounding it gathers. Step 4's residuals are
-then g plus the free joints' columns (O(m) each instead of O(n)), and the long sums run in four
-partial sums. The two ways give the same solution up to rounding (tests/test_drive_solve_update.py);
+then g plus the free joints' columns (O(m) each instead of O(n)). Step 2's forward substitution
+y = L^-1 rhs is kept too: a release leaves the factor's old rows as they were and changes
+their rhs by qdd_j H_a[F, j] alone, so y moves by qdd_j times the row factor_append has just
+computed and only the new row is solved (kernels/solve.py ``factor_forward``); a hold or a
+fresh g start it over. The long sums run in four partial sums. The two ways give the same
+solution up to rounding (tests/test_drive_solve_update.py);
 below UPDATE_FROM the refactorising way is kept operation for operation (no faster to update
 there, measured: benchmarks/long_chain.py, docs/performance.md). A singular free block is
 reported at the joint whose pivot fails: in index order when refactorising, the joint being
 appended when updating. Which way a cycle takes is a compile-time choice, made in Python by n
-(``solve_mode``: a named tuple of class ``Refactor`` or ``Update`` carrying the mode), so a
+(``solve_mode``: a named tuple of class ``Refactor`` or ``Update``, or a tree's
+``TreeRefactor`` below, carrying the mode), so a
 kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea demo`` (4
 joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first run").
 
