@@ -8,13 +8,22 @@ Usage::
     python benchmarks/first_run.py demo --out /tmp/x --quiet
     python benchmarks/first_run.py --warm demo --out /tmp/y --quiet   # a second run, cache kept
     python benchmarks/first_run.py --suite        # issue 22's first runs, each on an empty cache
+    python benchmarks/first_run.py --no-ahead demo --out /tmp/z --quiet  # no second process
+    python benchmarks/first_run.py --ahead demo --out /tmp/w --quiet     # with it, at any load
 
 ``--suite`` runs, each as a fresh process on its own empty cache: ``mrnea demo``, ``mrnea check``,
 ``mrnea simulate`` and ``mrnea retime`` on the Puma 560's pick program and the README's library
 example (:data:`LIBRARY`), and prints one line per run (CPU, wall, kernels, the heaviest).
+``--no-ahead`` (first) sets ``MRNEA_AHEAD=0``: the command compiles alone, without the second
+process that compiles the simulation's later kernels on a cold cache (mrnea/cli/ahead.py);
+``--ahead`` sets ``MRNEA_AHEAD=1``: with it, whatever the machine's load. The
+CPU counts that process too (it is the command's child, ended and reaped at its exit); the
+kernel list is the command's own process's.
 
 Prints one JSON object: the command, wall [s], CPU [s] (user + system of the process and its
-children), the compile total [s] and the kernels (name, signature, seconds; ``self_s``: the
+children, the compile-ahead process included), ``own_cpu_s`` (the command's process alone:
+its critical path when the second process has a core of its own), the compile total [s] and
+the kernels (name, signature, seconds; ``self_s``: the
 seconds less those of the kernels compiled inside it, i.e. its own typing, lowering and LLVM work
 on everything linked into it). On a shared machine
 wall times are noisy; CPU times are the steadier figure. docs/performance.md quotes its numbers.
@@ -63,7 +72,10 @@ try:
 except SystemExit:
     pass  # the exit code is the process's
 finally:
+    import resource
+    ru = resource.getrusage(resource.RUSAGE_SELF)  # before the exit reaps the second process
     sys.stderr.write("\nFIRST_RUN_EVENTS " + json.dumps(events) + "\n")
+    sys.stderr.write(f"FIRST_RUN_SELF_CPU {ru.ru_utime + ru.ru_stime}\n")
 """
 
 # The README's library example (the section "The library"), on the built-in Puma 560: single
@@ -97,7 +109,7 @@ def suite(out: str) -> list[list[str]]:
 
 
 def run(args: list[str], cache: str) -> dict:
-    env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache, **_AHEAD}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     res = subprocess.run([sys.executable, "-c", CHILD, *args], env=env, capture_output=True,
@@ -106,20 +118,30 @@ def run(args: list[str], cache: str) -> dict:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     events: list = []
+    own = float("nan")
     for line in res.stderr.splitlines():
         if line.startswith("FIRST_RUN_EVENTS "):
             events = json.loads(line[len("FIRST_RUN_EVENTS "):])
+        elif line.startswith("FIRST_RUN_SELF_CPU "):
+            own = float(line.split()[1])
     top = [e for e in events if e["nested"] == 0]  # nested compiles are inside their caller's
     command = "library example" if args[0] == "--python" else "mrnea " + " ".join(args)
     return {"command": command, "exit": res.returncode, "wall_s": round(wall, 2),
-            "cpu_s": round(cpu, 2), "compile_s": round(sum(e["seconds"] for e in top), 2),
+            "cpu_s": round(cpu, 2), "own_cpu_s": round(own, 2),
+            "compile_s": round(sum(e["seconds"] for e in top), 2),
             "kernels_compiled": len(events),
             "kernels": sorted(events, key=lambda e: -e["seconds"]),
             "stderr_tail": res.stderr.splitlines()[-3:] if res.returncode not in (0, 1) else []}
 
 
+_AHEAD: dict[str, str] = {}  # MRNEA_AHEAD: "0" with --no-ahead, "1" with --ahead
+
+
 def main() -> None:
     args = sys.argv[1:]
+    if args[:1] in (["--no-ahead"], ["--ahead"]):
+        _AHEAD["MRNEA_AHEAD"] = "0" if args[0] == "--no-ahead" else "1"
+        args = args[1:]
     if args == ["--suite"]:
         with tempfile.TemporaryDirectory(prefix="mrnea-first-run-") as out:
             for cmd in suite(out):
@@ -127,8 +149,8 @@ def main() -> None:
                     r = run(cmd, cache)
                 top = sorted((e for e in r["kernels"] if e["nested"] == 0),
                              key=lambda e: -e["seconds"])[:4]
-                print(json.dumps({k: r[k] for k in ("command", "exit", "cpu_s", "wall_s",
-                                                    "kernels_compiled")}
+                print(json.dumps({k: r[k] for k in ("command", "exit", "cpu_s", "own_cpu_s",
+                                                    "wall_s", "kernels_compiled")}
                                  | {"heaviest": [(e["kernel"].rsplit(".", 1)[-1], e["seconds"])
                                                  for e in top]}), flush=True)
         return

@@ -68,7 +68,7 @@ from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
 from mrnea.kernels.status import OK
 from mrnea.kernels.walker_orin import walker_orin
 from mrnea.model import Robot
-from mrnea.tool import Tool, tool_transform
+from mrnea.tool import Tool, tool_frame
 
 Method = Literal["mrnea", "walker_orin", "crba", "aba"]
 
@@ -294,9 +294,11 @@ def forward_kinematics(robot: Robot, q: ArrayLike, tool: Tool = None) -> NDArray
     ----------
     robot : Robot
     q : (n,) or (B, n) joint positions [rad | m].
-    tool : None, or a tool frame fixed to the last link (:mod:`mrnea.tool`): the name of the last
-        link or of a frame fixed to it (``"panda_hand_tcp"``), ``{"xyz": [m], "rpy": [rad]}`` in
-        the last link's frame, or a (4, 4) transform.
+    tool : None, or a tool frame (:mod:`mrnea.tool`): on a serial chain fixed to the last link,
+        the name of the last link or of a frame fixed to it (``"panda_hand_tcp"``),
+        ``{"xyz": [m], "rpy": [rad]}`` in the last link's frame, or a (4, 4) transform; on a
+        tree fixed to the link it names (a link's or a frame's name, or ``{"xyz", "rpy",
+        "link"}``).
 
     Returns
     -------
@@ -305,15 +307,15 @@ def forward_kinematics(robot: Robot, q: ArrayLike, tool: Tool = None) -> NDArray
         ``T[i + 1]`` is link i's frame ``T_i = T_{i-1} @ origin_i @ motion_i(q_i)`` (URDF
         conventions, :mod:`mrnea.model`): its rotation ``T[i + 1, :3, :3]`` (the link's axes in
         base coordinates) and origin ``T[i + 1, :3, 3]`` [m]. The order of Pinocchio's
-        ``data.oMi`` (index 0 the universe). With a tool, ``T[n + 1] = T[n] @ T_tool`` is the
-        tool frame (Pinocchio's ``data.oMf`` of that frame). Either way ``T[-1]`` is the tool
-        frame's pose (without a tool, the last link's).
+        ``data.oMi`` (index 0 the universe). With a tool fixed to link i,
+        ``T[n + 1] = T[i + 1] @ T_tool`` is the tool frame (Pinocchio's ``data.oMf`` of that
+        frame). Either way ``T[-1]`` is the tool frame's pose (without a tool, the last link's).
     """
     if tool is not None:
         validate.require_robot(robot)
-        Tt = tool_transform(robot, tool)
+        link, Tt = tool_frame(robot, tool)
         T = forward_kinematics(robot, q)
-        return np.concatenate([T, (T[..., -1, :, :] @ Tt)[..., None, :, :]], axis=-3)
+        return np.concatenate([T, (T[..., link + 1, :, :] @ Tt)[..., None, :, :]], axis=-3)
     try:  # the fast path (module docstring)
         m, shape, ws, _ = BY_ID[id(robot)]
         if q.dtype is _F64 and q.ndim == 1:

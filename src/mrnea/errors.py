@@ -127,6 +127,17 @@ class NoTimingError(RetimeError):
     margin below what a dwell needs) are bad input (exit 2)."""
 
 
+class JerkLimitError(RetimeError):
+    """The jerk limits given to a jerk-limited retiming are too small to plan the path with:
+    about the ``jerk_limit`` argument (``--jerk-limit`` on the command line), not the program.
+    ``str()`` is ``"jerk_limit: " + detail``; ``detail`` says why, without the argument's
+    name."""
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(f"jerk_limit: {detail}")
+        self.detail = detail
+
+
 class OutputError(MrneaError):
     """An output file cannot be written: it exists (and replacing it was not allowed), its place
     is a directory, its folder is missing or not writable, or another run owns the folder."""

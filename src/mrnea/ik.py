@@ -3,34 +3,41 @@
 Usage: ``q = inverse_kinematics(robot, T, q0, tool=None)`` for one pose T (4, 4), or a path
 (K, 4, 4) followed continuously, each cycle warm-started at the previous cycle's solution (the
 first at ``q0``): the branch through ``q0``, never a jump to another configuration.
+
+The joints that move are those that carry the tool's link (:func:`mrnea.tool.carrying_joints`:
+on a serial chain all of them; on a tree the path from the root to the tool's link, a shared
+waist included) less the joints named in ``hold``; every other joint keeps its ``q0``. On a tree
+a shared joint that moves carries the other branches with it (their joints held, their tips not):
+hold it to keep them still (docs/trees.md).
 :func:`solve_path` returns what is left of the error besides q, for callers that judge a path
 (:mod:`mrnea.cartesian`) rather than fail on it.
 
 The solver is damped least squares (Levenberg-Marquardt) on the tool point's geometric Jacobian
 (:func:`mrnea.jacobian`), compiled with Numba (``mrnea/kernels/ik.py``, where the iteration is
 written out); it stops at ``TOL_POSITION`` [m] and ``TOL_ORIENTATION`` [rad] (the position error
-of the tool frame's origin and the angle of the rotation left). Redundant arms (n > 6) take the
-minimum-norm joint step of each iteration: the solution moves least from the previous cycle.
-Arms with n < 6 reach a pose only where it lies on their reachable set; elsewhere the least-squares
-residual is what :func:`solve_path` reports. Joint limits are not enforced (a limit crossed is a
-verdict of :mod:`mrnea.cartesian`, not something to hide).
+of the tool frame's origin and the angle of the rotation left). Redundant arms (more than 6
+moving joints) take the minimum-norm joint step of each iteration: the solution moves least from
+the previous cycle. Arms with fewer than 6 reach a pose only where it lies on their reachable
+set; elsewhere the least-squares residual is what :func:`solve_path` reports. Joint limits are
+not enforced (a limit crossed is a verdict of :mod:`mrnea.cartesian`, not something to hide).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
-from mrnea.errors import StateError
+from mrnea.errors import StateError, quote
 from mrnea.kernels.ik import ik_path
 from mrnea.model import Robot
-from mrnea.tool import Tool, tool_transform
+from mrnea.tool import Tool, carrying_joints, tool_frame
 
 __all__ = ["MAX_ITERATIONS", "TOL_ORIENTATION", "TOL_POSITION", "IKPath", "inverse_kinematics",
-           "solve_path"]
+           "moving_joints", "solve_path"]
 
 TOL_POSITION = 1e-10  # [m]: the tool frame's origin at most this far from the target
 TOL_ORIENTATION = 1e-10  # [rad]: the rotation left between the tool's axes and the target's
@@ -72,15 +79,35 @@ def _poses(poses: ArrayLike) -> tuple[NDArray[np.float64], bool]:
     return P3, P.ndim == 3
 
 
-def solve_path(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None) -> IKPath:
+def moving_joints(robot: Robot, link: int, hold: Sequence[str] = ()) -> NDArray[np.int64]:
+    """The indices (m,) of the joints the inverse kinematics of a tool on ``link`` moves: those
+    that carry it, less the joints named in ``hold`` (module docstring). StateError: a name in
+    ``hold`` that is no joint of the robot, or every carrying joint held."""
+    if isinstance(hold, str):
+        raise StateError(f"hold: expected a list of joint names, got the string {hold!r}")
+    names = robot.joint_names
+    for name in hold:
+        if name not in names:
+            raise StateError(f"hold: no joint named {quote(name)} in robot "
+                             f"{quote(robot.name)}")
+    idx = [k for k in carrying_joints(robot, link) if names[k] not in hold]
+    if not idx:
+        raise StateError(f"hold: every joint that carries link {quote(robot.link_names[link])} "
+                         f"is held: the tool cannot move")
+    return np.array(idx, dtype=np.int64)
+
+
+def solve_path(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None,
+               hold: Sequence[str] = ()) -> IKPath:
     """Joint positions for the tool poses (K, 4, 4) in turn from q0, and the error left.
 
     Parameters
     ----------
-    robot : Robot (a serial chain).
+    robot : Robot (a serial chain or a tree).
     poses : (K, 4, 4) or (4, 4) target poses of the tool frame, base frame [m].
     q0 : (n,) the joint positions the first solve starts from [rad | m].
-    tool : the tool frame (:mod:`mrnea.tool`); None: the last link's frame.
+    tool : the tool frame (:mod:`mrnea.tool`); None: the last link's frame (a serial chain).
+    hold : names of joints kept at their q0 (module docstring).
 
     Returns
     -------
@@ -92,27 +119,31 @@ def solve_path(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None)
     q0 = validate.array(q0, "q0", robot.n)
     if q0.ndim != 1:
         raise StateError(f"q0: expected shape ({robot.n},), got {q0.shape}")
-    Tt = tool_transform(robot, tool)
+    link, Tt = tool_frame(robot, tool)
+    idx = moving_joints(robot, link, hold)
     m = compiled.of(robot)[0]
     Q, ERR = np.empty((P.shape[0], robot.n)), np.empty((P.shape[0], 3))
-    ik_path(m, P, np.ascontiguousarray(Tt[:3, 3]), np.ascontiguousarray(Tt[:3, :3]), q0, Q, ERR,
-            TOL_POSITION, TOL_ORIENTATION, MAX_ITERATIONS)
+    ik_path(m, P, link, np.ascontiguousarray(Tt[:3, 3]), np.ascontiguousarray(Tt[:3, :3]), idx,
+            q0, Q, ERR, TOL_POSITION, TOL_ORIENTATION, MAX_ITERATIONS)
     return IKPath(Q, ERR[:, 0].copy(), ERR[:, 1].copy(), ERR[:, 2].astype(np.int64))
 
 
-def inverse_kinematics(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None
-                       ) -> NDArray[np.float64]:
+def inverse_kinematics(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool = None,
+                       hold: Sequence[str] = ()) -> NDArray[np.float64]:
     """Joint positions whose tool frame is at the given pose(s), on the branch through q0.
 
     Parameters
     ----------
-    robot : Robot (a serial chain of any length: 5, 6, 7 joints...).
+    robot : Robot (a serial chain of any length: 5, 6, 7 joints..., or a tree).
     poses : (4, 4) one target pose of the tool frame, or (K, 4, 4) a path of them, in base
         coordinates [m]; a path is followed continuously, each pose's solve starting at the
         previous pose's solution.
     q0 : (n,) where the (first) solve starts [rad | m]: it picks the branch (elbow, wrist).
     tool : the tool frame (:mod:`mrnea.tool`): None (the last link's frame), a frame's name,
-        ``{"xyz": ..., "rpy": ...}`` in the last link's frame, or a (4, 4) transform.
+        ``{"xyz": ..., "rpy": ...}`` in the last link's frame, or a (4, 4) transform; on a tree
+        a link's or frame's name, or ``{"xyz", "rpy", "link"}``: the tip to move.
+    hold : names of joints that keep their q0 (by default only the joints that do not carry
+        the tool's link do).
 
     Returns
     -------
@@ -126,7 +157,7 @@ def inverse_kinematics(robot: Robot, poses: ArrayLike, q0: ArrayLike, tool: Tool
         singularity where the solve stalls): the message names the first such pose and the
         error left. :func:`solve_path` returns the errors instead.
     """
-    res = solve_path(robot, poses, q0, tool)
+    res = solve_path(robot, poses, q0, tool, hold)
     bad = np.flatnonzero(~res.converged)
     if bad.size:
         k = int(bad[0])

@@ -30,7 +30,6 @@ from numpy.typing import ArrayLike, NDArray
 from mrnea import compiled, cycles, validate
 from mrnea.achievable import MODES
 from mrnea.cartesian import CartesianPath
-from mrnea.dynamics import forward_kinematics
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.derived import derived
@@ -95,9 +94,9 @@ class SimulationResult:
         (``simulate(..., cartesian=prog.cartesian)``): how far the real motion's tool frame is
         from the programmed pose, ``|p(q) - p*|`` [m] and the angle of ``R*^T R(q)`` [rad];
         None otherwise.
-    tool_point : for a Cartesian program, the tool frame's origin [m] in the last link's frame
-        (the 3D view draws its path, the programmed Cartesian path, and the real one); None
-        otherwise.
+    tool_point : for a Cartesian program of one tool on the last link, the tool frame's origin
+        [m] in the last link's frame (the 3D view draws its path, the programmed Cartesian path,
+        and the real one); None otherwise (the 3D view traces every branch's tip).
     tool_targets : for a Cartesian program, (M, 4, 4) the target poses of its Cartesian moves,
         base frame [m] (the 3D view marks them); None otherwise.
     """
@@ -383,7 +382,8 @@ def simulate(
         coulomb=zeros(), stuck=zeros(np.bool_), program_effort=zeros(), program_limit=zeros(),
         tool_position_error=None if cartesian is None else np.zeros(K),
         tool_orientation_error=None if cartesian is None else np.zeros(K),
-        tool_point=None if cartesian is None else tuple(map(float, cartesian.tool[:3, 3])),
+        tool_point=None if cartesian is None or cartesian.tool is None
+        or cartesian.tool.link != n - 1 else tuple(map(float, cartesian.tool.T[:3, 3])),
         tool_targets=None if cartesian is None or not cartesian.targets
         else np.array([T for _, T in cartesian.targets]))
     clamp = zeros(np.int64)
@@ -428,7 +428,7 @@ def _tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> Non
     """The real motion's tool errors against the programmed pose, for ``rows``."""
     from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
 
-    T = forward_kinematics(res.robot, res.q[rows], tool=path.tool)[:, -1]
+    T = path.tool_poses(res.robot, res.q[rows], rows)
     P = path.pose[rows]
     res.tool_position_error[rows] = np.linalg.norm(T[:, :3, 3] - P[:, :3, 3], axis=1)
     res.tool_orientation_error[rows] = Rotation.from_matrix(
@@ -454,7 +454,11 @@ def _check_moves(robot: Robot, q0: NDArray) -> None:
     Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
     actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
                    entry_scratch(n))  # SOLVE's rows: a tree's mRNEA stashes columns in S[n:2n]
-    j = cholesky_solve(Ha, zero, np.empty((n, n)), np.empty(n))
+    # H_a and L as (n, n) views of wider buffers, typed layout A as the drive solve's blocks
+    # are (kernels/drive_solve.py): one compiled cholesky_solve serves both (issue 22)
+    H, L = np.empty((n, n + 1))[:, :n], np.empty((n, n + 1))[:, :n]
+    H[...] = Ha
+    j = cholesky_solve(H, zero, L, np.empty(n))
     if j == OK:
         return
     joint = robot.joints[j]

@@ -21,8 +21,15 @@ unless a ``blend`` joins linear moves:
   (``JOIN_POSITION``, ``JOIN_ORIENTATION``);
 * ``dwell``: the last cycle held, rounded up to whole cycles.
 
+Each move is of its own ``tool`` or the program's (:mod:`mrnea.tool`): on a tree the tool names
+the tip the move drives (one arm of several), and the inverse kinematics moves the joints that
+carry it less the move's ``hold`` (:func:`mrnea.ik.moving_joints`); every other joint keeps its
+position. A move whose tool differs from the previous move's starts at the pose its tool has
+there (the forward kinematics of q).
+
 A ``[wrench]`` (``program.wrench``) becomes ``f_ext`` at the cycle times (t = 0 at q0) and acts
-at the tool point (the tool frame's origin) unless its ``point`` says otherwise.
+at the tool point (the tool frame's origin, on the tool's link) unless its ``point`` or ``link``
+says otherwise; with tools on several links, a ``[wrench]`` names its link.
 
 The verdict on the Cartesian path (reach, singularities, joint limits, configuration changes)
 is :mod:`mrnea.cartesian.verdict`'s, in ``CartesianPath.findings``.
@@ -31,6 +38,7 @@ is :mod:`mrnea.cartesian.verdict`'s, in ``CartesianPath.findings``.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,13 +48,14 @@ from mrnea.cartesian.blend import chain_poses
 from mrnea.cartesian.path import move_poses
 from mrnea.cartesian.verdict import Finding, findings
 from mrnea.dynamics import forward_kinematics
-from mrnea.errors import ProgramFileError, StateError
-from mrnea.ik import solve_path
-from mrnea.io.moves import Move
+from mrnea.errors import ProgramFileError, StateError, quote
+from mrnea.ik import moving_joints, solve_path
+from mrnea.io.jointnames import unknown_joint
+from mrnea.io.moves import Move, Moves
 from mrnea.io.program import Program
 from mrnea.io.wrench import LinkWrenches, wrench_at, wrenches_on
 from mrnea.model import Robot
-from mrnea.tool import tool_transform
+from mrnea.tool import ToolFrame, tool_frame
 from mrnea.trajectory import cycles, quintic, scurve, trapezoidal
 
 __all__ = ["CartesianPath", "solve"]
@@ -62,9 +71,11 @@ class CartesianPath:
 
     Attributes
     ----------
-    tool : (4, 4) the tool frame in the last link's frame.
-    pose : (K, 4, 4) the programmed tool pose of every cycle, base frame [m] (on a joint move:
-        the forward kinematics of the commanded q).
+    tools : per move (``tools[move - 1]``), its tool frame (:class:`mrnea.tool.ToolFrame`: the
+        link's index and the (4, 4) pose in that link's frame).
+    joints : per move, the indices (m,) of the joints its inverse kinematics moves.
+    pose : (K, 4, 4) the programmed pose of every cycle's tool (its move's), base frame [m] (on
+        a joint move: the forward kinematics of the commanded q).
     move : (K,) the move (1-based) each cycle belongs to (its dwell included); cycle 0, the
         start, belongs to move 1.
     cartesian : (K,) True on the cycles of linear and circular moves (solved by IK).
@@ -75,7 +86,8 @@ class CartesianPath:
         empty: it can, as far as kinematics go.
     """
 
-    tool: NDArray[np.float64]
+    tools: tuple[ToolFrame, ...]
+    joints: tuple[NDArray[np.int64], ...]
     pose: NDArray[np.float64]
     move: NDArray[np.int64]
     cartesian: NDArray[np.bool_]
@@ -84,6 +96,23 @@ class CartesianPath:
     targets: tuple[tuple[int, NDArray[np.float64]], ...]
     findings: tuple[Finding, ...]
     moves: tuple[Move, ...]
+
+    @property
+    def tool(self) -> ToolFrame | None:
+        """The tool frame of every move when they share one (the same link and pose), else
+        None (moves of several tools: on a tree, several arms)."""
+        first = self.tools[0]
+        same = all(f.link == first.link and np.array_equal(f.T, first.T) for f in self.tools)
+        return first if same else None
+
+    def tool_poses(self, robot: Robot, q: NDArray, rows: slice = slice(None)
+                   ) -> NDArray[np.float64]:
+        """(B, 4, 4) the pose of the tool of the path's cycles ``rows`` (their moves',
+        :attr:`move`) at the joint positions q (B, n) of those cycles, base frame [m]."""
+        T = forward_kinematics(robot, q)
+        of = self.move[rows] - 1
+        link = np.array([f.link for f in self.tools])[of]
+        return T[np.arange(q.shape[0]), link + 1] @ np.stack([f.T for f in self.tools])[of]
 
     @property
     def achievable(self) -> bool:
@@ -151,15 +180,13 @@ def solve(program: Program, robot: Robot) -> Program:
     if spec is None:
         return program
     where = program.source or program.name
-    try:
-        Tt = tool_transform(robot, spec.tool)
-    except StateError as exc:
-        raise ProgramFileError(f"{where}: [program]: {exc}") from None
-    dt, q = program.dt, np.array(spec.q0, dtype=float)
-    T = forward_kinematics(robot, q, tool=Tt)[-1]
+    frames, joints = _tools(robot, spec, where)
+    dt, q = program.dt, _positions(spec.q0, np.zeros(robot.n), robot, f"{where}: [program] q0")
+    frame = frames[0]
+    T = forward_kinematics(robot, q, tool=frame)[-1]
     start_err, first = np.zeros((1, 2)), spec.moves[0]
     if first.type == "poses":  # q0 is the seed of the first pose's inverse kinematics
-        res = solve_path(robot, first.poses[:1], q, Tt)
+        res = solve_path(robot, first.poses[:1], q, frame, first.hold)
         q, T = res.q[0], first.poses[0]
         start_err = np.column_stack([res.position_error, res.orientation_error])
     rows, poses, owner, is_cart, errs = [q[None]], [T[None]], [np.ones(1, np.int64)], \
@@ -167,12 +194,15 @@ def solve(program: Program, robot: Robot) -> Program:
     targets = []
     for chain in _chains(spec.moves):
         mv = chain[-1]
+        if frames[mv.index - 1] is not frame:  # another tool: from where it is now
+            frame = frames[mv.index - 1]
+            T = forward_kinematics(robot, q, tool=frame)[-1]
         try:
             if mv.type == "joint":
-                prof = _JOINT_PROFILES[mv.profile]
-                _, qs = prof(np.array([q, mv.target]), dt, *mv.limits)
+                target, limits = _joint_move(mv, q, robot, where)
+                _, qs = _JOINT_PROFILES[mv.profile](np.array([q, target]), dt, *limits)
                 qs = qs[1:]
-                Ts = forward_kinematics(robot, qs, tool=Tt)[:, -1] if len(qs) else qs[:, :0]
+                Ts = forward_kinematics(robot, qs, tool=frame)[:, -1] if len(qs) else qs[:, :0]
                 e = np.zeros((len(qs), 2))
                 own, cart = np.full(len(qs), mv.index, np.int64), False
             else:
@@ -185,7 +215,7 @@ def solve(program: Program, robot: Robot) -> Program:
                     own = np.full(len(Ts), mv.index, np.int64)
                     targets.append((mv.index, Ts[-1]))
                 Ts, own = Ts[1:], own[1:]
-                res = solve_path(robot, Ts, q, Tt) if len(Ts) else None
+                res = solve_path(robot, Ts, q, frame, mv.hold) if len(Ts) else None
                 qs = res.q if res else np.empty((0, robot.n))
                 e = (np.column_stack([res.position_error, res.orientation_error]) if res
                      else np.zeros((0, 2)))
@@ -207,19 +237,111 @@ def solve(program: Program, robot: Robot) -> Program:
     if q_cmd.shape[0] < 2:
         raise ProgramFileError(f"{where}: the moves take a single cycle (every target is where "
                                f"the robot is and no dwell); give a move that moves")
-    found = findings(robot, t, q_cmd, pose, move, cart, err, Tt, spec.moves)
-    path = CartesianPath(tool=Tt, pose=pose, move=move, cartesian=cart,
+    found = findings(robot, t, q_cmd, pose, move, cart, err, frames, joints, spec.moves)
+    path = CartesianPath(tools=frames, joints=joints, pose=pose, move=move, cartesian=cart,
                          position_error=err[:, 0], orientation_error=err[:, 1],
                          targets=tuple(targets), findings=tuple(found), moves=spec.moves)
-    for a in (t, q_cmd, pose, move, cart, path.position_error, path.orientation_error):
+    for a in (t, q_cmd, pose, move, cart, path.position_error, path.orientation_error, *joints):
         a.setflags(write=False)
-    f_ext, point = None, program.f_ext_point
-    if isinstance(program.wrench, LinkWrenches):  # on named links; at the TCP by default
-        f_ext, point = wrenches_on(program.wrench, robot, t, where, Tt[:3, 3].copy())
-    elif program.wrench is not None:  # [wrench] on the program's clock; at the TCP by default
-        f_ext = wrench_at(*program.wrench, t)
-        point = Tt[:3, 3].copy() if point is None else point
-        for a in (f_ext, point):
-            a.setflags(write=False)
-    return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path, f_ext=f_ext,
-                               f_ext_point=point)
+    return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path,
+                               **_wrench(program, robot, t, path.tool, where))
+
+
+def _positions(given: NDArray | Mapping[str, float], q: NDArray, robot: Robot, where: str
+               ) -> NDArray:
+    """Joint positions (n,) [rad | m]: an array of the robot's n, or a table by joint name
+    over ``q`` (the joints it does not name keep their q)."""
+    if isinstance(given, Mapping):
+        q = q.copy()
+        for name, v in given.items():
+            if name not in robot.joint_names:
+                raise ProgramFileError(f"{where}: {unknown_joint(name, robot)}")
+            q[robot.joint_names.index(name)] = v
+        return q
+    if given.size != robot.n:
+        raise ProgramFileError(f"{where}: {given.size} joint positions, but robot "
+                               f"{quote(robot.name)} has {robot.n} joints (or name them: "
+                               f"{{{robot.joint_names[0]} = ...}})")
+    return np.array(given, dtype=float)
+
+
+def _joint_move(mv: Move, q: NDArray, robot: Robot, where: str
+                ) -> tuple[NDArray, list[NDArray]]:
+    """A joint move's target (n,) from q, and its limits per joint (n,) each: a number for
+    every joint, an array of n, or a table by name that names every joint the move moves
+    (the others unlimited)."""
+    at = f"{where}: [[move]] {mv.index} (joint)"
+    target = _positions(mv.target, q, robot, f"{at} target")
+    moving = {name for name, a, b in zip(robot.joint_names, q, target, strict=True) if a != b}
+    limits = []
+    for key, lim in zip(("velocity_limit", "acceleration_limit", "jerk_limit"), mv.limits,
+                        strict=False):  # no jerk limit unless an S-curve
+        if isinstance(lim, Mapping):
+            missing = sorted(moving - set(lim), key=robot.joint_names.index)
+            if missing:
+                raise ProgramFileError(f"{at}: {key} does not name joint {quote(missing[0])}, "
+                                       f"which the move moves; give its limit (or one number "
+                                       f"for every joint)")
+            lim = _positions(lim, np.full(robot.n, np.inf), robot, f"{at} {key}")
+        elif lim.ndim == 0:
+            lim = np.full(robot.n, float(lim))
+        elif lim.size != robot.n:
+            raise ProgramFileError(f"{at}: {key}: {lim.size} limits, but robot "
+                                   f"{quote(robot.name)} has {robot.n} joints")
+        limits.append(lim)
+    return target, limits
+
+
+def _tools(robot: Robot, spec: Moves, where: str
+           ) -> tuple[tuple[ToolFrame, ...], tuple[NDArray[np.int64], ...]]:
+    """Per move, its tool frame (its own ``tool`` or the program's; moves of one tool share
+    one :class:`ToolFrame` object) and the joints its inverse kinematics moves."""
+    resolved: dict[str, ToolFrame] = {}
+    frames, joints = [], []
+    for mv in spec.moves:
+        own = mv.tool is not None
+        key = repr(mv.tool if own else spec.tool)
+        try:
+            if key not in resolved:
+                resolved[key] = tool_frame(robot, mv.tool if own else spec.tool)
+            frame = resolved[key]
+        except StateError as exc:
+            table = f"[[move]] {mv.index} ({mv.type})" if own else "[program]"
+            raise ProgramFileError(f"{where}: {table}: {exc}") from None
+        try:
+            idx = moving_joints(robot, frame.link, mv.hold)
+        except StateError as exc:
+            raise ProgramFileError(f"{where}: [[move]] {mv.index} ({mv.type}): {exc}") from None
+        frames.append(frame)
+        joints.append(idx)
+    return tuple(frames), tuple(joints)
+
+
+def _wrench(program: Program, robot: Robot, t: NDArray, tool: ToolFrame | None, where: str
+            ) -> dict[str, object]:
+    """``f_ext`` and ``f_ext_point`` of a solved program's ``[wrench]`` tables: a table without
+    ``link`` acts on the tool's link at the tool point unless its ``point`` says otherwise
+    (moves of several tools: a ``[wrench]`` names its link)."""
+    if program.wrench is None:
+        return {"f_ext": None, "f_ext_point": program.f_ext_point}
+    wrenches = program.wrench
+    if isinstance(wrenches, LinkWrenches) and None not in wrenches:
+        return dict(zip(("f_ext", "f_ext_point"), wrenches_on(wrenches, robot, t, where),
+                        strict=True))
+    if tool is None:
+        raise ProgramFileError(f"{where}: [wrench]: the moves are of several tools, so a wrench "
+                               f"without 'link' has no tool point to act at: give its 'link' "
+                               f"(and 'point')")
+    tcp = (tool.link, tool.T[:3, 3].copy())
+    if isinstance(wrenches, LinkWrenches):
+        return dict(zip(("f_ext", "f_ext_point"), wrenches_on(wrenches, robot, t, where, tcp),
+                        strict=True))
+    if tool.link != robot.n - 1:  # one [wrench] at a tool on another link than the last
+        table = LinkWrenches({None: (*wrenches, program.f_ext_point)})
+        return dict(zip(("f_ext", "f_ext_point"), wrenches_on(table, robot, t, where, tcp),
+                        strict=True))
+    f_ext = wrench_at(*wrenches, t)  # one [wrench] on the program's clock, the last link's
+    point = tcp[1] if program.f_ext_point is None else program.f_ext_point
+    for a in (f_ext, point):
+        a.setflags(write=False)
+    return {"f_ext": f_ext, "f_ext_point": point}

@@ -1,6 +1,6 @@
 """Why a robot cannot follow a Cartesian path: the findings of a solved program.
 
-Usage: ``findings(robot, t, q, pose, move, cartesian, err, tool, moves)`` (what
+Usage: ``findings(robot, t, q, pose, move, cartesian, err, tools, joints, moves)`` (what
 :func:`mrnea.cartesian.solve` has made) returns the :class:`Finding` s, the first of each kind
 in each move, by move and within a move in the order below (out of reach is the cause of the
 singular stretch before it); none:
@@ -12,13 +12,14 @@ joint motion, as for any program). Each names the move, the instant and a joint:
   the one that moves most along the tool Jacobian's smallest singular direction there (the
   direction the arm has lost, e.g. the elbow of an arm stretched to its full reach);
 * ``singularity``: on a linear or circular move, the smallest singular value of the tool
-  Jacobian (6 x n, rows [m/rad; rad/rad]) below ``SIGMA_SINGULAR``, or a joint's speed
+  Jacobian (6 x m, rows [m/rad; rad/rad], the columns of the m joints the move's inverse
+  kinematics moves, :func:`mrnea.ik.moving_joints`) below ``SIGMA_SINGULAR``, or a joint's speed
   ``(q[k] - q[k-1]) / dt`` over its ``velocity_limit`` while the smallest singular value within
   ``NEAR_WINDOW`` [s] is below ``SIGMA_NEAR`` (the tool speed is modest, a joint's speed explodes
   near the singularity); the joint named is the one whose speed is over its limit, else the
   fastest;
 * ``joint_limit``: a commanded position outside a joint's ``lower``/``upper`` limits;
-* ``configuration``: (6-joint arms) the sign of det J changes between two cycles of a Cartesian
+* ``configuration``: (6 moving joints) the sign of det J changes between two cycles of a Cartesian
   move: the arm has passed onto another branch of its inverse kinematics (an elbow or wrist
   flip). The joint named is the one whose motion changes det J most over those cycles
   (``|d det J / d q_i| |q_i[k] - q_i[k-1]|``): the elbow in an elbow flip, the middle wrist
@@ -39,6 +40,7 @@ from numpy.typing import NDArray
 from mrnea.dynamics import jacobian
 from mrnea.io.moves import Move
 from mrnea.model import Robot
+from mrnea.tool import ToolFrame
 
 __all__ = ["NEAR_WINDOW", "REACH_ORIENTATION", "REACH_POSITION", "SIGMA_NEAR", "SIGMA_SINGULAR",
            "Finding", "findings"]
@@ -68,17 +70,40 @@ def _where(moves: tuple[Move, ...], move: int, t: float) -> str:
     return f"move {move} ({moves[move - 1].type}) at t = {t:.3f} s"
 
 
+def _tool_jacobian(robot: Robot, q: NDArray, tool: ToolFrame, idx: NDArray) -> NDArray:
+    """(B, 6, m): the Jacobian of the tool point at q (B, n), the columns of the joints idx."""
+    point = np.broadcast_to(tool.T[:3, 3], (q.shape[0], 3))
+    link = None if tool.link == robot.n - 1 else robot.link_names[tool.link]
+    return jacobian(robot, q, point, link=link)[:, :, idx]
+
+
+def _singular(robot: Robot, q: NDArray, move: NDArray, tools: tuple[ToolFrame, ...],
+              joints: tuple[NDArray, ...]) -> tuple[NDArray, NDArray, NDArray]:
+    """Per cycle, with its move's tool and moving joints: the smallest singular value of the
+    tool Jacobian, the joint (index) moving most along it, and det J (NaN unless 6 joints)."""
+    K = q.shape[0]
+    sigma, joint, det = np.empty(K), np.empty(K, np.int64), np.full(K, np.nan)
+    for m in np.unique(move):
+        rows, idx = np.flatnonzero(move == m), joints[m - 1]
+        J = _tool_jacobian(robot, q[rows], tools[m - 1], idx)
+        _, S, Vt = np.linalg.svd(J)
+        sigma[rows] = S[:, -1]
+        # the joint motion along the smallest singular value
+        joint[rows] = idx[np.argmax(np.abs(Vt[:, min(5, idx.size - 1)]), axis=1)]
+        if idx.size == 6:
+            det[rows] = np.linalg.det(J)
+    return sigma, joint, det
+
+
 def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
-             cartesian: NDArray, err: NDArray, tool: NDArray, moves: tuple[Move, ...]
-             ) -> list[Finding]:
-    """The findings of a solved Cartesian path (module docstring), in its order."""
+             cartesian: NDArray, err: NDArray, tools: tuple[ToolFrame, ...],
+             joints: tuple[NDArray, ...], moves: tuple[Move, ...]) -> list[Finding]:
+    """The findings of a solved Cartesian path (module docstring), in its order: ``tools``
+    and ``joints`` per move, its tool frame and the joints its inverse kinematics moves."""
     out: list[Finding] = []
     names = robot.joint_names
     dt = float(t[1] - t[0])
-    J = jacobian(robot, q, np.broadcast_to(tool[:3, 3], (q.shape[0], 3)))
-    _, S, Vt = np.linalg.svd(J)
-    sigma = S[:, -1]
-    v_min = Vt[:, min(5, robot.n - 1)]  # the joint motion along the smallest singular value
+    sigma, lost, det = _singular(robot, q, move, tools, joints)
     seen: set[tuple[str, int]] = set()
 
     def add(kind: str, k: int, joint: int, what: str) -> None:
@@ -94,7 +119,7 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
     for m in np.unique(move[unreached]):
         rows = np.flatnonzero(unreached & (move == m))
         k = int(rows[0])
-        j = int(np.argmax(np.abs(v_min[k])))
+        j = int(lost[k])
         far = err[rows, 0].max() * 1e3
         turn = err[rows, 1].max() * 1e3
         add("reach", k, j, f"pose out of reach: the tool stays up to {far:.4g} mm and "
@@ -134,29 +159,35 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
         low = rows[cartesian[rows] & (sigma[rows] < SIGMA_SINGULAR)]
         if low.size:
             k = int(low[np.argmin(sigma[low])])
-            j = int(np.argmax(np.abs(v_min[k])))
+            j = int(lost[k])
             add("singularity", k, j, f"singularity on the path: smallest singular value of the "
                                      f"tool Jacobian {sigma[k]:.3g} < {SIGMA_SINGULAR:g} (joint "
                                      f"{names[j]} moves along the lost direction)")
-    # configuration changes (6 joints): det J changes sign within the Cartesian moves
-    if robot.n == 6:
-        det = np.linalg.det(J)
-        flip = np.flatnonzero(cartesian[1:] & cartesian[:-1] & (np.sign(det[1:])
-                                                               != np.sign(det[:-1]))) + 1
-        for k in flip:
-            j = _flip_joint(robot, q[k - 1], q[k], tool)
-            add("configuration", int(k), j, f"configuration change: det J changes sign (the "
-                                            f"arm passes onto another branch), joint {names[j]} "
-                                            f"from {q[k - 1, j]:.4g} to {q[k, j]:.4g}")
+    # configuration changes (6 moving joints): det J changes sign within a Cartesian move
+    keys: dict[tuple, int] = {}  # moves of one tool frame (one object) and one joint set
+    group = np.array([keys.setdefault((id(f), tuple(j.tolist())), len(keys))
+                      for f, j in zip(tools, joints, strict=True)])[move - 1]
+    same = group[1:] == group[:-1]
+    flip = np.flatnonzero(cartesian[1:] & cartesian[:-1] & same & np.isfinite(det[1:])
+                          & np.isfinite(det[:-1]) & (np.sign(det[1:]) != np.sign(det[:-1]))) + 1
+    for k in flip:
+        m = int(move[k])
+        j = _flip_joint(robot, q[k - 1], q[k], tools[m - 1], joints[m - 1])
+        add("configuration", int(k), j, f"configuration change: det J changes sign (the arm "
+                                        f"passes onto another branch), joint {names[j]} from "
+                                        f"{q[k - 1, j]:.4g} to {q[k, j]:.4g}")
     out.sort(key=lambda f: (f.move, _ORDER[f.kind], f.t))
     return out
 
 
-def _flip_joint(robot: Robot, qa: NDArray, qb: NDArray, tool: NDArray, h: float = 1e-6) -> int:
-    """The joint whose motion from qa to qb changes det J most (central differences at the
-    midpoint)."""
+def _flip_joint(robot: Robot, qa: NDArray, qb: NDArray, tool: ToolFrame, idx: NDArray,
+                h: float = 1e-6) -> int:
+    """The joint (of the six idx) whose motion from qa to qb changes det J most (central
+    differences at the midpoint)."""
     mid = 0.5 * (qa + qb)
-    steps = np.concatenate([mid + h * np.eye(6), mid - h * np.eye(6)])
-    det = np.linalg.det(jacobian(robot, steps, np.broadcast_to(tool[:3, 3], (12, 3))))
+    step = np.zeros((6, robot.n))
+    step[np.arange(6), idx] = h
+    det = np.linalg.det(_tool_jacobian(robot, np.concatenate([mid + step, mid - step]), tool,
+                                       idx))
     grad = (det[:6] - det[6:]) / (2 * h)
-    return int(np.argmax(np.abs(grad * (qb - qa))))
+    return int(idx[np.argmax(np.abs(grad * (qb - qa)[idx]))])

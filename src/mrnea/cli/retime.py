@@ -31,6 +31,8 @@ from typing import Any, NoReturn
 import click
 import numpy as np
 
+from mrnea import validate
+from mrnea.cli import ahead
 from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, checkpoint, compile_notice, main
 from mrnea.cli.options import (
     FRACTION,
@@ -45,7 +47,7 @@ from mrnea.cli.options import (
     robot_options,
     units_opt,
 )
-from mrnea.errors import MrneaError, NoTimingError, RetimeError
+from mrnea.errors import JerkLimitError, MrneaError, NoTimingError, RetimeError
 from mrnea.io import BUILTIN_ROBOTS, Payload, RobotOptions, resolve_robot
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import parse_number
@@ -195,13 +197,14 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
     if jerk_limit is not None and method != "toppra":
         raise MrneaError("--jerk-limit: only --method toppra takes it")
     t = np.arange(run.q_cmd.shape[0]) * run.dt
-    tool = None if run.cartesian is None else prog.moves.tool
+    tool, cartesian = _one_tool(run.cartesian, prog if not csv else None)
     try:
         with own_folder(Path(out)) as folder:
             paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
-                                             *((POSES, CARTESIAN) if run.cartesian else ()))}
+                                             *((POSES, CARTESIAN) if cartesian else ()))}
             check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
+            ahead.start(run.robot.n, validate.by_link(run.f_ext, run.f_ext_point), True)
             with compile_notice(quiet):
                 try:
                     res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
@@ -210,12 +213,12 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                                          checkpoint=checkpoint, jerk_limit=jerk_limit)
                 except NoTimingError:
                     raise
+                except JerkLimitError as exc:  # about the option: name it
+                    raise MrneaError(f"--jerk-limit: {exc.detail}") from None
                 except RetimeError as exc:  # about the program: say which file it is
-                    if str(exc).startswith("jerk_limit: "):  # about the option: name it
-                        raise MrneaError(f"--jerk-limit: {str(exc)[12:]}") from None
                     raise RetimeError(f"{program_arg}: {exc}") from None
             _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
-                   force, not no_3d, (tool, run.cartesian))
+                   force, not no_3d, (tool, cartesian))
     except NoTimingError as exc:  # a verdict: nothing written, the new folder removed
         _no_timing(f"{program_arg}: {exc}", as_json, quiet)
     if as_json:
@@ -244,21 +247,35 @@ def _no_timing(why: str, as_json: bool, quiet: bool) -> NoReturn:
     sys.exit(EXIT_NOT_ACHIEVABLE)
 
 
+def _one_tool(cartesian: Any, prog: Any) -> tuple[Any, Any]:
+    """(the tool and hold as the retimed Cartesian program gives them, the CartesianPath) of a
+    Cartesian program whose moves are of one tool with one ``hold``; (None, None) for a joint
+    program and for moves of several tools (on a tree, several arms: a pose CSV holds one tool's
+    poses, so only the joint program is written)."""
+    if cartesian is None or cartesian.tool is None or len({m.hold for m in cartesian.moves}) > 1:
+        return None, None
+    first = cartesian.moves[0]
+    return (first.tool if first.tool is not None else prog.moves.tool, first.hold), cartesian
+
+
 def _cartesian_program(res: Any, paths: dict[str, Path], tool: Any, force: bool) -> None:
     """A program of one ``poses`` move running :data:`POSES` from the first retimed row, with
-    the joint program's [program] keys and [wrench] (read back from its file)."""
+    the joint program's [program] keys and [wrench] (read back from its file); ``tool`` the
+    (tool, hold) of :func:`_one_tool`."""
     import tomllib
 
     from mrnea.io.program import save_program
 
     joint = tomllib.loads(paths[PROGRAM].read_text(encoding="utf-8"))
+    spec, hold = tool
     program = {**joint["program"], "q0": res.q_cmd[0],
-               **({"tool": tool} if tool is not None else {})}
+               **({"tool": spec} if spec is not None else {})}
     save_program(paths[CARTESIAN], program, None, joint.get("wrench"),
                  f"The retimed Cartesian program: its tool poses at the retimed cycles "
                  f"({POSES}), solved by inverse kinematics from q0.\nRun: mrnea check "
                  f"{CARTESIAN}", force,
-                 moves=[{"type": "poses", "csv": POSES, "interpolation": "linear"}])
+                 moves=[{"type": "poses", "csv": POSES, "interpolation": "linear",
+                         **({"hold": list(hold)} if hold else {})}])
 
 
 def _cartesian_steps(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any,

@@ -20,7 +20,8 @@ from pathlib import Path
 import click
 import numpy as np
 
-from mrnea import robots
+from mrnea import robots, validate
+from mrnea.cli import ahead
 from mrnea.cli.base import (
     EXIT_NOT_ACHIEVABLE,
     checkpoint,
@@ -58,6 +59,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
     from mrnea.simulate import simulate
 
     checkpoint()
+    ahead.start(robot.n, validate.by_link(f_ext, f_ext_point), out is not None)  # cold cache
     K = q_cmd.shape[0]
     show_bar = not quiet and K >= 20_000
     with compile_notice(quiet), click.progressbar(length=K, label="simulating", file=sys.stderr,
@@ -162,7 +164,7 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
         check_new(_outputs(folder, ("fig3",)), force)
         res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
-        with compile_notice(quiet):  # the batch dynamics kernels fig3 calls
+        with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)
     _print_result(res, report, as_json, quiet)

@@ -32,13 +32,14 @@ from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.model import Robot
 from mrnea.trajectory import quintic, scurve, trapezoidal
 
-__all__ = ["CsvHeader", "NamedPath", "column_order", "named_rows", "read_named_path"]
+__all__ = ["CsvHeader", "NamedPath", "column_order", "named_rows", "number_table",
+           "read_named_path", "unknown_joint"]
 
 PROFILES = {"trapezoidal": trapezoidal, "quintic": quintic, "scurve": scurve}
 LIMITS = ("velocity_limit", "acceleration_limit", "jerk_limit")
 
 
-def _unknown(name: str, robot: Robot) -> str:
+def unknown_joint(name: str, robot: Robot) -> str:
     """``'x' is not a joint of robot 'R' (did you mean 'y'?); its joints: a, b, ...``"""
     joints = ", ".join(robot.joint_names)
     return (f"{quote(name)} is not a joint of robot {quote(shorten(robot.name))}"
@@ -89,7 +90,7 @@ def column_order(header: CsvHeader, robot: Robot, units: str = "rad"
     order = np.full(robot.n, -1, dtype=np.int64)
     for col, (name, m) in enumerate(zip(names, cells, strict=True), start=1):
         if name not in index:
-            raise ProgramFileError(f"{where}: column {col + 1} {_unknown(name, robot)} (the "
+            raise ProgramFileError(f"{where}: column {col + 1} {unknown_joint(name, robot)} (the "
                                    f"header names joints, so every column after time must)")
         joint = robot.joints[index[name]]
         unit = ("mm" if units == "deg" else "m") if joint.is_prismatic else units
@@ -131,7 +132,7 @@ class NamedPath:
     source: str
 
 
-def _number_table(check: TomlCheck, value: Any, where: str, key: str, scale: float,
+def number_table(check: TomlCheck, value: Any, where: str, key: str, scale: float,
                   allow_inf: bool = False) -> dict[str, float]:
     if not isinstance(value, dict) or not value:
         raise check.error(where, f"{key} must be a non-empty table of joint names and numbers, "
@@ -155,7 +156,7 @@ def read_named_path(check: TomlCheck, table: Mapping[str, Any], scale: float) ->
         raise check.error(where, "'waypoints' mixes tables and arrays: give every waypoint as "
                                  "a table of joint names ({shoulder = 0.3}) or every one as "
                                  "an array of all the joints")
-    waypoints = tuple(_number_table(check, w, where, f"waypoints[{k}]", scale)
+    waypoints = tuple(number_table(check, w, where, f"waypoints[{k}]", scale)
                       for k, w in enumerate(rows))
     needed = ["velocity_limit", "acceleration_limit"] + (["jerk_limit"] if profile == "scurve"
                                                          else [])
@@ -169,7 +170,7 @@ def read_named_path(check: TomlCheck, table: Mapping[str, Any], scale: float) ->
             raise check.error(where, f"'{key}' with waypoint tables is one number for every "
                                      f"joint or a table by joint name, not an array (the "
                                      f"array's order would be the robot's)")
-        limits[key] = (_number_table(check, v, where, key, scale, allow_inf=True)
+        limits[key] = (number_table(check, v, where, key, scale, allow_inf=True)
                        if isinstance(v, dict) else
                        check.number(v, where, key, allow_inf=True) * scale)
         values = list(limits[key].values()) if isinstance(limits[key], dict) else [limits[key]]
@@ -204,7 +205,7 @@ def named_rows(path: NamedPath, robot: Robot, dt: float
     def check_names(table: Mapping[str, float], key: str) -> None:
         for name in table:
             if name not in index:
-                raise ProgramFileError(f"{where}: {key}: {_unknown(name, robot)}")
+                raise ProgramFileError(f"{where}: {key}: {unknown_joint(name, robot)}")
 
     w = np.zeros((len(path.waypoints), robot.n))
     for k, table in enumerate(path.waypoints):

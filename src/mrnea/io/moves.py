@@ -1,4 +1,5 @@
-"""The moves of a Cartesian program file: ``[program] tool``, ``q0`` and the ``[[move]]`` tables.
+"""The moves of a Cartesian program file: ``[program] tool``, ``q0`` and the ``[[move]]`` tables
+(each may name its own ``tool``, and the joints its inverse kinematics ``hold``).
 
 :func:`read_moves` checks them and returns :class:`Moves`, plain data: the joint program is made
 from them with the robot, by inverse kinematics (:func:`mrnea.cartesian.solve`). Format and
@@ -9,6 +10,7 @@ the key at fault.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,54 +19,64 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.io.jointnames import number_table
 from mrnea.io.posecsv import POSE_INTERPOLATIONS, read_poses, resample_poses
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.rigid import rotation_from_rpy
 
-__all__ = ["MOVE_KEYS", "MOVE_TYPES", "Move", "Moves", "read_moves"]
+__all__ = ["MOVE_KEYS", "MOVE_TYPES", "Move", "Moves", "ToolSpec", "read_moves"]
 
 MOVE_TYPES = ("joint", "linear", "circular", "poses")
 JOINT_PROFILES = ("trapezoidal", "quintic", "scurve")
-_COMMON = ("type", "dwell", "blend")
+_COMMON = ("type", "dwell", "blend", "tool")
 MOVE_KEYS = {
     "joint": (*_COMMON, "target", "profile", "velocity_limit", "acceleration_limit",
               "jerk_limit"),
-    "linear": (*_COMMON, "xyz", "rpy", "quat", "speed", "acceleration", "angular_speed",
+    "linear": (*_COMMON, "hold", "xyz", "rpy", "quat", "speed", "acceleration", "angular_speed",
                "angular_acceleration", "jerk", "angular_jerk"),
 }
 MOVE_KEYS["circular"] = (*MOVE_KEYS["linear"], "via")
-MOVE_KEYS["poses"] = (*_COMMON, "csv", "interpolation")
+MOVE_KEYS["poses"] = (*_COMMON, "hold", "csv", "interpolation")
+
+#: A tool as a program file gives it: a frame's name, or a table of xyz, rpy and link.
+ToolSpec = str | dict[str, Any] | None
 
 
 @dataclass(frozen=True, eq=False)
 class Move:
     """One ``[[move]]`` of a program file (1-based ``index``, as in messages).
 
-    Joint moves: ``target`` (n,) [rad | m], ``profile`` and per-joint ``limits`` (velocity,
-    acceleration[, jerk]) as (n,) arrays. Linear and circular moves: ``xyz`` (3,) [m] and
-    ``R`` (3, 3) the target tool pose in the base frame (``R`` None: keep the orientation the
-    move starts with), ``via`` (3,) [m] the circle's intermediate point (circular only), and
+    Joint moves: ``target`` (n,) [rad | m] or a table of the joints it moves by name (the others
+    hold), ``profile`` and ``limits`` (velocity, acceleration[, jerk]): each a number for every
+    joint (a 0-d array), an (n,) array or a table by joint name (:func:`mrnea.cartesian.solve`
+    makes them per joint on the robot). Linear and circular moves: ``xyz`` (3,) [m] and ``R``
+    (3, 3) the target tool pose in the base frame (``R`` None: keep the orientation the move
+    starts with), ``via`` (3,) [m] the circle's intermediate point (circular only), and
     ``limits`` the tool's (speed [m/s], acceleration [m/s^2], jerk [m/s^3], angular speed
-    [rad/s], angular acceleration [rad/s^2], angular jerk [rad/s^3]), ``inf`` where not given
-    (a jerk: no jerk limit, the trapezoid). ``dwell`` [s] is the hold at the move's end;
-    ``blend`` [m] the radius of the corner into the next move (0: stop there). Pose CSV moves:
-    ``poses`` (N + 1, 4, 4) the tool poses at the move's cycles (:mod:`mrnea.io.posecsv`),
-    ``csv`` the file and ``csv_line`` the line of its first data row (for messages).
+    [rad/s], angular acceleration [rad/s^2], angular jerk [rad/s^3]), ``inf`` where not given (a
+    jerk: no jerk limit, the trapezoid). ``dwell`` [s] is the hold at the move's end; ``blend``
+    [m] the radius of the corner into the next move (0: stop there). Pose CSV moves: ``poses``
+    (N + 1, 4, 4) the tool poses at the move's cycles (:mod:`mrnea.io.posecsv`), ``csv`` the
+    file and ``csv_line`` the line of its first data row (for messages). ``tool`` the move's own
+    tool (None: the program's, :class:`Moves`); ``hold`` the names of the joints its inverse
+    kinematics keeps still (linear, circular and pose CSV moves).
     """
 
     index: int
     type: str
     dwell: float
     blend: float
-    target: NDArray[np.float64] | None = None
+    target: NDArray[np.float64] | dict[str, float] | None = None
     profile: str = "trapezoidal"
-    limits: tuple[NDArray[np.float64] | float, ...] = ()
+    limits: tuple[NDArray[np.float64] | dict[str, float] | float, ...] = ()
     xyz: NDArray[np.float64] | None = None
     R: NDArray[np.float64] | None = None
     via: NDArray[np.float64] | None = None
     poses: NDArray[np.float64] | None = None
     csv: str | None = None
     csv_line: int = 0
+    tool: ToolSpec = None
+    hold: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
@@ -74,27 +86,36 @@ class Move:
 
 @dataclass(frozen=True, eq=False)
 class Moves:
-    """A Cartesian program's moves: the tool (a frame name, ``{"xyz", "rpy"}`` or None: the
-    last link's frame; :mod:`mrnea.tool`), the start ``q0`` (n,) [rad | m] and the moves."""
+    """A Cartesian program's moves: the tool (a frame name, ``{"xyz", "rpy", "link"}`` or None:
+    the last link's frame; :mod:`mrnea.tool`), the start ``q0`` (n,) [rad | m] or a table by
+    joint name (the joints it does not name start at 0) and the moves (a move's own ``tool``
+    replaces the program's for that move)."""
 
-    tool: str | dict[str, list[float]] | None
-    q0: NDArray[np.float64]
+    tool: ToolSpec
+    q0: NDArray[np.float64] | dict[str, float]
     moves: tuple[Move, ...]
 
     @property
     def n(self) -> int:
-        return int(self.q0.size)
+        """The number of joints q0 gives (a table: those it names)."""
+        return len(self.q0)
 
 
-def _tool(check: TomlCheck, value: Any) -> str | dict[str, list[float]]:
-    where = "[program]"
+def _tool(check: TomlCheck, value: Any, where: str) -> str | dict[str, Any]:
     if isinstance(value, str):
         return check.string(value, where, "tool")
     if not isinstance(value, dict):
-        raise check.error(where, f"'tool' must be a frame's name or a table with xyz [m] and "
-                                 f"rpy [rad], got {value!r}")
-    check.check_keys(value, ("xyz", "rpy"), f"{where} tool")
-    return {k: check.vector(value[k], where, f"tool.{k}", 3).tolist() for k in value}
+        raise check.error(where, f"'tool' must be a frame's name or a table with xyz [m], rpy "
+                                 f"[rad] and link, got {value!r}")
+    check.check_keys(value, ("xyz", "rpy", "link"), f"{where} tool")
+    return {k: (check.string(value[k], where, "tool.link") if k == "link" else
+                check.vector(value[k], where, f"tool.{k}", 3).tolist()) for k in value}
+
+
+def _hold(check: TomlCheck, value: Any, where: str) -> tuple[str, ...]:
+    if not isinstance(value, list):
+        raise check.error(where, f"'hold' must be a list of joint names, got {value!r}")
+    return tuple(check.string(v, where, "hold") for v in value)
 
 
 def _positive(check: TomlCheck, table: Mapping[str, Any], key: str, where: str,
@@ -109,13 +130,27 @@ def _positive(check: TomlCheck, table: Mapping[str, Any], key: str, where: str,
     return v
 
 
-def _per_joint(check: TomlCheck, value: Any, where: str, key: str, n: int) -> NDArray:
-    a = (check.vector(value, where, key, n, allow_inf=True) if isinstance(value, list)
-         else np.full(n, check.number(value, where, key, allow_inf=True)))
-    if not (a > 0).all():
+def _per_joint(check: TomlCheck, value: Any, where: str, key: str, n: int | None
+               ) -> NDArray | dict[str, float]:
+    """A joint move's limit: an (n,) array, a table by joint name or one number (0-d)."""
+    if isinstance(value, dict):
+        a = number_table(check, value, where, key, 1.0, allow_inf=True)
+    else:
+        a = (check.vector(value, where, key, n, allow_inf=True) if isinstance(value, list)
+             else np.array(check.number(value, where, key, allow_inf=True)))
+    if not (np.array(list(a.values()) if isinstance(a, dict) else a) > 0).all():
+        got = a if isinstance(a, dict) else a.tolist()
         raise check.error(where, f"'{key}' must be > 0 for every joint (inf = unlimited), got "
-                                 f"{a.tolist()}")
+                                 f"{got}")
     return a
+
+
+def _joints(check: TomlCheck, value: Any, where: str, key: str, n: int | None
+            ) -> NDArray | dict[str, float]:
+    """Joint positions: an array of n, or a table by joint name."""
+    if isinstance(value, dict):
+        return number_table(check, value, where, key, 1.0)
+    return check.vector(value, where, key, n)
 
 
 def _orientation(check: TomlCheck, table: Mapping[str, Any], where: str) -> NDArray | None:
@@ -152,7 +187,7 @@ def _poses(check: TomlCheck, index: int, table: Mapping[str, Any], where: str, d
     return Move(index, "poses", dwell, 0.0, poses=sampled, csv=str(p), csv_line=lines[0])
 
 
-def _move(check: TomlCheck, index: int, table: Any, n: int, dt: float, base_dir: Path
+def _move(check: TomlCheck, index: int, table: Any, n: int | None, dt: float, base_dir: Path
           ) -> Move:
     where = f"[[move]] {index}"
     table = check.table(table, "", f"move {index}")
@@ -173,10 +208,13 @@ def _move(check: TomlCheck, index: int, table: Any, n: int, dt: float, base_dir:
     if blend > 0 and dwell > 0:
         raise check.error(where, "'blend' > 0 passes the corner without stopping, 'dwell' "
                                  "stops there: give one of them")
+    own = {"tool": _tool(check, table["tool"], where) if "tool" in table else None,
+           "hold": _hold(check, table["hold"], where) if "hold" in table else ()}
     if kind == "poses":
-        return _poses(check, index, table, where, dwell, dt, base_dir)
+        return dataclasses.replace(_poses(check, index, table, where, dwell, dt, base_dir),
+                                   **own)
     if kind == "joint":
-        target = check.vector(check.require(table, "target", where), where, "target", n)
+        target = _joints(check, check.require(table, "target", where), where, "target", n)
         profile = table.get("profile", "trapezoidal")
         if profile not in JOINT_PROFILES:
             raise check.error(where, f"unknown profile {profile!r}; expected one of "
@@ -190,7 +228,7 @@ def _move(check: TomlCheck, index: int, table: Any, n: int, dt: float, base_dir:
             raise check.error(where, f"'jerk_limit' applies to profile = \"scurve\" only, not "
                                      f"{profile!r}")
         return Move(index, kind, dwell, blend, target=target, profile=profile,
-                    limits=tuple(limits))
+                    limits=tuple(limits), tool=own["tool"])
     xyz = check.vector(check.require(table, "xyz", where), where, "xyz", 3)
     R = _orientation(check, table, where)
     limits = tuple(_positive(check, table, k, where, k in ("speed", "acceleration"))
@@ -198,7 +236,7 @@ def _move(check: TomlCheck, index: int, table: Any, n: int, dt: float, base_dir:
                              "angular_acceleration", "angular_jerk"))
     via = (check.vector(check.require(table, "via", where), where, "via", 3)
            if kind == "circular" else None)
-    return Move(index, kind, dwell, blend, xyz=xyz, R=R, via=via, limits=limits)
+    return Move(index, kind, dwell, blend, xyz=xyz, R=R, via=via, limits=limits, **own)
 
 
 def _check_blend(check: TomlCheck, mv: Move, nxt: Move | None) -> None:
@@ -208,6 +246,10 @@ def _check_blend(check: TomlCheck, mv: Move, nxt: Move | None) -> None:
         raise check.error(where, "'blend' > 0 rounds the corner into the next move, which must "
                                  "be linear" + (f"; move {nxt.index} is {nxt.type}" if nxt
                                                 else "; this is the last move"))
+    if (nxt.tool, nxt.hold) != (mv.tool, mv.hold):
+        raise check.error(f"[[move]] {nxt.index} (linear)",
+                          f"a 'blend' from move {mv.index} joins it into one path of one "
+                          f"tool: give both moves the same 'tool' and 'hold'")
     for m in (mv, nxt):
         if np.isfinite(m.limits[2]) or np.isfinite(m.limits[5]):
             raise check.error(f"[[move]] {m.index} ({m.type})",
@@ -222,11 +264,13 @@ def read_moves(check: TomlCheck, prog: Mapping[str, Any], moves: Any, dt: float,
     ``base_dir`` the folder relative CSV paths resolve against."""
     if not isinstance(moves, list) or not moves:
         raise check.error("", "'move' must be an array of tables ([[move]]), at least one")
-    q0 = check.vector(check.require(prog, "q0", "[program]"), "[program]", "q0")
-    tool = _tool(check, prog["tool"]) if "tool" in prog else None
-    out = tuple(_move(check, k, m, q0.size, dt, base_dir) for k, m in enumerate(moves, start=1))
+    q0 = _joints(check, check.require(prog, "q0", "[program]"), "[program]", "q0", None)
+    tool = _tool(check, prog["tool"], "[program]") if "tool" in prog else None
+    n = None if isinstance(q0, dict) else q0.size
+    out = tuple(_move(check, k, m, n, dt, base_dir) for k, m in enumerate(moves, start=1))
     for mv, nxt in zip(out, (*out[1:], None), strict=True):
         if mv.blend > 0:
             _check_blend(check, mv, nxt)
-    q0.setflags(write=False)
+    if n is not None:
+        q0.setflags(write=False)
     return Moves(tool, q0, out)

@@ -158,8 +158,9 @@ class Program:
         else:
             source = self.robot
         loaded = load_robot_spec(source, options=(options or RobotOptions()).over(self.options))
-        if self.named is not None:  # names checked on the robot where the rows are made
-            return loaded
+        if self.named is not None or (self.moves is not None and isinstance(self.moves.q0,
+                                                                            dict)):
+            return loaded  # names checked on the robot where the rows are made
         if self._order(loaded) is None and loaded.n != self.n:
             what = (f"its CSV path {self.csv} has {self.n} joint columns" if self.csv else
                     f"[program] q0 has {self.n} joint values" if self.moves else

@@ -95,18 +95,21 @@ def _point(p: NDArray | None) -> str:
 
 
 def wrenches_on(wrenches: LinkWrenches, robot: Robot, t: NDArray, where: str,
-                tcp: NDArray | None = None) -> tuple[dict[str, NDArray], dict[str, NDArray]]:
+                tcp: tuple[int, NDArray] | None = None
+                ) -> tuple[dict[str, NDArray], dict[str, NDArray]]:
     """``f_ext`` and ``f_ext_point`` by link name (what :func:`mrnea.simulate.simulate` takes)
     of ``wrenches`` at the cycle times t (K,) [s] on ``robot``: each link's (K, 6) wrench and
-    its point (3,) where given (``tcp``: the point of a table without ``link`` and without
-    ``point``, a Cartesian program's tool point). A link the robot does not have is a
-    ProgramFileError naming ``where`` (the file) and the link, with a close match."""
+    its point (3,) where given. A table without ``link`` acts on the last link, or with ``tcp``
+    (a Cartesian program's tool: its link's index and point (3,) [m] in that link's frame) on
+    the tool's link, at the tool point unless it gives a ``point``. A link the robot does not
+    have is a ProgramFileError naming ``where`` (the file) and the link, with a close match."""
     tables: dict[str, tuple] = {}
     for link, (times, values, point) in wrenches.items():
-        name = (robot.link_names[-1] if link is None else
+        name = (robot.link_names[-1 if tcp is None else tcp[0]] if link is None else
                 robot.link_names[robot.link_index(link, f"{where}: [wrench] 'link'",
                                                   ProgramFileError)])
-        here = (times, values, tcp if point is None and link is None else point)
+        here = (times, values, tcp[1] if point is None and link is None and tcp is not None
+                else point)
         if name in tables:  # the last link named and a table without 'link'
             here = added(tables[name], here, f"{where}: [wrench]", name)
         tables[name] = here

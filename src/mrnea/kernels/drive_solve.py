@@ -330,7 +330,7 @@ def active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, ph
     (NUMBA_DISABLE_JIT)."""
     tree = isinstance(how, TreeRefactor)
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, isinstance(how, Update),
+                       tau_req, sat, stuck, ws, True if isinstance(how, Update) else None,
                        how.parent if tree else None, how.subend if tree else None)
 
 
@@ -342,13 +342,16 @@ def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau
     kind = getattr(how, "instance_class", None)
     if kind not in (Update, Refactor, TreeRefactor):
         return None  # not a solve mode: a typing error
-    update = kind is Update  # constants of the implementation (typed literal bools)
+    # True or None, not True or False: Numba prunes a branch on an argument's None-ness while
+    # compiling (``update is None``), not on a literal bool's value, so a robot on the
+    # refactorising way compiles no factor update (a fresh demo: about 3 s; docs/performance.md)
+    update = True if kind is Update else None
 
     if kind is TreeRefactor:
         def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
                  sat, stuck, ws):
             return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd,
-                               tau, phi, tau_req, sat, stuck, ws, False, how.parent,
+                               tau, phi, tau_req, sat, stuck, ws, None, how.parent,
                                how.subend)
         return impl
 
@@ -363,11 +366,13 @@ def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
                 sat, stuck, ws, update, lam, nu):
     """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`, ``mode`` PAPER or
-    HYBRID; tau_req filled). With ``update``, idx[:m] lists the free joints in the order of
-    their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in step with the
-    patterns: a joint is appended where it is released, removed where it is held. On a tree
-    (``lam`` λ, ``nu`` the subtrees' ends; both None otherwise: Numba then drops every branch
-    on ``lam is not None``), H_FF = L^T L in the order of λ_F (module docstring, 'Trees')."""
+    HYBRID; tau_req filled). ``update``: True on the update way, None on the refactorising
+    ones (compiled out: ``_active_set_of``). With ``update``, idx[:m] lists the free joints in
+    the order of their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in
+    step with the patterns: a joint is appended where it is released, removed where it is
+    held. On a tree (``lam`` λ, ``nu`` the subtrees' ends; both None otherwise: Numba then drops
+    every branch on ``lam is not None``), H_FF = L^T L in the order of λ_F (module docstring,
+    'Trees')."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
     Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)
@@ -390,7 +395,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         max_iter = min(max_iter * (2 * nbp[i] + 1), 1 << 40)
     max_iter *= n + 1  # the exact-arithmetic bound (module docstring)
     m = 0  # number of free joints
-    if update:  # the start's free joints, in index order: the row-by-row Cholesky of H_FF
+    if update is not None:  # the start's free joints in index order: H_FF's Cholesky by rows
         # g = H_a qw, qw: qdd on the held joints, 0 on the free ones (H_FW qdd_W = g_F), and
         # |H_a| |qw|, kept as joints are held and released; made afresh once there have been
         # more such moves since than joints held (rounding; O(n) a move on average)
@@ -410,11 +415,12 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     # and its pattern before
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
-        if update and moves > n - m:
-            moves = solved = _held_product(Ha, qdd, pat, g, gabs)
+        if update is not None:
+            if moves > n - m:
+                moves = solved = _held_product(Ha, qdd, pat, g, gabs)
         if lam is not None:  # idx[:m] in index order and their parent array λ_F (positions)
             m = _free_forest(lam, pat, idx, near, lam_f)
-        elif not update:  # idx[:m]: the free joints in index order
+        elif update is None:  # idx[:m]: the free joints in index order
             m = 0
             for i in range(n):
                 if pat[i] % 2 == 0:
@@ -423,7 +429,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         for a in range(m):
             i = idx[a]
             r = -ua[i] - sl[pat[i] // 2, i]
-            if update:
+            if update is not None:
                 r -= g[i]
             elif lam is not None:
                 r -= _held_row(Ha, qdd, pat, i, lam, nu)
@@ -438,7 +444,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 for c in range(m):
                     Hs[a, c] = Ha[i, idx[c]]
             rhs[a] = r
-        if update:
+        if update is not None:
             factor_forward(Lc, solved, m, rhs, y)
             solved = m
             for a in range(m):
@@ -460,7 +466,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             pat[released] -= side
             tabu[released] = 1
             released = -1
-            if update:
+            if update is not None:
                 moves += m
                 m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
                 moves -= m
@@ -494,7 +500,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                     continue
                 qdd[i] = (v[i] - qd[i]) / dt
                 held_new = True
-            if update and held_new:
+            if update is not None and held_new:
                 moves += m
                 m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
                 moves -= m
@@ -516,7 +522,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             k = pat[i] // 2
             if lam is not None:
                 h, scale = _tree_residual(Ha, ua, qdd, i, lam, nu)
-            elif update:  # H_a qdd = g + the free joints' columns
+            elif update is not None:  # H_a qdd = g + the free joints' columns
                 h, scale = _free_residual(Ha[i], qdd, idx, m)
                 h, scale = h + ua[i] + g[i], scale + abs(ua[i]) + abs(gabs[i])
             else:
@@ -538,7 +544,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             return OK
         released, side, pat_from = worst, worst_side, pat[worst]
         pat[worst] += worst_side  # onto the piece its multiplier points to
-        if update:
+        if update is not None:
             if not factor_append(Ha, Lc, idx, m, worst):
                 return worst
             for a in range(m):  # y += qdd_worst L^-1 H_a[F, worst], the new row's l

@@ -1,26 +1,30 @@
 """Inverse kinematics of a tool frame: damped least squares (Levenberg-Marquardt) on the Jacobian.
 
-Usage: ``ik_path(model, poses, pe, Rt, q0, Q, ERR, tol_p, tol_w, max_iter)`` fills ``Q`` (K, n)
-with joint positions whose tool frame reaches ``poses`` (K, 4, 4) (base frame) one after the
-other, each solve warm-started from the previous ones (the first at ``q0``): the continuous
-branch through ``q0``. For n <= 6 the start of pose k is the predictor ``2 q_{k-1} - q_{k-2}``
+Usage: ``ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter)`` fills
+``Q`` (K, n) with joint positions whose tool frame reaches ``poses`` (K, 4, 4) (base frame) one
+after the other, each solve warm-started from the previous ones (the first at ``q0``): the
+continuous branch through ``q0``. Only the m joints ``idx`` (m,) move (those that carry the
+tool's link t, less any held; on a serial chain all n): the others keep their ``q0``, and m
+counts the joints below. For m <= 6 the start of pose k is the predictor ``2 q_{k-1} - q_{k-2}``
 (the last joint step again; ``q_{k-1}`` alone after a pose not reached, and for k = 0 ``q0``):
 fewer iterations, and through a fold of the inverse kinematics (an arm passing through its full
 stretch) the solve keeps the smooth branch, whose joint velocity is continuous, rather than
 bouncing back on the other branch with a kink in q. A redundant arm (n > 6) starts at
 ``q_{k-1}``: a predicted start would carry the last step's null-space motion on from cycle to
-cycle (a drift of the elbow), where the minimum-norm step from the previous cycle has none.
+cycle (a drift of the elbow), where the minimum-norm step from the previous cycle has none
+(m > 6 below reads "redundant").
 ``ERR`` (K, 3) receives what is left: the position error [m], the orientation error [rad] and
-the iterations taken. The tool frame is fixed to the last
-link: origin ``pe`` (3,) [m] and axes ``Rt`` (3, 3), both in the last link's frame.
+the iterations taken. The tool frame is fixed to link t: origin ``pe`` (3,) [m] and axes
+``Rt`` (3, 3), both in link t's frame.
 
-One iteration, at q (the tool pose ``T(q) = [[R_n Rt, o_n + R_n pe], [0, 1]]``)::
+One iteration, at q (the tool pose ``T(q) = [[R_t Rt, o_t + R_t pe], [0, 1]]``)::
 
-    e   = [p* - p ; log(R* (R_n Rt)^T)]            the error twist, base frame (6,)
-    J   = jacobian_ws(q, pe)                       the tool point's geometric Jacobian (6, n)
+    e   = [p* - p ; log(R* (R_t Rt)^T)]            the error twist, base frame (6,)
+    J   = link_jacobian_ws(q, t, pe)[:, idx]       the tool point's geometric Jacobian (6, m)
     l2  = mu |e|^2 + LAMBDA2_MIN                   Levenberg-Marquardt damping (Sugihara 2011)
-    dq  = J^T (J J^T + l2 I6)^-1 e                 n >= 6: the damped minimum-norm step
-    dq  = (J^T J + l2 In)^-1 J^T e                 n < 6: the damped least-squares step
+    dq  = J^T (J J^T + l2 I6)^-1 e                 m >= 6: the damped minimum-norm step
+    dq  = (J^T J + l2 Im)^-1 J^T e                 m < 6: the damped least-squares step
+    q[idx] += dq
 
 accepted if it lowers ``|e|`` (then mu is halved, down to 1), else undone with mu times ten.
 Near a solution the damping vanishes with ``|e|^2`` and the steps are Gauss-Newton steps:
@@ -29,9 +33,9 @@ iterations per cycle of a smooth path. For n = 7 each step is the minimum-norm j
 least joint motion that makes the tool move as asked), so the redundancy is resolved as "move as
 little as possible from the previous cycle", continuously, with no null-space goal.
 
-The pose and the Jacobian come from one kinematics pass, ``kinematics.jacobian_ws`` (which
-leaves the link frames R_i, o_i in the scratch's pose slots): nothing of the kinematics is
-written again here. The kinematics pass assumes a serial chain (parent of link i is link i - 1).
+The pose and the Jacobian come from one kinematics pass, ``kinematics.link_jacobian_ws`` (which
+leaves the link frames R_i, o_i in the scratch's pose slots, on a tree too): nothing of the
+kinematics is written again here.
 """
 
 from __future__ import annotations
@@ -42,7 +46,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite, tip_point
-from mrnea.kernels.kinematics import jacobian_ws
+from mrnea.kernels.kinematics import link_jacobian_ws
 from mrnea.kernels.layout import ALLOC, INLINE, POSE, pose_buffers, scratch
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
@@ -80,15 +84,20 @@ def log3(R00, R01, R02, R10, R11, R12, R20, R21, R22):
 
 
 @nb.njit(**INLINE)
-def pose_error(model, q, target, pe, Rt, J, e, M, ws):
-    """The tool point's Jacobian into J (6, n) and the error twist ``[p* - p; log(R* R^T)]``
-    into e (6,), at q (M: a 3x3 buffer); returns (status, |e_p| [m], |e_w| [rad])."""
+def pose_error(model, q, target, t, pe, Rt, idx, Jn, J, e, M, ws):
+    """The Jacobian of the tool point on link t into Jn (6, n), its columns idx into J (6, m)
+    (J is Jn when every joint moves), and the error twist ``[p* - p; log(R* R^T)]`` into e
+    (6,), at q (M: a 3x3 buffer); returns (status, |e_p| [m], |e_w| [rad])."""
     n = q.shape[0]
-    status = jacobian_ws(model, q, pe, J, ws)
+    status = link_jacobian_ws(model, q, t, pe, Jn, ws)
     if status != OK:
         return status, math.inf, math.inf
-    R, o, _, _, _ = pose_buffers(ws, n)  # the last link's pose, left by the pass
-    p = tip_point(o, R, n, pe)
+    if idx.shape[0] < n:
+        for a in range(6):
+            for c in range(idx.shape[0]):
+                J[a, c] = Jn[a, idx[c]]
+    R, o, _, _, _ = pose_buffers(ws, n)  # link t's pose, left by the pass
+    p = tip_point(o, R, t + 1, pe)
     for a in range(3):
         e[a] = target[a, 3] - p[a]
     # M = R* (R_n Rt)^T
@@ -98,7 +107,7 @@ def pose_error(model, q, target, pe, Rt, J, e, M, ws):
             for k in range(3):
                 tk = 0.0  # (R_n Rt)[b, k]
                 for m in range(3):
-                    tk += R[n - 1, b, m] * Rt[m, k]
+                    tk += R[t, b, m] * Rt[m, k]
                 s += target[a, k] * tk
             M[a, b] = s
     w = log3(M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2], M[2, 0], M[2, 1], M[2, 2])
@@ -143,38 +152,42 @@ def damped_step(J, e, l2, A, L, rhs, x, dq):
 
 
 @nb.njit(**ALLOC)
-def ik_path(model, poses, pe, Rt, q0, Q, ERR, tol_p, tol_w, max_iter):
-    """Joint positions Q (K, n) reaching the tool poses (K, 4, 4) in turn from q0 (module
-    docstring); ERR (K, 3): position error [m], orientation error [rad], iterations."""
-    n = q0.shape[0]
-    m = max(n, 6)
+def ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter):
+    """Joint positions Q (K, n) whose tool frame on link t reaches the poses (K, 4, 4) in turn
+    from q0, moving the joints idx (m,) only (module docstring); ERR (K, 3): position error
+    [m], orientation error [rad], iterations."""
+    n, m = q0.shape[0], idx.shape[0]
+    mm = max(m, 6)
     ws = scratch(n, POSE)
-    J, e, M = np.empty((6, n)), np.empty(6), np.empty((3, 3))
-    A, L = np.empty((m, m)), np.empty((m, m))
-    rhs, x = np.empty(m), np.empty(m)
-    q, q_new, dq, q_prev = q0.copy(), np.empty(n), np.empty(n), q0.copy()
+    Jn, e, M = np.empty((6, n)), np.empty(6), np.empty((3, 3))
+    J = Jn if m == n else np.empty((6, m))  # every joint moves (a chain): no columns to pick
+    A, L = np.empty((mm, mm)), np.empty((mm, mm))
+    rhs, x = np.empty(mm), np.empty(mm)
+    q, q_new, dq, q_prev = q0.copy(), np.empty(n), np.empty(m), q0.copy()
     for k in range(poses.shape[0]):
         target = poses[k]
-        if n <= 6 and k > 0 and ERR[k - 1, 0] <= tol_p and ERR[k - 1, 1] <= tol_w:
+        if m <= 6 and k > 0 and ERR[k - 1, 0] <= tol_p and ERR[k - 1, 1] <= tol_w:
             for i in range(n):  # the predictor: the last cycle's joint step again
                 q_prev[i], q[i] = q[i], 2.0 * q[i] - q_prev[i]
         else:
             q_prev[:] = q
-        status, ep, ew = pose_error(model, q, target, pe, Rt, J, e, M, ws)
+        status, ep, ew = pose_error(model, q, target, t, pe, Rt, idx, Jn, J, e, M, ws)
         mu, it = 1.0, 0
         while status == OK and (ep > tol_p or ew > tol_w) and it < max_iter and mu < MU_MAX:
             it += 1
             E = ep * ep + ew * ew
             if damped_step(J, e, mu * E + LAMBDA2_MIN, A, L, rhs, x, dq) != OK:
                 break
-            for i in range(n):
-                q_new[i] = q[i] + dq[i]
-            s_new, ep_new, ew_new = pose_error(model, q_new, target, pe, Rt, J, e, M, ws)
+            q_new[:] = q
+            for c in range(m):
+                q_new[idx[c]] += dq[c]
+            s_new, ep_new, ew_new = pose_error(model, q_new, target, t, pe, Rt, idx, Jn, J, e,
+                                               M, ws)
             if s_new == OK and ep_new * ep_new + ew_new * ew_new < E:
                 q[:] = q_new
                 ep, ew, mu = ep_new, ew_new, max(1.0, 0.5 * mu)
             else:  # undo: J and e back at q, more damping
-                status, ep, ew = pose_error(model, q, target, pe, Rt, J, e, M, ws)
+                status, ep, ew = pose_error(model, q, target, t, pe, Rt, idx, Jn, J, e, M, ws)
                 mu *= 10.0
         Q[k] = q
         ERR[k, 0], ERR[k, 1], ERR[k, 2] = ep, ew, it

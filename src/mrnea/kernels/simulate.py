@@ -44,7 +44,7 @@ import numpy as np
 from mrnea.kernels.achievable import step
 from mrnea.kernels.drive import drive_effort, side_limit, wanted_friction
 from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import ACHIEVABLE, ALLOC, FNEG, FPOS, POSE, scratch
+from mrnea.kernels.layout import ACHIEVABLE, ALLOC, FNEG, FPOS, scratch
 from mrnea.kernels.rnea import reactions_ws, rnea_ws
 from mrnea.kernels.status import OK
 
@@ -93,7 +93,7 @@ def program_requirement(compiled, program, dt, friction, k0, k1, out, status):
     q_cmd, qd_cmd, fext, pe = program
     req, limit = out
     K, n = q_cmd.shape
-    ws = scratch(n, POSE)
+    ws = scratch(n, ACHIEVABLE)  # more rows than the RNEA needs: the loop's call, compiled once
     qdd_des = np.empty(n)
     for k in range(k0, k1):
         for i in range(n):

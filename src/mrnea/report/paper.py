@@ -10,9 +10,9 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike
 
-from mrnea.dynamics import inverse_dynamics, mass_matrix_and_bias
 from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.report.drawing import MAX_JOINTS, axes_grid, header, joint_units, label, peak, plot_line
+from mrnea.report.states import rigid_body_terms
 
 if TYPE_CHECKING:
     from mrnea.model import Robot
@@ -45,7 +45,9 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     torques (markers), solving Eq. 2 ``H qdd = u - u'`` with the mRNEA's H and u' (what
     ``forward_dynamics(..., method="mrnea")`` does state by state; here one batched NumPy
     Cholesky check and solve, so a report compiles no forward-dynamics batch kernel: issue 22,
-    docs/performance.md). The largest differences are printed in the titles.
+    docs/performance.md). The RNEA and the mRNEA run state by state on the kernels a
+    simulation has compiled (:mod:`mrnea.report.states`: the public functions' values to the
+    bit, nothing compiled after a run). The largest differences are printed in the titles.
 
     Parameters
     ----------
@@ -73,8 +75,7 @@ def fig3(robot: Robot, t: ArrayLike, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     if t.ndim != 1 or qdd.ndim != 2 or qdd.shape[0] != t.shape[0]:
         raise StateError(f"fig3: expected t (K,) and q, qd, qdd (K, n); got t {t.shape}, "
                          f"qdd {qdd.shape}")
-    u_rnea = inverse_dynamics(robot, q, qd, qdd)
-    H, u_bias = mass_matrix_and_bias(robot, q, qd)
+    u_rnea, H, u_bias = rigid_body_terms(robot, q, qd, qdd)
     u_mrnea = np.einsum("kij,kj->ki", H, qdd) + u_bias
     qdd_fd = _solve_eq2(H, u_rnea - u_bias)
     du = np.abs(u_rnea - u_mrnea)

@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mrnea.dynamics import forward_kinematics
 from mrnea.errors import StateError
 from mrnea.report.shapes import Shape, leaves, robot_shapes, tip_point
+from mrnea.report.states import link_frames
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -276,8 +276,9 @@ def result_scene(result: SimulationResult) -> dict[str, Any]:
     marked."""
     robot = result.robot
     idx = frame_indices(result.t, robot.n)
-    real = forward_kinematics(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
-    cmd = forward_kinematics(robot, result.q_cmd[idx])[:, 1:]
+    # forward_kinematics state by state on the kernel the simulation compiled (report/states.py)
+    real = link_frames(robot, result.q[idx])[:, 1:]  # the links' frames, not the base's
+    cmd = link_frames(robot, result.q_cmd[idx])[:, 1:]
     t = result.t
     return scene_data(t[idx], real, cmd, robot_shapes(robot), pool_flags(result.saturated, idx),
                       robot.joint_names, (float(t[0]), float(t[-1]), float(result.dt)),

@@ -32,7 +32,7 @@ from scipy import sparse
 from scipy.interpolate import BPoly
 from scipy.optimize import linprog
 
-from mrnea.errors import RetimeError
+from mrnea.errors import JerkLimitError, RetimeError
 from mrnea.retime.job import accelerations
 from mrnea.retime.path import PathCoefficients
 from mrnea.trajectory import require_path_memory
@@ -166,8 +166,8 @@ def jerk_profile(pc: PathCoefficients, q_sss: NDArray, rows: tuple[NDArray, NDAr
         res = linprog(-w / w.max(), A_ub=A_ub, b_ub=b_ub,
                       bounds=np.stack([np.zeros_like(hi), sd_bar ** 2], 1), method="highs")
         if res.status != 0:  # x = 0 is feasible: only limits too small for HiGHS's tolerances
-            raise RetimeError(
-                f"jerk_limit: too small to plan this path with (the smallest planning limit "
+            raise JerkLimitError(
+                f"too small to plan this path with (the smallest planning limit "
                 f"{jmax.min():.3g} [rad/s^3 | m/s^3]; the linear program of the jerk-limited "
                 f"path speed has no solution at HiGHS's tolerances: {res.message}); give "
                 f"larger jerk limits")

@@ -104,11 +104,13 @@ def load_programs(programs: Any, robot: Robot) -> list[Program]:
         else:
             raise SweepError(f"programs: expected Program objects or program file paths, got "
                              f"{type(p).__name__} {quote(p)}")
-        prog = prog.on(robot)  # joints by name in the robot's order; units = deg: mm
+        # joints by name in the robot's order (units = deg: mm); a Cartesian program's joint
+        # path (its q0 and joint targets checked on the robot)
+        prog = solve(prog, robot)
         if prog.n != robot.n:
             raise SweepError(f"program {quote(prog.name)} ({prog.source or 'object'}) commands "
                              f"{prog.n} joints but robot {quote(robot.name)} has {robot.n}")
-        out.append(solve(prog, robot))  # a Cartesian program's joint path (others: unchanged)
+        out.append(prog)
     return out
 
 

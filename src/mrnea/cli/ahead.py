@@ -1,0 +1,151 @@
+"""Compiling ahead on a cold cache: while a command compiles the simulation's first kernel, a
+second process compiles the ones it needs later (issue 22, docs/performance.md).
+
+On an empty Numba cache a command compiles its kernels one after another, on one core. The
+simulation's first kernel, ``actuator_terms`` (H_a and u'_a: the mRNEA's whole call tree,
+compiled by :func:`mrnea.simulate`'s start check), is about a third of a fresh ``mrnea demo``'s
+compiling, and the simulation loop cannot start before it. Meanwhile :func:`start` runs
+``python -m mrnea.cli.ahead`` in a second process, which compiles (``Dispatcher.compile``,
+nothing run) the kernels the command reaches after it that do not contain it, each for exactly
+the argument types the command's calls give it (:func:`signatures`): the drive solve of the
+robot's way, the reactions, the program's requirement, the per-chunk derived arrays, the
+summary's pass and, for a report, the bearing loads and the 3D view's frames. Numba's disk cache
+is shared by the processes (each file is written whole, then renamed): when the command reaches
+one of those kernels it loads it if the second process has finished it, and compiles it
+itself otherwise: the same machine code either way, only the time differs. A signature here
+that drifts from the callers' costs the second process's time and nothing else;
+tests/test_cli_ahead.py checks that a command on a cache this module filled compiles none of
+them.
+
+It starts only where it can gain: the JIT on, a cold cache (no cache index of the simulation
+loop yet: a warm run loads everything in about a second and starts nothing), and a core to
+spare: at least two CPUs for this process and a load average (last minute) below their number
+less one. On a busy machine the second process only competes with the command for a core: a
+fresh demo on the shared 2-core machine at load 5-6 took 74-90 s of wall with it against
+62 s without (docs/performance.md). ``MRNEA_AHEAD=0`` in the environment turns it off,
+``MRNEA_AHEAD=1`` on whatever the load (on a cold cache; benchmarks/first_run.py ``--no-ahead``,
+``--ahead``). The second process is ended when the command exits
+(:func:`start` registers it), whatever it has left; its output is discarded.
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+import subprocess
+import sys
+
+
+def _spare_core() -> bool:
+    """At least two CPUs for this process, and the last minute's load average below their
+    number less one (a core idle)."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # not available: do not guess
+        return False
+    return cpus >= 2 and load < cpus - 1
+
+
+def _cold() -> bool:
+    """True when the simulation loop has no cache index yet (a first run on this cache)."""
+    from numba.core.config import DISABLE_JIT
+
+    from mrnea.kernels.simulate import simulate_cycles
+
+    if DISABLE_JIT:
+        return False
+    try:
+        index = simulate_cycles._cache._cache_file._index_path  # Numba's cache layout
+    except AttributeError:  # another Numba version: do not guess
+        return False
+    return not os.path.exists(index)
+
+
+def start(n: int, per_link: bool, report: bool) -> subprocess.Popen | None:
+    """Start the second process on a cold cache (module docstring) for a simulation of an
+    n-joint robot with reactions (the CLI's), its wrench given per link (``per_link``) or not,
+    and with a report (``report``: bearing loads, 3D view). Returns it, or None where it would
+    not gain. None of the kernels it compiles depends on the engine (``--fd``)."""
+    wanted = os.environ.get("MRNEA_AHEAD")
+    if wanted == "0" or not (wanted == "1" or _spare_core()) or not _cold():
+        return None
+    try:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "mrnea.cli.ahead", str(n), str(int(per_link)),
+             str(int(report))],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    except OSError:  # no process to spare: the command compiles alone
+        return None
+    atexit.register(_end, proc)
+    return proc
+
+
+def _end(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+def signatures(n: int, per_link: bool, report: bool) -> list[tuple[object, tuple]]:
+    """The (kernel, argument types) the command will call, in the order it reaches them:
+    arrays of the dtypes, dimensions, layouts and read-only flags its callers pass
+    (mrnea.simulate, kernels/simulate.py, kernels/achievable.py, summary.py, cycles.py,
+    report/states.py)."""
+    import numba as nb
+    import numpy as np
+
+    from mrnea.kernels import bearing, peaks
+    from mrnea.kernels.derived import derived
+    from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
+    from mrnea.kernels.kinematics import frames_ws
+    from mrnea.kernels.layout import entry_scratch
+    from mrnea.kernels.rnea import reactions_ws
+    from mrnea.kernels.simulate import program_requirement
+    from mrnea.kernels.solve import cholesky_solve
+
+    t = nb.typeof
+    ro2 = np.zeros((1, 1))
+    ro2.flags.writeable = False
+    f1, f2, f3 = t(np.zeros(1)), t(np.zeros((1, 1))), t(np.zeros((1, 1, 1)))
+    b1, b2 = t(np.zeros(1, bool)), t(np.zeros((1, 1), bool))
+    i1, i2 = t(np.zeros(1, np.int64)), t(np.zeros((1, 1), np.int64))
+    a2 = t(np.zeros((2, 3))[:, :2])  # layout A: the drive solve's blocks
+    ws, model = t(entry_scratch(1)), t(ro2)
+    fe = f2 if per_link else f1  # a cycle's wrench and point: (n, 6), (n, 3) per link, else
+    FE = f3 if per_link else f2  # (6,), (3,); the program's, (K, ...)
+    how = t(solve_mode(HYBRID, n))  # its class is the way (the mode's value is not typed)
+    boolean, f64, i64 = nb.types.boolean, nb.types.float64, nb.types.int64
+    program = nb.types.Tuple((f2, f2, FE, FE))
+    kernels = [
+        (cholesky_solve, (a2, f1, a2, f1)),
+        (solve_cycle, (f2, f1, f1, f1, f64, f1, f1, f1, f1, how, f1, f1, f1, f1, f1, b1, b1,
+                       ws)),
+        (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean)),
+        (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean, i64, i64,
+                               nb.types.UniTuple(f2, 2), i1)),
+        (derived, (model, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
+                   nb.types.Tuple((f2, f2, f2, b2, b2)), f1, i64, i64)),
+        (peaks.run_peaks, (nb.types.Tuple((f2, f2, f2, f2, b2, b2, f3)),
+                           nb.types.UniTuple(f2, 3), nb.types.Tuple((model, b1, f2)), i2, f2)),
+    ]
+    if report:
+        kernels += [(bearing.bearing_loads, (f3, f2, f3)), (frames_ws, (model, f1, f3, ws))]
+    return kernels
+
+
+def main(argv: list[str]) -> None:
+    """Compile :func:`signatures` of ``argv`` = (n, per_link 0/1, report 0/1)."""
+    n, per_link, report = int(argv[0]), argv[1] == "1", argv[2] == "1"
+    for kernel, sig in signatures(n, per_link, report):
+        kernel.compile(sig)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

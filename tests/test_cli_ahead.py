@@ -1,0 +1,103 @@
+"""Compiling ahead on a cold cache (mrnea.cli.ahead, issue 22).
+
+The second process's signatures are those the command's calls give: on a cache it filled, a
+real ``mrnea demo`` process compiles none of its kernels (Numba's own ``numba:compile`` events,
+which a kernel loaded from the cache does not raise). When it starts (a cold cache, a core to
+spare) and when it does not.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from mrnea.cli import ahead
+
+LISTEN = r"""
+import json, sys
+from numba.core import event
+names = []
+class Record(event.Listener):
+    def on_start(self, ev):
+        pass
+    def on_end(self, ev):
+        f = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
+        names.append(getattr(f, "__qualname__", "?"))
+event.register("numba:compile", Record())
+from mrnea.cli import main
+try:
+    main(sys.argv[1:], standalone_mode=True)
+except SystemExit:
+    pass
+print("COMPILED " + json.dumps(names))
+"""
+
+
+@pytest.mark.slow
+def test_a_demo_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) -> None:
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
+    sdt_joints, report = "4", "1"
+    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", sdt_joints, "0", report], env=env,
+                   check=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", LISTEN, "demo", "--out", str(tmp_path / "demo"),
+                          "--quiet"], env=env, capture_output=True, text=True, timeout=900)
+    assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
+    line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
+    compiled = set(json.loads(line[len("COMPILED "):]))
+    ahead_names = {k.py_func.__qualname__ for k, _ in ahead.signatures(4, False, True)}
+    assert len(ahead_names) == 8
+    assert not compiled & ahead_names, compiled & ahead_names
+    assert "simulate_cycles" in compiled and "actuator_terms" in compiled  # it did compile
+
+
+def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> None:
+    started = []
+
+    class Popen:  # records the command instead of starting it
+        def __init__(self, args, **kw) -> None:
+            started.append(args)
+
+        def poll(self) -> int:
+            return 0
+
+    monkeypatch.setattr(ahead.subprocess, "Popen", Popen)
+    monkeypatch.delenv("MRNEA_AHEAD", raising=False)
+    monkeypatch.setattr(ahead, "_cold", lambda: True)
+    monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.4, 0.5, 0.5))
+    assert ahead.start(4, False, True) is not None
+    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "4", "0", "1"]
+    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))  # no core idle
+    assert ahead.start(4, False, True) is None
+    monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
+    assert ahead.start(4, True, False) is not None
+    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "4", "1", "0"]
+    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+    monkeypatch.setenv("MRNEA_AHEAD", "0")  # off
+    assert ahead.start(4, False, True) is None
+    monkeypatch.delenv("MRNEA_AHEAD")
+    monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0})  # one CPU
+    assert ahead.start(4, False, True) is None
+    monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setattr(ahead, "_cold", lambda: False)  # a warm cache
+    assert ahead.start(4, False, True) is None
+    assert len(started) == 2
+
+
+def test_cold_reads_the_simulation_loops_cache_index(tmp_path) -> None:
+    """A cache index of simulate_cycles means warm; its absence, cold (a fresh process on an
+    empty cache folder)."""
+    code = "from mrnea.cli.ahead import _cold; print(_cold())"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=300, check=True)
+    assert out.stdout.strip() == "True"
+    from mrnea.kernels.simulate import simulate_cycles
+
+    index = simulate_cycles._cache._cache_file._index_path
+    if os.path.exists(index):  # this process's cache, filled by the suite
+        assert not ahead._cold()
