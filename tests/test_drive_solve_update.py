@@ -142,3 +142,34 @@ def test_a_saturated_100_joint_chain_keeps_its_running_product():
         assert law_violation(*args, "hybrid", b[1]) < 1e-9, f"state {s}"
         np.testing.assert_array_equal(b[6], a[6])
         assert rel(b[2], a[2]) < 1e-9, f"state {s}: qdd"
+
+
+def test_forward_substitution_kept_across_an_append():
+    """The kept forward substitution of the updated way (kernels/drive_solve.py 'Cost'): after
+    ``factor_append`` of joint j, y = L^-1 rhs for a right-hand side that moved by c H[F, j]
+    is the old y plus c times the new row's l, and ``factor_forward`` from row m solves the
+    new row alone; both against numpy.linalg.solve on the grown block."""
+    from mrnea.kernels.solve import factor_forward
+
+    rng = np.random.default_rng(2540)
+    for trial in range(30):
+        n = int(rng.integers(2, 30))
+        A = rng.normal(size=(n, n))
+        H = A @ A.T + 0.1 * np.eye(n)
+        order = rng.permutation(n)
+        L, idx = np.zeros((n, n)), np.zeros(n, np.int64)
+        for m, i in enumerate(order[:-1]):
+            assert factor_append(H, L, idx, m, i)
+        m, j = n - 1, order[-1]
+        F = idx[:m].copy()
+        r = rng.normal(size=m)
+        y = np.zeros(n)
+        factor_forward(L, 0, m, r, y)
+        assert factor_append(H, L, idx, m, j)
+        c = rng.normal()
+        y[:m] += c * L[m, :m]  # the caller's move of the old rows
+        r_new = np.append(r + c * H[F, j], rng.normal())
+        factor_forward(L, m, m + 1, r_new, y)
+        Lf = np.tril(L[:n, :n])
+        assert rel(y, np.linalg.solve(Lf, r_new), floor=0.0) < 1e-10, f"trial {trial}"
+        assert rel(Lf @ Lf.T, H[np.ix_(idx, idx)], floor=0.0) < 1e-12, f"trial {trial}"
