@@ -30,7 +30,8 @@ import numba as nb
 import numpy as np
 
 from mrnea import Joint, Link, Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
+from mrnea.kernels.drive_solve import HYBRID, solve_cycle
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))

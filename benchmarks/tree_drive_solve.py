@@ -31,7 +31,8 @@ import numpy as np
 
 import mrnea
 from mrnea import mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
+from mrnea.kernels.drive_solve import HYBRID, solve_cycle
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))

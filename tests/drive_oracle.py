@@ -17,7 +17,8 @@ import itertools
 import numpy as np
 
 from mrnea import Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle, solve_mode
+from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 CODE = {"hybrid": HYBRID, "paper": PAPER}

@@ -26,7 +26,7 @@ from drive_oracle import enumerate_solutions, law_violation, rel, solve
 from test_drive_solve import random_problem
 from test_tree_pinocchio import random_tree
 
-from mrnea.kernels.drive_solve import (
+from mrnea.kernels.drive_ways import (
     TREE_FROM,
     UPDATE_FROM,
     Refactor,

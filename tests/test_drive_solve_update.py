@@ -18,7 +18,7 @@ import pytest
 from drive_oracle import law_violation, rel, solve
 from test_drive_solve import random_problem
 
-from mrnea.kernels.drive_solve import UPDATE_FROM
+from mrnea.kernels.drive_ways import UPDATE_FROM
 from mrnea.kernels.solve import factor_append, factor_remove, factor_solve
 from mrnea.kernels.status import OK
 

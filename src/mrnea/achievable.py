@@ -41,7 +41,7 @@ from mrnea.kernels.achievable import (
     achievable_batch,
     step,
 )
-from mrnea.kernels.drive_solve import solve_mode
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import ACHIEVABLE, batch_scratch, entry_scratch
 from mrnea.model import Robot

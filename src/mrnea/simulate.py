@@ -34,7 +34,7 @@ from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.derived import derived
 from mrnea.kernels.drive import actuator_terms
-from mrnea.kernels.drive_solve import solve_mode
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles

@@ -2,9 +2,9 @@
 and V, Eqs. 42-44).
 
 Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau,
-phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n, parents=λ)`` (the
-mode, and how H_FF's factor is kept: 'Cost' and 'Trees' below) and ``ws`` an ``ACHIEVABLE`` scratch
-(kernels/layout.py, ``drive_solve_buffers``).
+phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n, parents=λ)``
+(kernels/drive_ways.py: the mode, and how H_FF's factor is kept: 'Cost' and 'Trees' below) and
+``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py, ``drive_solve_buffers``).
 
 Everything is joint side. The cycle starts at speed qd [rad/s | m/s]; the drives hold the new
 velocity v over the next dt [s], so qdd = (v - qd) / dt. Eq. 42, with the Coulomb friction phi
@@ -66,50 +66,28 @@ never 1e-18: no creep, no sign flips); a release that rounding sends the wrong w
 back onto its breakpoint, is undone and that joint not released again until another release
 succeeds (``tabu``). None of these acts in exact arithmetic.
 
-Cost. Each pass through steps 2-4 costs O(n^2) besides step 2's factor of H_FF, and a
-saturated cycle makes about 1.4 n of them (a 100- to 300-joint chain, every drive saturated).
-Made afresh at every step (m^3 / 6 for m free joints) the factor makes a saturated cycle
-O(n^4); from UPDATE_FROM joints on it is instead kept and updated (``update``,
-kernels/solve.py): the joint released in step 4 is appended as the factor's last row
-(``factor_append``, O(m^2)), a joint held in step 3 is removed (``factor_remove``: a rank-one
-update of the rows after it, O(m^2)), so a cycle is O(n^3). The free joints then sit in the
-factor's order (idx[:m]), and the held joints' part of step 2's right-hand side, g = H_a qw
-(qw: qdd on the held joints, 0 on the free ones), is kept as a running product: a joint's
-column times its held qdd is added where it is held and taken away where it is released, O(n)
-a move (``_shift``), and g is made afresh (``_held_product``, O(n |W|)) once there have been
-more moves since than joints held, which bounds the rounding it gathers. Step 4's residuals are
-then g plus the free joints' columns (O(m) each instead of O(n)). Step 2's forward substitution
-y = L^-1 rhs is kept too: a release leaves the factor's old rows as they were and changes
-their rhs by qdd_j H_a[F, j] alone, so y moves by qdd_j times the row factor_append has just
-computed and only the new row is solved (kernels/solve.py ``factor_forward``); a hold or a
-fresh g start it over. The long sums run in four partial sums. The two ways give the same
-solution up to rounding (tests/test_drive_solve_update.py);
-below UPDATE_FROM the refactorising way is kept operation for operation (no faster to update
-there, measured: benchmarks/long_chain.py, docs/performance.md). A singular free block is
-reported at the joint whose pivot fails: in index order when refactorising, the joint being
-appended when updating. Which way a cycle takes is a compile-time choice, made in Python by n
-(``solve_mode``: a named tuple of class ``Refactor`` or ``Update``, or a tree's
-``TreeRefactor`` below, carrying the mode), so a
-kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea demo`` (4
-joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first run").
+Cost. Each pass through steps 2-4 costs O(n^2) besides step 2's factor of H_FF, and a saturated
+cycle makes about 1.4 n of them (a 100- to 300-joint chain, every drive saturated). Made afresh
+at every step (m^3 / 6 for m free joints) the factor makes a saturated cycle O(n^4); from
+UPDATE_FROM joints on it is instead kept and updated (``update``, kernels/solve.py): the joint
+released in step 4 is appended as the factor's last row (``factor_append``, O(m^2)), a joint
+held in step 3 is removed (``factor_remove``: a rank-one update of the rows after it, O(m^2)),
+so a cycle is O(n^3). The free joints then sit in the factor's order (idx[:m]); the held
+joints' part of step 2's right-hand side and step 2's forward substitution are kept across
+steps (kernels/drive_ways.py, ``Update``). The two ways give the same solution up to rounding
+(tests/test_drive_solve_update.py); below UPDATE_FROM the refactorising way is kept operation
+for operation (no faster to update there, measured: benchmarks/long_chain.py,
+docs/performance.md). A singular free block is reported at the joint whose pivot fails: in
+index order when refactorising, the joint being appended when updating. Which way a cycle takes
+is a compile-time choice, made in Python by n (kernels/drive_ways.py ``solve_mode``: a named
+tuple of class ``Refactor`` or ``Update``, or a tree's ``TreeRefactor`` below, carrying the
+mode), so a kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea
+demo`` (4 joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first
+run").
 
-Trees. On a tree H_a keeps the branch-induced zeros (H_ij = 0 unless one of i, j carries the
-other; the rotor term is diagonal), and so does every free block: for the free joints F, each
-free joint's free ancestors form a path in the forest λ_F (λ_F(i): i's nearest ancestor in F,
--1 for none; docs/notation.md, Trees), and H_FF_ij != 0 only where one of i, j is an ancestor of
-the other in λ_F. So on a tree (``TreeRefactor``) step 2 factors H_FF = L^T L in λ_F's order,
-Featherstone's LTL with no fill-in (kernels/solve.py ``ltl_factor``, as a tree's forward
-dynamics), reading only the entries on each free joint's path; λ_F is rebuilt in O(n) each step
-(``_free_forest``), and the products with H_a in steps 2 and 4 run over a row's nonzeros alone
-(its ancestors and its subtree). A step's factor then costs sum_F d_F(i)^2 / 2 multiply-adds
-(d_F(i): the free joints on i's path) instead of m^3 / 6, but every inner step walks λ_F (a
-dependent load), so it pays only from about a dozen joints on and while the paths are short:
-``solve_mode`` takes it on a tree from TREE_FROM joints on where sum_i d_i^2 / 2 <= n^2
-(``tree_pays``; measured, benchmarks/tree_drive_solve.py, docs/performance.md "The drive
-solve on trees": Baxter 1.1-1.2 times faster than the dense path, eight 7-joint arms on a
-waist 3.5-3.9 times; the two-arm torso, 9 joints, and arms of 20 joints and more keep the
-dense paths). A singular free block is reported at the joint whose pivot fails, the pivots
-taken tip to base. Chains compile none of it (``lam`` None: Numba drops those branches).
+Trees. On a tree whose paths are short, H_FF is factored in the order of the free joints'
+forest λ_F, keeping the branch sparsity (``TreeRefactor``: kernels/drive_ways.py, where the
+details and the measurements are).
 
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
@@ -125,14 +103,23 @@ holds the joint).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import NamedTuple
 
 import numba as nb
-import numpy as np
 from numba.extending import overload
 
 from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
+from mrnea.kernels.drive_ways import (
+    Refactor,
+    TreeRefactor,
+    Update,
+    drop_held,
+    free_forest,
+    free_residual,
+    held_product,
+    held_row,
+    shift_held,
+    tree_residual,
+)
 from mrnea.kernels.layout import (
     INLINE,
     JIT,
@@ -145,7 +132,6 @@ from mrnea.kernels.solve import (
     factor_append,
     factor_backward,
     factor_forward,
-    factor_remove,
     ltl_factor,
     ltl_substitute,
 )
@@ -154,67 +140,6 @@ from mrnea.kernels.status import CYCLE_LIMIT, OK
 PAPER, HYBRID = 0, 1  # how the drives meet their limits (module docstring)
 MULT_TOL = 1e-12  # a multiplier this close (relative) to its interval counts as inside
 SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held there
-# from this many joints on, step 2's factor of H_FF is updated one joint at a time (O(m^2) a
-# step: module docstring, 'Cost'); below it, refactorised at every step (measured:
-# benchmarks/long_chain.py, docs/performance.md)
-UPDATE_FROM = 16
-# a tree from this many joints on takes its own factorisation where it pays (``tree_pays``);
-# below it the dense refactorising path is faster (measured: benchmarks/tree_drive_solve.py)
-TREE_FROM = 12
-
-
-class Refactor(NamedTuple):
-    """A cycle's solve with H_FF factored afresh at every step (below UPDATE_FROM joints);
-    ``mode``: PAPER or HYBRID."""
-    mode: int
-
-
-class Update(NamedTuple):
-    """A cycle's solve with H_FF's factor updated one joint at a time (from UPDATE_FROM joints
-    on); ``mode``: PAPER or HYBRID."""
-    mode: int
-
-
-class TreeRefactor(NamedTuple):
-    """A tree's cycle solve: H_FF factored afresh at every step as L^T L in the order of the
-    free joints' parent array λ_F (module docstring, 'Trees'); ``mode``: PAPER or HYBRID;
-    ``parent`` (n,) int64, λ(i) (-1: the base); ``subend`` (n,) int64, the end of joint i's
-    subtree [i, subend[i]) in depth-first order."""
-    mode: int
-    parent: np.ndarray
-    subend: np.ndarray
-
-
-def solve_mode(mode: int, n: int, update: bool | None = None,
-               parents: Sequence[int] | None = None,
-               tree: bool | None = None) -> Refactor | Update | TreeRefactor:
-    """``mode`` (PAPER or HYBRID) in the form the kernels take for an n-joint robot whose
-    joints hang from ``parents`` (λ(i), depth-first, -1: the base; None: a serial chain). On a
-    tree (some λ(i) != i - 1) where the tree's factorisation pays (:func:`tree_pays`) it is
-    ``TreeRefactor`` (module docstring, 'Trees'); else the way H_FF's factor is kept is chosen
-    by n (module docstring, 'Cost'). ``tree`` True or False, ``update`` True or False force a
-    way (tests, benchmarks). Its class is the choice: a kernel compiles one way."""
-    is_tree = parents is not None and any(p != i - 1 for i, p in enumerate(parents))
-    if tree or (tree is None and update is None and is_tree and tree_pays(parents)):
-        lam = np.asarray(parents, dtype=np.int64)
-        end = np.arange(1, n + 1, dtype=np.int64)
-        for i in range(n - 1, -1, -1):  # depth-first: a subtree is a contiguous range
-            if lam[i] >= 0:
-                end[lam[i]] = max(end[lam[i]], end[i])
-        return TreeRefactor(mode, lam, end)
-    return Update(mode) if (n >= UPDATE_FROM if update is None else update) else Refactor(mode)
-
-
-def tree_pays(parents: Sequence[int]) -> bool:
-    """Whether a tree's drive solve takes its own factorisation: from TREE_FROM joints on, if
-    its factor's cost, sum_i d_i^2 / 2 multiply-adds (d_i: the joints carrying link i, i
-    included), is at most n^2, about a step's cost on the updated path (measured:
-    benchmarks/tree_drive_solve.py, docs/performance.md "The drive solve on trees")."""
-    n, depth = len(parents), []
-    for p in parents:
-        depth.append(1 + (depth[p] if p >= 0 else 0))
-    return n >= TREE_FROM and sum(d * d for d in depth) / 2 <= n * n
-
 
 @nb.njit(**INLINE)
 def _required(Ha, ua, qdd_des, i, v_des_i, Fp, Fn):
@@ -400,7 +325,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         # |H_a| |qw|, kept as joints are held and released; made afresh once there have been
         # more such moves since than joints held (rounding; O(n) a move on average)
         g, gabs = update_buffers(ws, n)
-        moves = _held_product(Ha, qdd, pat, g, gabs)
+        moves = held_product(Ha, qdd, pat, g, gabs)
         # y = L^-1 rhs, its rows [:solved] current: a release appends one row and moves the
         # others by its qdd times the new row of L (the held part of rhs loses that column);
         # a hold, and g made afresh, start it over
@@ -417,9 +342,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
         if update is not None:
             if moves > n - m:
-                moves = solved = _held_product(Ha, qdd, pat, g, gabs)
+                moves = solved = held_product(Ha, qdd, pat, g, gabs)
         if lam is not None:  # idx[:m] in index order and their parent array λ_F (positions)
-            m = _free_forest(lam, pat, idx, near, lam_f)
+            m = free_forest(lam, pat, idx, near, lam_f)
         elif update is None:  # idx[:m]: the free joints in index order
             m = 0
             for i in range(n):
@@ -432,7 +357,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             if update is not None:
                 r -= g[i]
             elif lam is not None:
-                r -= _held_row(Ha, qdd, pat, i, lam, nu)
+                r -= held_row(Ha, qdd, pat, i, lam, nu)
                 c = a
                 while c >= 0:  # the entries of H_FF that L^T L holds: c on a's path in λ_F
                     Lc[a, c] = Ha[i, idx[c]]
@@ -468,7 +393,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             released = -1
             if update is not None:
                 moves += m
-                m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
+                m = drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
                 moves -= m
                 solved = 0
         else:
@@ -502,7 +427,7 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 held_new = True
             if update is not None and held_new:
                 moves += m
-                m = _drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
+                m = drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
                 moves -= m
                 solved = 0
             if released >= 0:
@@ -521,9 +446,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 continue
             k = pat[i] // 2
             if lam is not None:
-                h, scale = _tree_residual(Ha, ua, qdd, i, lam, nu)
+                h, scale = tree_residual(Ha, ua, qdd, i, lam, nu)
             elif update is not None:  # H_a qdd = g + the free joints' columns
-                h, scale = _free_residual(Ha[i], qdd, idx, m)
+                h, scale = free_residual(Ha[i], qdd, idx, m)
                 h, scale = h + ua[i] + g[i], scale + abs(ua[i]) + abs(gabs[i])
             else:
                 h, scale = _residual(Ha, ua, qdd, i)
@@ -550,120 +475,9 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             for a in range(m):  # y += qdd_worst L^-1 H_a[F, worst], the new row's l
                 y[a] += qdd[worst] * Lc[m, a]
             m += 1
-            _shift(Ha[worst], -qdd[worst], g, gabs)
+            shift_held(Ha[worst], -qdd[worst], g, gabs)
             moves += 1
     return CYCLE_LIMIT
-
-
-@nb.njit(**INLINE)
-def _drop_held(Ha, L, idx, m, pat, qdd, g, gabs, c, s):
-    """Remove the joints held since the last step from the updated factor (positions from the
-    last, so that those before stay put) and add their held qdd's columns to g, gabs; c, s (n,)
-    scratch for the rotations. Returns the new number of free joints."""
-    for a in range(m - 1, -1, -1):
-        i = idx[a]
-        if pat[i] % 2 == 1:
-            factor_remove(L, idx, m, a, c, s)
-            m -= 1
-            _shift(Ha[i], qdd[i], g, gabs)
-    return m
-
-
-@nb.njit(**INLINE)
-def _shift(row, c, g, gabs):
-    """g += c row, gabs += |c row| (c < 0: gabs -= |c row|): a joint's column of H_a (its row:
-    H_a is symmetric) times its held qdd c, added when it is held, taken away (-c) when it is
-    released."""
-    sign = 1.0 if c >= 0.0 else -1.0
-    for k in range(g.shape[0]):
-        t = c * row[k]
-        g[k] += t
-        gabs[k] += sign * abs(t)
-
-
-@nb.njit(**INLINE)
-def _held_product(Ha, qdd, pat, g, gabs):
-    """g = H_a qw and gabs = |H_a| |qw| afresh (qw: qdd on the held joints, 0 on the free
-    ones), a held joint's row at a time; returns 0, the moves since."""
-    for k in range(g.shape[0]):
-        g[k] = gabs[k] = 0.0
-    for j in range(g.shape[0]):
-        if pat[j] % 2 == 1:
-            _shift(Ha[j], qdd[j], g, gabs)
-    return 0
-
-
-@nb.njit(**INLINE)
-def _free_residual(row, qdd, idx, m):
-    """sum_a row[idx[a]] qdd[idx[a]] over the free joints idx[:m] and the sum of the terms'
-    magnitudes, in four partial sums (as kernels/solve.py ``dot``)."""
-    h0 = h1 = h2 = h3 = a0 = a1 = a2 = a3 = 0.0
-    m4 = m - m % 4
-    for a in range(0, m4, 4):
-        i0, i1, i2, i3 = idx[a], idx[a + 1], idx[a + 2], idx[a + 3]
-        t0, t1, t2, t3 = row[i0] * qdd[i0], row[i1] * qdd[i1], row[i2] * qdd[i2], \
-            row[i3] * qdd[i3]
-        h0, h1, h2, h3 = h0 + t0, h1 + t1, h2 + t2, h3 + t3
-        a0, a1, a2, a3 = a0 + abs(t0), a1 + abs(t1), a2 + abs(t2), a3 + abs(t3)
-    for a in range(m4, m):
-        t = row[idx[a]] * qdd[idx[a]]
-        h0 += t
-        a0 += abs(t)
-    return (h0 + h1) + (h2 + h3), (a0 + a1) + (a2 + a3)
-
-
-@nb.njit(**INLINE)
-def _free_forest(lam, pat, idx, near, lam_f):
-    """The free joints (pattern even) in index order, idx[:m], and their parent array λ_F by
-    position, lam_f[:m]: lam_f[a] is the position of idx[a]'s nearest free ancestor (-1: none;
-    docs/notation.md, Trees). ``near`` (n,) scratch: by joint, the position of its nearest free
-    ancestor-or-self. Returns m. O(n)."""
-    m = 0
-    for i in range(lam.shape[0]):
-        p = lam[i]
-        up = near[p] if p >= 0 else -1
-        if pat[i] % 2 == 0:
-            idx[m] = i
-            lam_f[m] = up
-            near[i] = m
-            m += 1
-        else:
-            near[i] = up
-    return m
-
-
-@nb.njit(**INLINE)
-def _held_row(Ha, qdd, pat, i, lam, nu):
-    """(H_FW qdd_W)_i on a tree: row i of H_a is zero but for i's ancestors and its subtree
-    [i, nu[i]) (branch-induced sparsity), so only those held joints are summed."""
-    r = 0.0
-    j = lam[i]
-    while j >= 0:
-        if pat[j] % 2 == 1:
-            r += Ha[i, j] * qdd[j]
-        j = lam[j]
-    for j in range(i + 1, nu[i]):
-        if pat[j] % 2 == 1:
-            r += Ha[i, j] * qdd[j]
-    return r
-
-
-@nb.njit(**INLINE)
-def _tree_residual(Ha, ua, qdd, i, lam, nu):
-    """:func:`_residual` on a tree: the sums over row i's nonzeros alone (i's ancestors and its
-    subtree [i, nu[i]))."""
-    h, scale = ua[i], abs(ua[i])
-    j = lam[i]
-    while j >= 0:
-        t = Ha[i, j] * qdd[j]
-        h += t
-        scale += abs(t)
-        j = lam[j]
-    for j in range(i, nu[i]):
-        t = Ha[i, j] * qdd[j]
-        h += t
-        scale += abs(t)
-    return h, scale
 
 
 @nb.njit(**INLINE)
