@@ -103,7 +103,8 @@ def signatures(n: int, per_link: bool, report: bool) -> list[tuple[object, tuple
 
     from mrnea.kernels import bearing, peaks
     from mrnea.kernels.derived import derived
-    from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
+    from mrnea.kernels.drive_solve import HYBRID, solve_cycle
+    from mrnea.kernels.drive_ways import solve_mode
     from mrnea.kernels.kinematics import frames_ws
     from mrnea.kernels.layout import entry_scratch
     from mrnea.kernels.rnea import reactions_ws
