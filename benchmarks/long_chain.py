@@ -3,11 +3,12 @@ at every active-set step (O(n^4) a cycle) against its factor updated one joint a
 (O(n^3)), side by side in one process, on long chains and on 6- and 7-joint robots.
 
 Usage: ``PYTHONPATH=<tree>/src python benchmarks/long_chain.py [--sizes 100 300 1000]
-[--small-rounds R]``. Prints per case the wall time of one cycle's solve on each path [ms for
-the long chains, us for the small robots; the process's CPU time: the solve runs on one
-thread], their ratio, the number of saturated joints, and
-the largest relative difference of the two paths' accelerations (and whether their saturated
-and stuck joints are the same).
+[--small-rounds R] [--small 6 7 ...] [--update-only]``. Prints per case the wall time of one
+cycle's solve on each path [ms for the long chains, us for the small robots; the process's CPU
+time: the solve runs on one thread], their ratio, the number of saturated joints, and the
+largest relative difference of the two paths' accelerations (and whether their saturated and
+stuck joints are the same); ``--update-only`` times the updated way alone (the refactorising
+one takes about 40 s at n = 1000).
 
 Long chain (docs/design.md, "A 1000-joint chain"): n revolute joints, axes alternating z and y,
 0.1 m links of 1 kg along x, a random pose, at rest, effort limits 5 N m, a program asking each
@@ -29,14 +30,15 @@ import numba as nb
 import numpy as np
 
 from mrnea import Joint, Link, Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
+from mrnea.kernels.drive_solve import HYBRID, solve_cycle
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from conftest import random_chain
 
 
-@nb.njit(cache=True)
+@nb.njit  # not cached: Numba would not see a change in the kernels it calls
 def _repeat(R, Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, out, sat, stuck, ws, how):
     """R solves of the same cycle the way ``how`` names (``solve_mode``); returns the last
     status."""
@@ -82,9 +84,14 @@ def run(args: tuple, R: int, update: bool) -> tuple[float, np.ndarray, np.ndarra
     return best, out[1].copy(), sat.copy(), stuck.copy()
 
 
-def compare(name: str, args: tuple, R: int, unit: float, label: str) -> None:
-    t_old, qdd_old, sat_old, st_old = run(args, R, False)
+def compare(name: str, args: tuple, R: int, unit: float, label: str,
+            update_only: bool = False) -> None:
     t_new, qdd_new, sat_new, st_new = run(args, R, True)
+    if update_only:
+        print(f"{name:14s} update {t_new * unit:10.2f} {label}  saturated "
+              f"{int(sat_new.sum()):4d}/{len(sat_new)}")
+        return
+    t_old, qdd_old, sat_old, st_old = run(args, R, False)
     diff = np.max(np.abs(qdd_new - qdd_old)) / max(1.0, np.max(np.abs(qdd_old)))
     same = np.array_equal(sat_old, sat_new) and np.array_equal(st_old, st_new)
     print(f"{name:14s} refactorise {t_old * unit:10.2f} {label}  update {t_new * unit:10.2f} "
@@ -97,6 +104,8 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="*", default=[100, 300, 1000])
     ap.add_argument("--small", type=int, nargs="*", default=[6, 7, 10, 16, 24])
     ap.add_argument("--small-rounds", type=int, default=20000)
+    ap.add_argument("--update-only", action="store_true",
+                    help="time the updated way alone (the refactorising one takes ~40 s at 1000)")
     a = ap.parse_args()
     rng = np.random.default_rng(25)
     tiny = problem(long_chain(3), np.zeros(3), np.zeros(3), np.zeros(3), [5.0] * 3)
@@ -113,7 +122,7 @@ def main() -> None:
         robot = long_chain(n)
         v_des = 1e-3 * rng.normal(0.0, 5e4, n)  # dt qdd_des
         compare(f"chain n={n}", problem(robot, rng.uniform(-1.0, 1.0, n), np.zeros(n), v_des,
-                                        [5.0] * n), 1, 1e3, "ms")
+                                        [5.0] * n), 1, 1e3, "ms", a.update_only)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,8 @@ import itertools
 import numpy as np
 
 from mrnea import Robot, mass_matrix_and_bias
-from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle, solve_mode
+from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 
 CODE = {"hybrid": HYBRID, "paper": PAPER}
@@ -46,10 +47,13 @@ def cycle_terms(robot: Robot, q, qd, f_ext=None, f_ext_point=None):
             u + robot.viscous_friction * np.asarray(qd, float))
 
 
-def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None):
+def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | None = None,
+          parents=None, tree: bool | None = None):
     """The compiled cycle solve with its own outputs and scratch; the effort box
     -Llo <= tau <= Lhi. ``update``: None, the factorisation ``solve_mode`` picks by n; True or
-    False, H_FF's factor updated or made afresh at every step.
+    False, H_FF's factor updated or made afresh at every step. ``parents``: a tree's parent
+    array (H_a with its sparsity); ``tree`` True forces the tree's factorisation on it, None
+    lets ``solve_mode`` choose.
 
     Returns (status, v, qdd, tau, phi, tau_req, sat, stuck)."""
     args = [np.ascontiguousarray(a, dtype=float) for a in (Ha, ua, qd, v_des)]
@@ -58,8 +62,8 @@ def solve(Ha, ua, qd, v_des, dt, Llo, Lhi, Fp, Fn, mode: str, update: bool | Non
     out = [np.empty(n) for _ in range(5)]
     flags = [np.empty(n, dtype=np.bool_) for _ in range(2)]
     ws = entry_scratch(n, ACHIEVABLE)
-    status = solve_cycle(*args, float(dt), *lim, solve_mode(CODE[mode], n, update), *out,
-                         *flags, ws)
+    how = solve_mode(CODE[mode], n, update, parents, tree)
+    status = solve_cycle(*args, float(dt), *lim, how, *out, *flags, ws)
     return (status, *out, *flags)
 
 

@@ -40,15 +40,16 @@ print("COMPILED " + json.dumps(names))
 @pytest.mark.slow
 def test_a_demo_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) -> None:
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
-    sdt_joints, report = "4", "1"
-    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", sdt_joints, "0", report], env=env,
+    sdt_parents, report = "-1,0,1,2", "1"
+    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", sdt_parents, "0", report], env=env,
                    check=True, timeout=900)
     out = subprocess.run([sys.executable, "-c", LISTEN, "demo", "--out", str(tmp_path / "demo"),
                           "--quiet"], env=env, capture_output=True, text=True, timeout=900)
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
     line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
     compiled = set(json.loads(line[len("COMPILED "):]))
-    ahead_names = {k.py_func.__qualname__ for k, _ in ahead.signatures(4, False, True)}
+    ahead_names = {k.py_func.__qualname__
+                   for k, _ in ahead.signatures((-1, 0, 1, 2), False, True)}
     assert len(ahead_names) == 8
     assert not compiled & ahead_names, compiled & ahead_names
     assert "simulate_cycles" in compiled and "actuator_terms" in compiled  # it did compile
@@ -69,22 +70,22 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.setattr(ahead, "_cold", lambda: True)
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.4, 0.5, 0.5))
-    assert ahead.start(4, False, True) is not None
-    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "4", "0", "1"]
+    assert ahead.start((-1, 0, 1, 2), False, True) is not None
+    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1"]
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))  # no core idle
-    assert ahead.start(4, False, True) is None
+    assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
-    assert ahead.start(4, True, False) is not None
-    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "4", "1", "0"]
+    assert ahead.start((-1, 0, 1, 2), True, False) is not None
+    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0"]
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
     monkeypatch.setenv("MRNEA_AHEAD", "0")  # off
-    assert ahead.start(4, False, True) is None
+    assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.delenv("MRNEA_AHEAD")
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0})  # one CPU
-    assert ahead.start(4, False, True) is None
+    assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead, "_cold", lambda: False)  # a warm cache
-    assert ahead.start(4, False, True) is None
+    assert ahead.start((-1, 0, 1, 2), False, True) is None
     assert len(started) == 2
 
 

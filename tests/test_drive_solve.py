@@ -28,15 +28,18 @@ from mrnea.kernels.status import OK
 STATES = {2: 900, 3: 800, 4: 600, 5: 450, 6: 300}  # 3050 in all
 
 
-def random_problem(rng: np.random.Generator, n: int) -> dict:
-    """One random cycle problem (module docstring)."""
+def random_problem(rng: np.random.Generator, n: int, terms=None) -> dict:
+    """One random cycle problem (module docstring); ``terms(qd)``, if given, makes its
+    (H_a, u'_a) instead (a tree's, tests/test_drive_solve_tree.py)."""
     dt = float(rng.choice([1e-3, 4e-3, 1e-2]))
     qd = rng.normal(0.0, 1.0, n)
     r = rng.random(n)
     qd[r < 0.3] = 0.0  # at rest
     small = (r >= 0.3) & (r < 0.5)
     qd[small] = rng.normal(0.0, 3.0 * dt, small.sum())  # slow: may cross zero this cycle
-    if rng.random() < 0.6:  # a real chain: gravity, Coriolis, wrench, rotors
+    if terms is not None:
+        Ha, ua = terms(qd)
+    elif rng.random() < 0.6:  # a real chain: gravity, Coriolis, wrench, rotors
         robot = random_chain(rng, n, 0.25).with_actuators(
             gear_ratio=rng.choice([1.0, 10.0, 50.0], n),
             rotor_inertia=rng.choice([0.0, 1e-5, 1e-4], n))

@@ -18,7 +18,7 @@ import pytest
 from drive_oracle import law_violation, rel, solve
 from test_drive_solve import random_problem
 
-from mrnea.kernels.drive_solve import UPDATE_FROM
+from mrnea.kernels.drive_ways import UPDATE_FROM
 from mrnea.kernels.solve import factor_append, factor_remove, factor_solve
 from mrnea.kernels.status import OK
 
@@ -113,3 +113,63 @@ def test_default_path_by_size():
             f = solve(*args, mode, update=n >= UPDATE_FROM)
             for x, y in zip(d[1:], f[1:], strict=True):
                 np.testing.assert_array_equal(x, y)
+
+
+def test_a_saturated_100_joint_chain_keeps_its_running_product():
+    """A 100-joint random chain with every drive far below its requirement: many
+    active-set steps, each moving a joint in or out of the held set, so the running product
+    H_a qw (kernels/drive_solve.py, 'Cost') is shifted and made afresh many times. The
+    updated way satisfies the law (KKT from v) and equals the refactorising way."""
+    from conftest import random_chain
+
+    from mrnea import mass_matrix_and_bias
+
+    rng = np.random.default_rng(2530)
+    n = 100
+    robot = random_chain(rng, n, 0.25)
+    for s in range(3):
+        q, qd = rng.uniform(-np.pi, np.pi, n), rng.normal(0.0, 0.5, n)
+        H, u = mass_matrix_and_bias(robot, q, qd)
+        dt = 1e-3
+        v_des = qd + dt * rng.normal(0.0, 5000.0, n)
+        L = 0.1 * np.abs(u) + 0.1
+        z = np.zeros(n)
+        args = [H, u, qd, v_des, dt, L, L, z, z]
+        a = solve(*args, "hybrid", update=False)
+        b = solve(*args, "hybrid", update=True)
+        assert a[0] == b[0] == OK
+        assert int(b[6].sum()) > n // 2, int(b[6].sum())  # most drives saturate
+        assert law_violation(*args, "hybrid", b[1]) < 1e-9, f"state {s}"
+        np.testing.assert_array_equal(b[6], a[6])
+        assert rel(b[2], a[2]) < 1e-9, f"state {s}: qdd"
+
+
+def test_forward_substitution_kept_across_an_append():
+    """The kept forward substitution of the updated way (kernels/drive_solve.py 'Cost'): after
+    ``factor_append`` of joint j, y = L^-1 rhs for a right-hand side that moved by c H[F, j]
+    is the old y plus c times the new row's l, and ``factor_forward`` from row m solves the
+    new row alone; both against numpy.linalg.solve on the grown block."""
+    from mrnea.kernels.solve import factor_forward
+
+    rng = np.random.default_rng(2540)
+    for trial in range(30):
+        n = int(rng.integers(2, 30))
+        A = rng.normal(size=(n, n))
+        H = A @ A.T + 0.1 * np.eye(n)
+        order = rng.permutation(n)
+        L, idx = np.zeros((n, n)), np.zeros(n, np.int64)
+        for m, i in enumerate(order[:-1]):
+            assert factor_append(H, L, idx, m, i)
+        m, j = n - 1, order[-1]
+        F = idx[:m].copy()
+        r = rng.normal(size=m)
+        y = np.zeros(n)
+        factor_forward(L, 0, m, r, y)
+        assert factor_append(H, L, idx, m, j)
+        c = rng.normal()
+        y[:m] += c * L[m, :m]  # the caller's move of the old rows
+        r_new = np.append(r + c * H[F, j], rng.normal())
+        factor_forward(L, m, m + 1, r_new, y)
+        Lf = np.tril(L[:n, :n])
+        assert rel(y, np.linalg.solve(Lf, r_new), floor=0.0) < 1e-10, f"trial {trial}"
+        assert rel(Lf @ Lf.T, H[np.ix_(idx, idx)], floor=0.0) < 1e-12, f"trial {trial}"

@@ -44,6 +44,8 @@ from mrnea.kernels.layout import (
     scratch_rows,
     solve_buffers,
     stash_buffers,
+    tree_solve_buffers,
+    update_buffers,
 )
 
 SRC = Path(mrnea.__file__).parent
@@ -66,6 +68,8 @@ def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndar
     if kind == ACHIEVABLE:
         out["achievable"] = list(_py(achievable_buffers)(ws, n))
         out["drive_solve"] = list(_py(drive_solve_buffers)(ws, n))
+        out["tree_solve"] = list(_py(tree_solve_buffers)(ws, n))
+        out["update"] = list(_py(update_buffers)(ws, n))
     return out
 
 
@@ -75,6 +79,7 @@ SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's d
     "column": ["nn"], "solve_hu": ["nn", "n"],
     "achievable": ["nn", *["n"] * 7],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
+    "tree_solve": ["n", "n"], "update": ["n", "n"],
 }
 
 
@@ -92,8 +97,9 @@ TOGETHER = {
            ("pose", "force", "branch"), ("pose", "force", "effort", "stash")],
     SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve"), ("pose", "mrnea", "branch"),
             ("pose", "mrnea", "stash", "column", "solve_hu"), ("pose", "force", "stash", "solve")],
-    ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve"),
-                 ("pose", "force", "achievable", "drive_solve"), ("pose", "force", "effort"),
+    ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve", "tree_solve", "update"),
+                 ("pose", "force", "achievable", "drive_solve", "tree_solve", "update"),
+                 ("pose", "force", "effort"),
                  ("pose", "mrnea", "stash", "column", "achievable"),
                  ("pose", "mrnea", "branch", "achievable")],
 }
@@ -143,8 +149,10 @@ def test_threads_of_a_batch_stack_are_a_cache_line_apart(kind: int, n: int) -> N
 
 
 def test_integer_slots_are_integers() -> None:
-    *_, pat, nbp, idx, tabu = _py(drive_solve_buffers)(entry_scratch(3, ACHIEVABLE), 3)
-    assert all(a.dtype == np.int64 for a in (pat, nbp, idx, tabu))
+    ws = entry_scratch(3, ACHIEVABLE)
+    *_, pat, nbp, idx, tabu = _py(drive_solve_buffers)(ws, 3)
+    near, lam_f = _py(tree_solve_buffers)(ws, 3)
+    assert all(a.dtype == np.int64 for a in (pat, nbp, idx, tabu, near, lam_f))
 
 
 def test_compiled_arrays_live_outside_the_robot_and_go_with_it() -> None:

@@ -34,7 +34,7 @@ from mrnea.errors import SingularMassMatrixError, StateError
 from mrnea.io.writer import create
 from mrnea.kernels.derived import derived
 from mrnea.kernels.drive import actuator_terms
-from mrnea.kernels.drive_solve import solve_mode
+from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
@@ -347,7 +347,7 @@ def simulate(
     catch_up = validate.catch_up(catch_up, dt)
     reactions = validate.flag(reactions, "reactions")
     n = robot.n
-    how = solve_mode(code, n)  # the drive solve's way for n joints, a compile-time choice
+    how = solve_mode(code, n, parents=robot.parents)  # the drive solve's way, chosen here
     Qc = validate.array(q_cmd, "q_cmd", n)
     if Qc.ndim != 2 or Qc.shape[0] < 2:
         raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")

@@ -34,6 +34,7 @@ import atexit
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
 
 
 def _spare_core() -> bool:
@@ -65,17 +66,19 @@ def _cold() -> bool:
     return not os.path.exists(index)
 
 
-def start(n: int, per_link: bool, report: bool) -> subprocess.Popen | None:
-    """Start the second process on a cold cache (module docstring) for a simulation of an
-    n-joint robot with reactions (the CLI's), its wrench given per link (``per_link``) or not,
-    and with a report (``report``: bearing loads, 3D view). Returns it, or None where it would
-    not gain. None of the kernels it compiles depends on the engine (``--fd``)."""
+def start(parents: Sequence[int], per_link: bool, report: bool) -> subprocess.Popen | None:
+    """Start the second process on a cold cache (module docstring) for a simulation of a robot
+    whose joints hang from ``parents`` (:attr:`mrnea.Robot.parents`) with reactions (the CLI's),
+    its wrench given per link (``per_link``) or not, and with a report (``report``: bearing
+    loads, 3D view). Returns it, or None where it would not gain. None of the kernels it
+    compiles depends on the engine (``--fd``)."""
     wanted = os.environ.get("MRNEA_AHEAD")
     if wanted == "0" or not (wanted == "1" or _spare_core()) or not _cold():
         return None
     try:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "mrnea.cli.ahead", str(n), str(int(per_link)),
+            [sys.executable, "-m", "mrnea.cli.ahead", ",".join(map(str, parents)),
+             str(int(per_link)),
              str(int(report))],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     except OSError:  # no process to spare: the command compiles alone
@@ -93,7 +96,8 @@ def _end(proc: subprocess.Popen) -> None:
             proc.kill()
 
 
-def signatures(n: int, per_link: bool, report: bool) -> list[tuple[object, tuple]]:
+def signatures(parents: Sequence[int], per_link: bool, report: bool
+               ) -> list[tuple[object, tuple]]:
     """The (kernel, argument types) the command will call, in the order it reaches them:
     arrays of the dtypes, dimensions, layouts and read-only flags its callers pass
     (mrnea.simulate, kernels/simulate.py, kernels/achievable.py, summary.py, cycles.py,
@@ -103,7 +107,8 @@ def signatures(n: int, per_link: bool, report: bool) -> list[tuple[object, tuple
 
     from mrnea.kernels import bearing, peaks
     from mrnea.kernels.derived import derived
-    from mrnea.kernels.drive_solve import HYBRID, solve_cycle, solve_mode
+    from mrnea.kernels.drive_solve import HYBRID, solve_cycle
+    from mrnea.kernels.drive_ways import solve_mode
     from mrnea.kernels.kinematics import frames_ws
     from mrnea.kernels.layout import entry_scratch
     from mrnea.kernels.rnea import reactions_ws
@@ -120,7 +125,8 @@ def signatures(n: int, per_link: bool, report: bool) -> list[tuple[object, tuple
     ws, model = t(entry_scratch(1)), t(ro2)
     fe = f2 if per_link else f1  # a cycle's wrench and point: (n, 6), (n, 3) per link, else
     FE = f3 if per_link else f2  # (6,), (3,); the program's, (K, ...)
-    how = t(solve_mode(HYBRID, n))  # its class is the way (the mode's value is not typed)
+    # its class is the way (the mode's value is not typed): by n, or a tree's own
+    how = t(solve_mode(HYBRID, len(parents), parents=parents))
     boolean, f64, i64 = nb.types.boolean, nb.types.float64, nb.types.int64
     program = nb.types.Tuple((f2, f2, FE, FE))
     kernels = [
@@ -141,9 +147,11 @@ def signatures(n: int, per_link: bool, report: bool) -> list[tuple[object, tuple
 
 
 def main(argv: list[str]) -> None:
-    """Compile :func:`signatures` of ``argv`` = (n, per_link 0/1, report 0/1)."""
-    n, per_link, report = int(argv[0]), argv[1] == "1", argv[2] == "1"
-    for kernel, sig in signatures(n, per_link, report):
+    """Compile :func:`signatures` of ``argv`` = (the parents, comma-separated, per_link 0/1,
+    report 0/1)."""
+    parents = [int(p) for p in argv[0].split(",")]
+    per_link, report = argv[1] == "1", argv[2] == "1"
+    for kernel, sig in signatures(parents, per_link, report):
         kernel.compile(sig)
 
 

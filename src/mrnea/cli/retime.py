@@ -204,7 +204,8 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                                              *((POSES, CARTESIAN) if cartesian else ()))}
             check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
-            ahead.start(run.robot.n, validate.by_link(run.f_ext, run.f_ext_point), True)
+            ahead.start(run.robot.parents, validate.by_link(run.f_ext, run.f_ext_point),
+                        True)
             with compile_notice(quiet):
                 try:
                     res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,

@@ -2,9 +2,9 @@
 and V, Eqs. 42-44).
 
 Usage: ``status = solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau,
-phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n)`` (the mode, and
-how H_FF's factor is kept: 'Cost' below) and ``ws`` an ``ACHIEVABLE`` scratch
-(kernels/layout.py, ``drive_solve_buffers``).
+phi, tau_req, sat, stuck, ws)`` with ``how = solve_mode(PAPER or HYBRID, n, parents=λ)``
+(kernels/drive_ways.py: the mode, and how H_FF's factor is kept: 'Cost' and 'Trees' below) and
+``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py, ``drive_solve_buffers``).
 
 Everything is joint side. The cycle starts at speed qd [rad/s | m/s]; the drives hold the new
 velocity v over the next dt [s], so qdd = (v - qd) / dt. Eq. 42, with the Coulomb friction phi
@@ -66,23 +66,28 @@ never 1e-18: no creep, no sign flips); a release that rounding sends the wrong w
 back onto its breakpoint, is undone and that joint not released again until another release
 succeeds (``tabu``). None of these acts in exact arithmetic.
 
-Cost. Each pass through steps 2-4 costs O(n^2) besides step 2's factor of H_FF, and a
-saturated cycle makes about 1.4 n of them (a 100- to 300-joint chain, every drive saturated).
-Made afresh at every step (m^3 / 6 for m free joints) the factor makes a saturated cycle
-O(n^4); from UPDATE_FROM joints on it is instead kept and updated (``update``,
-kernels/solve.py): the joint released in step 4 is appended as the factor's last row
-(``factor_append``, O(m^2)), a joint held in step 3 is removed (``factor_remove``: a rank-one
-update of the rows after it, O(m^2)), so a cycle is O(n^3). The free joints then sit in the
-factor's order (idx[:m]), the held joints' part of step 2's right-hand side is H_a's product
-with qw (qdd on the held joints, 0 on the free ones), and the long sums run in four partial
-sums. The two ways give the same solution up to rounding (tests/test_drive_solve_update.py);
-below UPDATE_FROM the refactorising way is kept operation for operation (no faster to update
-there, measured: benchmarks/long_chain.py, docs/performance.md). A singular free block is
-reported at the joint whose pivot fails: in index order when refactorising, the joint being
-appended when updating. Which way a cycle takes is a compile-time choice, made in Python by n
-(``solve_mode``: a named tuple of class ``Refactor`` or ``Update`` carrying the mode), so a
-kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea demo`` (4
-joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first run").
+Cost. Each pass through steps 2-4 costs O(n^2) besides step 2's factor of H_FF, and a saturated
+cycle makes about 1.4 n of them (a 100- to 300-joint chain, every drive saturated). Made afresh
+at every step (m^3 / 6 for m free joints) the factor makes a saturated cycle O(n^4); from
+UPDATE_FROM joints on it is instead kept and updated (``update``, kernels/solve.py): the joint
+released in step 4 is appended as the factor's last row (``factor_append``, O(m^2)), a joint
+held in step 3 is removed (``factor_remove``: a rank-one update of the rows after it, O(m^2)),
+so a cycle is O(n^3). The free joints then sit in the factor's order (idx[:m]); the held
+joints' part of step 2's right-hand side and step 2's forward substitution are kept across
+steps (kernels/drive_ways.py, ``Update``). The two ways give the same solution up to rounding
+(tests/test_drive_solve_update.py); below UPDATE_FROM the refactorising way is kept operation
+for operation (no faster to update there, measured: benchmarks/long_chain.py,
+docs/performance.md). A singular free block is reported at the joint whose pivot fails: in
+index order when refactorising, the joint being appended when updating. Which way a cycle takes
+is a compile-time choice, made in Python by n (kernels/drive_ways.py ``solve_mode``: a named
+tuple of class ``Refactor`` or ``Update``, or a tree's ``TreeRefactor`` below, carrying the
+mode), so a kernel compiles the one path its robot takes: the update path cost a fresh ``mrnea
+demo`` (4 joints) about 9 s of compiling for nothing (docs/performance.md, "A command's first
+run").
+
+Trees. On a tree whose paths are short, H_FF is factored in the order of the free joints'
+forest λ_F, keeping the branch sparsity (``TreeRefactor``: kernels/drive_ways.py, where the
+details and the measurements are).
 
 Efforts. s = -(H_a qdd + u'_a) = phi - tau is unique, and so are tau and phi, except for a
 HYBRID joint with v_i = 0 = v_des_i (stuck and on program), where only tau - phi = h_i =
@@ -98,43 +103,43 @@ holds the joint).
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numba as nb
 from numba.extending import overload
 
 from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
-from mrnea.kernels.layout import INLINE, JIT, drive_solve_buffers
-from mrnea.kernels.solve import cholesky_solve, dot, factor_append, factor_remove, factor_solve
+from mrnea.kernels.drive_ways import (
+    Refactor,
+    TreeRefactor,
+    Update,
+    drop_held,
+    free_forest,
+    free_residual,
+    held_product,
+    held_row,
+    shift_held,
+    tree_residual,
+)
+from mrnea.kernels.layout import (
+    INLINE,
+    JIT,
+    drive_solve_buffers,
+    tree_solve_buffers,
+    update_buffers,
+)
+from mrnea.kernels.solve import (
+    cholesky_solve,
+    factor_append,
+    factor_backward,
+    factor_forward,
+    ltl_factor,
+    ltl_substitute,
+)
 from mrnea.kernels.status import CYCLE_LIMIT, OK
 
 PAPER, HYBRID = 0, 1  # how the drives meet their limits (module docstring)
 MULT_TOL = 1e-12  # a multiplier this close (relative) to its interval counts as inside
 SNAP_TOL = 1e-14  # a free joint this close (relative) to a breakpoint is held there
-# from this many joints on, step 2's factor of H_FF is updated one joint at a time (O(m^2) a
-# step: module docstring, 'Cost'); below it, refactorised at every step (measured:
-# benchmarks/long_chain.py, docs/performance.md)
-UPDATE_FROM = 16
-
-
-class Refactor(NamedTuple):
-    """A cycle's solve with H_FF factored afresh at every step (below UPDATE_FROM joints);
-    ``mode``: PAPER or HYBRID."""
-    mode: int
-
-
-class Update(NamedTuple):
-    """A cycle's solve with H_FF's factor updated one joint at a time (from UPDATE_FROM joints
-    on); ``mode``: PAPER or HYBRID."""
-    mode: int
-
-
-def solve_mode(mode: int, n: int, update: bool | None = None) -> Refactor | Update:
-    """``mode`` (PAPER or HYBRID) in the form the kernels take for an n-joint robot: the way
-    H_FF's factor is kept chosen by n (module docstring, 'Cost'); ``update`` True or False forces
-    one (tests, benchmarks/long_chain.py). Its class is the choice: a kernel compiles one way."""
-    return Update(mode) if (n >= UPDATE_FROM if update is None else update) else Refactor(mode)
-
 
 @nb.njit(**INLINE)
 def _required(Ha, ua, qdd_des, i, v_des_i, Fp, Fn):
@@ -214,8 +219,9 @@ def solve_cycle(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, p
         (kernels/drive.py ``effort_box``); both inf = no limit (HYBRID: the joint is fixed to
         the program; PAPER: not clamped); both 0 = no drive.
     Fpos, Fneg : (n,) Coulomb friction magnitudes >= 0 against positive / negative motion.
-    how : ``solve_mode(mode, n)``: the mode (PAPER or HYBRID) and the way H_FF's factor is
-        kept (``Refactor`` or ``Update``; the same solution up to rounding).
+    how : ``solve_mode(mode, n, parents=...)``: the mode (PAPER or HYBRID) and the way H_FF's
+        factor is kept (``Refactor``, ``Update`` or a tree's ``TreeRefactor``; the same
+        solution up to rounding).
     v, qdd, tau, phi, tau_req : (n,) out: new velocity (exactly 0 for a stuck joint, exactly
         v_des_i for a joint on program), acceleration (v - qd) / dt, drive effort, Coulomb
         friction, the program's requirement (joint side; tau - phi = H_a qdd + u'_a).
@@ -247,42 +253,56 @@ def active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, ph
     """Steps 1-4 the way ``how`` names (arguments as :func:`solve_cycle`; tau_req filled). In
     compiled code its overload (below) compiles that way alone; this body serves Python
     (NUMBA_DISABLE_JIT)."""
+    tree = isinstance(how, TreeRefactor)
     return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau, phi,
-                       tau_req, sat, stuck, ws, True if isinstance(how, Update) else None)
+                       tau_req, sat, stuck, ws, True if isinstance(how, Update) else None,
+                       how.parent if tree else None, how.subend if tree else None)
 
 
 @overload(active_set, inline="always")
 def _active_set_of(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
                    sat, stuck, ws):
-    """The way of ``how``'s type, chosen while typing: the update path is compiled only for a
-    robot that takes it."""
+    """The way of ``how``'s type, chosen while typing: the update path and the tree's path are
+    compiled only for a robot that takes them."""
     kind = getattr(how, "instance_class", None)
-    if kind is not Update and kind is not Refactor:
+    if kind not in (Update, Refactor, TreeRefactor):
         return None  # not a solve mode: a typing error
     # True or None, not True or False: Numba prunes a branch on an argument's None-ness while
     # compiling (``update is None``), not on a literal bool's value, so a robot on the
     # refactorising way compiles no factor update (a fresh demo: about 3 s; docs/performance.md)
     update = True if kind is Update else None
 
+    if kind is TreeRefactor:
+        def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req,
+                 sat, stuck, ws):
+            return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd,
+                               tau, phi, tau_req, sat, stuck, ws, None, how.parent,
+                               how.subend)
+        return impl
+
     def impl(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how, v, qdd, tau, phi, tau_req, sat,
              stuck, ws):
         return _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, how.mode, v, qdd, tau,
-                           phi, tau_req, sat, stuck, ws, update)
+                           phi, tau_req, sat, stuck, ws, update, None, None)
     return impl
 
 
 @nb.njit(**JIT)
 def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, phi, tau_req,
-                sat, stuck, ws, update):
+                sat, stuck, ws, update, lam, nu):
     """Steps 1-4 of the module docstring (arguments as :func:`solve_cycle`, ``mode`` PAPER or
     HYBRID; tau_req filled). ``update``: True on the update way, None on the refactorising
-    one (compiled out: ``_active_set_of``). With ``update``, idx[:m] lists the free joints in
+    ones (compiled out: ``_active_set_of``). With ``update``, idx[:m] lists the free joints in
     the order of their factor Lc (L L^T = H_FF, kernels/solve.py ``factor_append``), kept in
     step with the patterns: a joint is appended where it is released, removed where it is
-    held."""
+    held. On a tree (``lam`` λ, ``nu`` the subtrees' ends; both None otherwise: Numba then drops
+    every branch on ``lam is not None``), H_FF = L^T L in the order of λ_F (module docstring,
+    'Trees')."""
     n = qd.shape[0]
     hybrid = mode == HYBRID
     Hs, Lc, rhs, x, vstar, tauc, bp, sl, pat, nbp, idx, tabu = drive_solve_buffers(ws, n)
+    if lam is not None:
+        near, lam_f = tree_solve_buffers(ws, n)
 
     # 1. breakpoints, slopes and the start point
     max_iter = 1
@@ -300,10 +320,17 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         max_iter = min(max_iter * (2 * nbp[i] + 1), 1 << 40)
     max_iter *= n + 1  # the exact-arithmetic bound (module docstring)
     m = 0  # number of free joints
-    qw = Hs[0]  # update: qdd on the held joints, 0 on the free ones (H_FW qdd_W = (H_a qw)_F)
-    if update is not None:  # the start's free joints in index order: the Cholesky of H_FF by rows
+    if update is not None:  # the start's free joints in index order: H_FF's Cholesky by rows
+        # g = H_a qw, qw: qdd on the held joints, 0 on the free ones (H_FW qdd_W = g_F), and
+        # |H_a| |qw|, kept as joints are held and released; made afresh once there have been
+        # more such moves since than joints held (rounding; O(n) a move on average)
+        g, gabs = update_buffers(ws, n)
+        moves = held_product(Ha, qdd, pat, g, gabs)
+        # y = L^-1 rhs, its rows [:solved] current: a release appends one row and moves the
+        # others by its qdd times the new row of L (the held part of rhs loses that column);
+        # a hold, and g made afresh, start it over
+        y, solved = Hs[0], 0
         for i in range(n):
-            qw[i] = qdd[i] if pat[i] % 2 == 1 else 0.0
             if pat[i] % 2 == 0:
                 if not factor_append(Ha, Lc, idx, m, i):
                     return i
@@ -313,7 +340,12 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
     # and its pattern before
     for _ in range(max_iter):
         # 2. Eq. 44 for the free joints: H_FF qdd_F = -(u'_a + sigma)_F - H_FW qdd_W
-        if update is None:  # idx[:m]: the free joints in index order
+        if update is not None:
+            if moves > n - m:
+                moves = solved = held_product(Ha, qdd, pat, g, gabs)
+        if lam is not None:  # idx[:m] in index order and their parent array λ_F (positions)
+            m = free_forest(lam, pat, idx, near, lam_f)
+        elif update is None:  # idx[:m]: the free joints in index order
             m = 0
             for i in range(n):
                 if pat[i] % 2 == 0:
@@ -323,7 +355,13 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             i = idx[a]
             r = -ua[i] - sl[pat[i] // 2, i]
             if update is not None:
-                r -= dot(Ha[i], qw, n)
+                r -= g[i]
+            elif lam is not None:
+                r -= held_row(Ha, qdd, pat, i, lam, nu)
+                c = a
+                while c >= 0:  # the entries of H_FF that L^T L holds: c on a's path in λ_F
+                    Lc[a, c] = Ha[i, idx[c]]
+                    c = lam_f[c]
             else:
                 for j in range(n):
                     if pat[j] % 2 == 1:
@@ -332,9 +370,18 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                     Hs[a, c] = Ha[i, idx[c]]
             rhs[a] = r
         if update is not None:
-            factor_solve(Lc, m, rhs, x)
+            factor_forward(Lc, solved, m, rhs, y)
+            solved = m
+            for a in range(m):
+                x[a] = y[a]
+            factor_backward(Lc, m, x)
         elif m > 0:
-            status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
+            if lam is not None:
+                status = ltl_factor(lam_f[:m], Lc[:m, :m])
+                if status == OK:
+                    ltl_substitute(lam_f[:m], Lc[:m, :m], rhs[:m], x[:m])
+            else:
+                status = cholesky_solve(Hs[:m, :m], rhs[:m], Lc[:m, :m], x[:m])
             if status != OK:
                 return idx[status]
         for a in range(m):
@@ -345,7 +392,10 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             tabu[released] = 1
             released = -1
             if update is not None:
-                m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
+                moves += m
+                m = drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
+                moves -= m
+                solved = 0
         else:
             # 3. step towards v*; the first free joint to reach a breakpoint blocks it
             alpha, block = 1.0, -1
@@ -376,7 +426,10 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
                 qdd[i] = (v[i] - qd[i]) / dt
                 held_new = True
             if update is not None and held_new:
-                m = _drop_held(Lc, idx, m, pat, qdd, qw, rhs, x)
+                moves += m
+                m = drop_held(Ha, Lc, idx, m, pat, qdd, g, gabs, rhs, x)
+                moves -= m
+                solved = 0
             if released >= 0:
                 if pat[released] == pat_from:  # back on its breakpoint at once: rounding
                     tabu[released] = 1
@@ -392,7 +445,13 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
             if pat[i] % 2 == 0 or tabu[i] == 1:
                 continue
             k = pat[i] // 2
-            h, scale = _residual(Ha, ua, qdd, i, update)
+            if lam is not None:
+                h, scale = tree_residual(Ha, ua, qdd, i, lam, nu)
+            elif update is not None:  # H_a qdd = g + the free joints' columns
+                h, scale = free_residual(Ha[i], qdd, idx, m)
+                h, scale = h + ua[i] + g[i], scale + abs(ua[i]) + abs(gabs[i])
+            else:
+                h, scale = _residual(Ha, ua, qdd, i)
             lo, hi = sl[k, i], sl[k + 1, i]
             scale += (abs(lo) if lo > -math.inf else 0.0) + (abs(hi) if hi < math.inf else 0.0)
             if -h > hi + MULT_TOL * scale:
@@ -413,46 +472,24 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         if update is not None:
             if not factor_append(Ha, Lc, idx, m, worst):
                 return worst
+            for a in range(m):  # y += qdd_worst L^-1 H_a[F, worst], the new row's l
+                y[a] += qdd[worst] * Lc[m, a]
             m += 1
-            qw[worst] = 0.0
+            shift_held(Ha[worst], -qdd[worst], g, gabs)
+            moves += 1
     return CYCLE_LIMIT
 
 
 @nb.njit(**INLINE)
-def _drop_held(L, idx, m, pat, qdd, qw, c, s):
-    """Remove the joints held since the last step from the updated factor (positions from the
-    last, so that those before stay put) and give them their held qdd in qw; c, s (n,) scratch
-    for the rotations. Returns the new number of free joints."""
-    for a in range(m - 1, -1, -1):
-        i = idx[a]
-        if pat[i] % 2 == 1:
-            factor_remove(L, idx, m, a, c, s)
-            m -= 1
-            qw[i] = qdd[i]
-    return m
-
-
-@nb.njit(**INLINE)
-def _residual(Ha, ua, qdd, i, update):
-    """h_i = (H_a qdd + u'_a)_i and its scale |u'_a,i| + sum_j |H_a,ij qdd_j| (step 4). The
-    update path (``update`` True) sums in four partial sums (kernels/solve.py ``dot``), the
-    other (None) in index order as before it."""
-    n = qdd.shape[0]
-    row = Ha[i]
-    h = h1 = h2 = h3 = 0.0
-    a0 = a1 = a2 = a3 = 0.0
-    n4 = n - n % 4 if update is not None else 0
-    for j in range(0, n4, 4):
-        t0, t1, t2, t3 = row[j] * qdd[j], row[j + 1] * qdd[j + 1], row[j + 2] * qdd[j + 2], \
-            row[j + 3] * qdd[j + 3]
-        h, h1, h2, h3 = h + t0, h1 + t1, h2 + t2, h3 + t3
-        a0, a1, a2, a3 = a0 + abs(t0), a1 + abs(t1), a2 + abs(t2), a3 + abs(t3)
-    h, scale = ua[i] + h, abs(ua[i]) + a0
-    for j in range(n4, n):
-        t = row[j] * qdd[j]
+def _residual(Ha, ua, qdd, i):
+    """h_i = (H_a qdd + u'_a)_i and its scale |u'_a,i| + sum_j |H_a,ij qdd_j| (step 4), summed
+    in index order (the refactorising paths)."""
+    h, scale = ua[i], abs(ua[i])
+    for j in range(qdd.shape[0]):
+        t = Ha[i, j] * qdd[j]
         h += t
         scale += abs(t)
-    return h + ((h1 + h2) + h3), scale + ((a1 + a2) + a3)
+    return h, scale
 
 
 @nb.njit(**INLINE)

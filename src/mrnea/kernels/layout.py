@@ -65,6 +65,8 @@ holds because every kernel writes a slot before it reads it::
     solve_buffers     H, L = S[:2n]; u', rhs = S[2n:2n + 2]         forward dynamics
     achievable_buffers  H_a = S[:n]; S[3n:3n + 6], S[3n + 15]      one cycle's problem
     drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
+    tree_solve_buffers   I[4:6]                                      on a tree's free joints
+    update_buffers       S[3n + 16:3n + 18]                          with its factor updated
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
 scratch, the largest an entry needs); a batch kernel takes a stack of them, one per thread
@@ -240,7 +242,7 @@ BATCH_PAD = 8  # unused rows after each thread's scratch in a batch stack (``new
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
-        return 3 * n + 16, 4
+        return 3 * n + 18, 6
     if kind == SOLVE:
         return 2 * n + 2, 0
     return 1, 0  # POSE: S[0], the reactions' efforts
@@ -386,6 +388,25 @@ def drive_solve_buffers(ws, n):
     v0 = 3 * n + 6
     return (S[n:2 * n], S[2 * n:3 * n], S[v0], S[v0 + 1], S[v0 + 2], S[v0 + 3],
             S[v0 + 4:v0 + 6], S[v0 + 6:v0 + 9], ints[0], ints[1], ints[2], ints[3])
+
+
+@nb.njit(**INTO_CALLER)
+def tree_solve_buffers(ws, n):
+    """The exact cycle solve on a tree (kernels/drive_solve.py, ``TreeRefactor``): the (n,) int
+    rows near (by joint: the position among the free joints of its nearest free
+    ancestor-or-self, -1 for none) and lam_F (by position: the free joints' parent array λ_F,
+    docs/notation.md)."""
+    ints = ws[3]
+    return ints[4], ints[5]
+
+
+@nb.njit(**INTO_CALLER)
+def update_buffers(ws, n):
+    """The exact cycle solve with H_FF's factor updated (kernels/drive_solve.py, ``Update``):
+    the (n,) rows g = H_a qw and |H_a| |qw| (qw: qdd on the held joints, 0 on the free ones),
+    kept as joints are held and released."""
+    S = ws[2]
+    return S[3 * n + 16], S[3 * n + 17]
 
 
 @nb.njit(**ALLOC)

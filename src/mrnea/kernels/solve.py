@@ -23,7 +23,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite
-from mrnea.kernels.layout import INTO_CALLER, JIT, TREE, parent
+from mrnea.kernels.layout import INTO_CALLER, JIT, PARENT, TREE
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
 PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
@@ -68,53 +68,78 @@ def ltl_solve(model, H, rhs, L, x):
     """x = H^-1 rhs via H = L^T L in the tree's order (module docstring); returns OK or the
     index of the failing pivot (as :func:`cholesky_solve`, the pivots taken tip to base).
 
-    Featherstone's LTL factorisation and its two back-substitutions (RBDA Tables 6.3, 6.4):
-    every inner loop walks the parent array λ from a joint towards the base. ``L``'s entries
+    Featherstone's LTL factorisation and its two back-substitutions (RBDA Tables 6.3, 6.4) on
+    the model's parent array λ (:func:`ltl_factor`, :func:`ltl_substitute`). ``L``'s entries
     L_ik, k in κ(i) ∪ {i}, hold the factor (its diagonal the reciprocal pivots); the others
     are not read or written. H and rhs are not modified.
     """
+    lam = model[1:, PARENT]
     n = H.shape[0]
-    dmax = 0.0
     for i in range(n):
-        dmax = max(dmax, H[i, i])
         k = i
         while k >= 0:  # H's entries that the factor can hold: k carries i
             L[i, k] = H[i, k]
-            k = parent(model, k)
+            k = int(lam[k])
+    status = ltl_factor(lam, L)
+    if status == OK:
+        ltl_substitute(lam, L, rhs, x)
+    return status
+
+
+@nb.njit(**JIT)
+def ltl_factor(lam, L):
+    """Factor H = L^T L in place, in the order of the parent array ``lam`` (m,) (lam[k] < k,
+    -1 for a root; integers, or exact floats as the model's PARENT column): on entry L (m, m)
+    holds H_ik for every k on i's path to its root (k = i, lam[i], lam[lam[i]], ...), on exit
+    the factor there (its diagonal the reciprocal pivots); no other entry is read or written.
+    Returns OK or the index of the first pivot (tip to base) not above PIVOT_TOL times the
+    largest diagonal entry of H. Used by :func:`ltl_solve` (a tree's forward dynamics) and by
+    the drive solve on a tree's free joints (kernels/drive_solve.py, docs/notation.md λ_F)."""
+    m = L.shape[0]
+    dmax = 0.0
+    for i in range(m):
+        dmax = max(dmax, L[i, i])
     tol = PIVOT_TOL * dmax
-    for k in range(n - 1, -1, -1):
+    for k in range(m - 1, -1, -1):
         s = L[k, k]
         if not s > tol:  # also catches NaN
             return k
         inv = 1.0 / np.sqrt(s)
         L[k, k] = inv
-        i = parent(model, k)
+        i = int(lam[k])
         while i >= 0:  # row k of L: L_ki = H_ki / L_kk
             L[k, i] *= inv
-            i = parent(model, i)
-        i = parent(model, k)
+            i = int(lam[i])
+        i = int(lam[k])
         while i >= 0:  # H_ij -= L_ki L_kj for i, j in κ(k), j carrying i
             a = L[k, i]
             j = i
             while j >= 0:
                 L[i, j] -= a * L[k, j]
-                j = parent(model, j)
-            i = parent(model, i)
-    for i in range(n):
+                j = int(lam[j])
+            i = int(lam[i])
+    return OK
+
+
+@nb.njit(**JIT)
+def ltl_substitute(lam, L, rhs, x):
+    """x (m,) = (L^T L)^-1 rhs for a factor made by :func:`ltl_factor` on the parent array
+    ``lam``: L^T y = rhs tip to base, then L x = y base to tip."""
+    m = L.shape[0]
+    for i in range(m):
         x[i] = rhs[i]
-    for i in range(n - 1, -1, -1):  # L^T y = rhs, tip to base
+    for i in range(m - 1, -1, -1):  # L^T y = rhs, tip to base
         x[i] *= L[i, i]
-        j = parent(model, i)
+        j = int(lam[i])
         while j >= 0:
             x[j] -= L[i, j] * x[i]
-            j = parent(model, j)
-    for i in range(n):  # L x = y, base to tip
-        j = parent(model, i)
+            j = int(lam[j])
+    for i in range(m):  # L x = y, base to tip
+        j = int(lam[i])
         while j >= 0:
             x[i] -= L[i, j] * x[j]
-            j = parent(model, j)
+            j = int(lam[j])
         x[i] *= L[i, i]
-    return OK
 
 
 @nb.njit(**INTO_CALLER)
@@ -207,9 +232,24 @@ def factor_remove(L, idx, m, p, c, s):
 @nb.njit(**JIT)
 def factor_solve(L, m, rhs, x):
     """x (m,) = (L L^T)^-1 rhs for the updated factor L (m, m): two triangular solves."""
-    for a in range(m):  # L y = rhs
-        x[a] = (rhs[a] - dot(L[a], x, a)) / L[a, a]
-    for a in range(m - 1, -1, -1):  # L^T x = y, column a of L^T being row a of L
+    factor_forward(L, 0, m, rhs, x)
+    factor_backward(L, m, x)
+
+
+@nb.njit(**JIT)
+def factor_forward(L, start, m, rhs, y):
+    """Rows start .. m - 1 of L y = rhs (forward substitution), y[:start] already solved:
+    after ``factor_append`` only the new last row is left when the others' right-hand side
+    has not changed (or changed by a known multiple of the appended row's l, added to y by
+    the caller: kernels/drive_solve.py)."""
+    for a in range(start, m):
+        y[a] = (rhs[a] - dot(L[a], y, a)) / L[a, a]
+
+
+@nb.njit(**JIT)
+def factor_backward(L, m, x):
+    """x (m,) = L^-T x in place (back substitution; column a of L^T being row a of L)."""
+    for a in range(m - 1, -1, -1):
         x[a] /= L[a, a]
         for k in range(a):
             x[k] -= L[a, k] * x[a]
