@@ -69,10 +69,10 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.delenv("MRNEA_AHEAD", raising=False)
     monkeypatch.setattr(ahead, "_cold", lambda: True)
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
-    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.4, 0.5, 0.5))
+    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))
     assert ahead.start((-1, 0, 1, 2), False, True) is not None
     assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1"]
-    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))  # no core idle
+    monkeypatch.setattr(ahead.os, "getloadavg", lambda: (2.1, 0.5, 0.5))  # saturated
     assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
     assert ahead.start((-1, 0, 1, 2), True, False) is not None

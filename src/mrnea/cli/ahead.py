@@ -19,10 +19,11 @@ them.
 
 It starts only where it can gain: the JIT on, a cold cache (no cache index of the simulation
 loop yet: a warm run loads everything in about a second and starts nothing), and a core to
-spare: at least two CPUs for this process and a load average (last minute) below their number
-less one. On a busy machine the second process only competes with the command for a core: a
-fresh demo on the shared 2-core machine at load 5-6 took 74-90 s of wall with it against
-62 s without (docs/performance.md). ``MRNEA_AHEAD=0`` in the environment turns it off,
+spare: at least two CPUs for this process and a load average (last minute) below their number.
+On the 2-core machine at load 0.9-1.2 (the previous run's), a fresh demo took 18.4-19.1 s of
+wall with it against 28.9-30.9 s without; on a saturated machine it only competes with the
+command for a core: at load 5-6 it took 74-90 s of wall with it against 62 s without
+(docs/performance.md). ``MRNEA_AHEAD=0`` in the environment turns it off,
 ``MRNEA_AHEAD=1`` on whatever the load (on a cold cache; benchmarks/first_run.py ``--no-ahead``,
 ``--ahead``). The second process is ended when the command exits
 (:func:`start` registers it), whatever it has left; its output is discarded.
@@ -39,7 +40,7 @@ from collections.abc import Sequence
 
 def _spare_core() -> bool:
     """At least two CPUs for this process, and the last minute's load average below their
-    number less one (a core idle)."""
+    number (the machine not saturated)."""
     try:
         cpus = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -48,7 +49,7 @@ def _spare_core() -> bool:
         load = os.getloadavg()[0]
     except OSError:  # not available: do not guess
         return False
-    return cpus >= 2 and load < cpus - 1
+    return cpus >= 2 and load < cpus
 
 
 def _cold() -> bool:
