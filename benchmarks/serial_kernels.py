@@ -1,7 +1,7 @@
 """The compiled mRNEA kernels of several checkouts, interleaved in one process: per call [ns]
 of forward dynamics (``fd_mrnea``: the pass and the solve), of the pass alone (``mrnea``: H and
-u') and of the Cholesky solve, on the Puma 560, the SDT and the UR5 (where example-robot-data
-is installed).
+u'), of the Cholesky solve and of inverse dynamics (``rnea``), on the Puma 560, the SDT and the
+UR5 (where example-robot-data is installed).
 
 Each checkout's ``src/mrnea`` is copied into a temporary folder as a package of its own
 (``mrnea_v0``, ``mrnea_v1``, ...: the imports renamed), so that every version runs in the same
@@ -45,9 +45,9 @@ def copy_package(src: Path, dest: Path, name: str) -> None:
         f.write_text(text)
 
 
-def loops(K, S):
-    """Compiled loops of N calls of one version's fd_mrnea, mrnea and cholesky_solve."""
-    fd, hb, chol = K.fd_mrnea, K.mrnea, S.cholesky_solve
+def loops(K, S, ID):
+    """Compiled loops of N calls of one version's fd_mrnea, mrnea, cholesky_solve and rnea."""
+    fd, hb, chol, rnea = K.fd_mrnea, K.mrnea, S.cholesky_solve, ID.rnea
 
     @nb.njit
     def loop_fd(m, q, qd, tau, out, ws, N):
@@ -69,7 +69,14 @@ def loops(K, S):
         for _ in range(N):
             s += chol(H, rhs, L, x)
         return s
-    return loop_fd, loop_hb, loop_chol
+
+    @nb.njit
+    def loop_id(m, q, qd, qdd, tau, ws, N):
+        s = 0
+        for _ in range(N):
+            s += rnea(m, q, qd, qdd, None, None, tau, ws)
+        return s
+    return loop_fd, loop_hb, loop_chol, loop_id
 
 
 def calls_of(pkg: str, urdf: Path | None) -> dict:
@@ -79,7 +86,8 @@ def calls_of(pkg: str, urdf: Path | None) -> dict:
     K = importlib.import_module(pkg + ".kernels.mrnea")
     S = importlib.import_module(pkg + ".kernels.solve")
     lay = importlib.import_module(pkg + ".kernels.layout")
-    loop_fd, loop_hb, loop_chol = loops(K, S)
+    ID = importlib.import_module(pkg + ".kernels.rnea")
+    loop_fd, loop_hb, loop_chol, loop_id = loops(K, S, ID)
     out = {}
     chains = {"puma": robots.puma560(), "sdt": robots.sdt()}
     if urdf is not None:
@@ -87,12 +95,13 @@ def calls_of(pkg: str, urdf: Path | None) -> dict:
     for name, r in chains.items():
         q, qd, tau = (np.random.default_rng(0).standard_normal((3, r.n)))
         m, ws, n = lay.compile_model(r), lay.entry_scratch(r.n), r.n
-        qdd, H, u = np.empty(n), np.empty((n, n)), np.empty(n)
+        qdd, H, u, tau_id = np.empty(n), np.empty((n, n)), np.empty(n), np.empty(n)
         assert K.mrnea(m, q, qd, None, None, H, u, ws) == -1  # OK
         H0, L, x = H.copy(), np.empty((n, n)), np.empty(n)
         out[name, "fd_mrnea"] = lambda a=(m, q, qd, tau, qdd, ws): loop_fd(*a, 1000)
         out[name, "mrnea"] = lambda a=(m, q, qd, H, u, ws): loop_hb(*a, 1000)
         out[name, "cholesky"] = lambda a=(H0, tau, L, x): loop_chol(*a, 1000)
+        out[name, "rnea"] = lambda a=(m, q, qd, tau, tau_id, ws): loop_id(*a, 1000)
     return out
 
 

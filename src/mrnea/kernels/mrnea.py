@@ -64,6 +64,7 @@ from mrnea.kernels.layout import (
     DEPTH,
     ENTRY,
     INLINE,
+    INTO_CALLER,
     JIT,
     MASS,
     NOCOM,
@@ -134,19 +135,22 @@ def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     A serial chain (the model's TREE flag 0) runs :func:`mrnea_pass` compiled for ``tree=None``:
     Numba drops the tree's branches from that copy, so a chain runs the operations of the
     pass before trees, at its speed (the branches left in, never taken, cost a chain 14-19 %
-    of the pass: docs/performance.md section 14).
+    of the pass: docs/performance.md section 14). That copy is compiled into this function
+    (``chain_pass``): a call of its own passed every array argument as a dozen scalars, about
+    80 a state, 2-4 % of a chain's pass (docs/performance.md section 16). A tree's copy
+    (``tree_pass``) stays a call of its own, so that this function's compile does not grow by
+    a second inlined copy.
     """
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     if model[0, TREE]:
-        return mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, True)
-    return mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, None)
+        return tree_pass(model, q, qd, fext, pe, H, u, full, ws, True)
+    return chain_pass(model, q, qd, fext, pe, H, u, full, ws, None)
 
 
-@nb.njit(**JIT)
 def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
     """The pass of :func:`mrnea_ws` on finite inputs; ``tree``: None on a serial chain (the
-    tree's branches compiled out), True on a tree."""
+    tree's branches compiled out), True on a tree. Compiled twice below, never called as is."""
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic, tree)
@@ -159,7 +163,10 @@ def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
 
     # forward pass: the velocity terms e_i (Eq. 13) and d_i (Eq. 17) are the link forces and
     # moments of the RNEA's forward pass with qdd = 0 (Eqs. 5 and 9 without their qdd sums)
-    link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws, tree)
+    if tree is None:
+        link_forces(model, o, z, c, Ic, qd, None, g, e, d, None)
+    else:
+        link_forces(model, o, z, c, Ic, qd, None, g, e, d, ws)
     fold_wrenches(R, o, c, fext, pe, e, d)  # a wrench per link, if given (kernels/common.py)
     # a tree's later children put their sums aside here (docs/notation.md, Trees)
     Sc, Sn = stash_buffers(ws, n)
@@ -263,6 +270,10 @@ def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
                         put(M, k, add(vec(M, k), cross(r, vec(E, k))))
             E_c, n_c = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     return OK if finite(H) and finite(u) else OVERFLOW
+
+
+chain_pass = nb.njit(**INTO_CALLER)(mrnea_pass)  # a chain's copy, compiled into mrnea_ws
+tree_pass = nb.njit(**JIT)(mrnea_pass)  # a tree's, a call of its own
 
 
 @nb.njit(**ENTRY)

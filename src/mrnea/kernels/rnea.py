@@ -50,6 +50,7 @@ from mrnea.kernels.layout import (
     PARALLEL,
     ROT,
     SUBEND,
+    TREE,
     branch_buffers,
     effort_buffer,
     force_buffers,
@@ -63,7 +64,7 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
-def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree):
+def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws):
     """Forward pass, base to tip: each link's total force F (Eq. 6) and moment N about its
     centre of mass (Eq. 7), given the kinematics of this state; fills F, N (n, 3).
 
@@ -71,22 +72,26 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree):
     that case without the qdd terms. On a tree, the parent's w, wd, a_o are carried from the
     previous link when λ(i) = i - 1, else read back from the scratch ``ws``'s
     ``branch_buffers``, where each link with a second child keeps them (docs/notation.md).
-    ``tree=None`` compiles a serial chain's copy, without those branches (kernels/mrnea.py
-    ``mrnea_ws``); ``tree=True`` runs any tree (passed by every caller, as ``kinematics``'s).
+    ``ws=None`` compiles a serial chain's copy, without those branches and without the scratch
+    among its arguments (kernels/mrnea.py ``mrnea_ws``): every array argument is passed as
+    about a dozen scalars, and the scratch's four cost a chain's pass a few per cent
+    (docs/performance.md, section 16).
     """
     n = qd.shape[0]
-    Wb, WDb, Ab = branch_buffers(ws, n)
     w = (0.0, 0.0, 0.0)  # angular velocity of the parent link
     wd = (0.0, 0.0, 0.0)  # its angular acceleration
     a_o = (0.0, 0.0, 0.0)  # linear acceleration of the parent's origin
     for i in range(n):
         zi, oi = vec(z, i), vec(o, i)
-        p = i - 1 if tree is None else parent(model, i)
-        if p != i - 1:  # a later child: its parent's values (the base's: zero)
-            if p >= 0:
-                w, wd, a_o = vec(Wb, p), vec(WDb, p), vec(Ab, p)
-            else:
-                w, wd, a_o = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        p = i - 1
+        if ws is not None:
+            p = parent(model, i)
+            if p != i - 1:  # a later child: its parent's values (the base's: zero)
+                if p >= 0:
+                    Wb, WDb, Ab = branch_buffers(ws, n)
+                    w, wd, a_o = vec(Wb, p), vec(WDb, p), vec(Ab, p)
+                else:
+                    w, wd, a_o = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         if not model[i + 1, NOPOS]:  # p*: from the parent's origin to o_i (zero: skipped)
             p_star = sub(oi, vec(o, p)) if p >= 0 else oi
             # acceleration of the point of the parent coinciding with o_i
@@ -100,10 +105,12 @@ def link_forces(model, o, z, c, Ic, qd, qdd, g, F, N, ws, tree):
             if qdd is not None:
                 wd = add(wd, scale(zi, qdd[i]))
             w = add(w, scale(zi, qd[i]))
-        if tree is not None and model[i + 1, BRANCH]:  # kept for the later children
-            put(Wb, i, w)
-            put(WDb, i, wd)
-            put(Ab, i, a_o)
+        if ws is not None:
+            if model[i + 1, BRANCH]:  # kept for the later children
+                Wb, WDb, Ab = branch_buffers(ws, n)
+                put(Wb, i, w)
+                put(WDb, i, wd)
+                put(Ab, i, a_o)
         # Eq. 4: acceleration of the centre of mass
         a_cm = a_o
         if not model[i + 1, NOCOM]:
@@ -122,12 +129,16 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     backward pass reads once, tip to base, before it writes the joint force and moment there.
     On a tree (docs/notation.md, Trees) the first child's f, n are carried as on a chain, a
     later child's are moved to its parent's point and stashed (``ws``'s ``stash_buffers``)
-    until the parent's step adds them (Eqs. 18-19 summed over the children).
+    until the parent's step adds them (Eqs. 18-19 summed over the children). ``ws=None``
+    compiles a serial chain's copy, without the tree's branches and without the scratch among
+    its arguments (as ``link_forces``'s; :func:`rnea_ws` chooses by the model's TREE flag); any
+    scratch runs any tree.
     """
     n = qd.shape[0]
-    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws, True)
+    link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws)
+    if ws is not None:
+        Sf, Sn = stash_buffers(ws, n)
     fold_wrenches(R, o, c, fext, pe, f, nm)  # a wrench per link, if given (kernels/common.py)
-    Sf, Sn = stash_buffers(ws, n)
 
     # backward pass: forces and moments, tip to base
     # f_{n+1} = f_e, n_{n+1} = n_e (Eqs. 10-11), acting at p_next
@@ -141,26 +152,29 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
             ni = add(ni, cross(sub(vec(c, i), oi), Fi))
         # p*_i x f_{i+1} with the first child i + 1 (p*_i = 0 where o_{i+1} = o_i); at the
         # last link, the wrench's point
-        if i == n - 1 or (parent(model, i + 1) == i and not model[i + 2, NOPOS]):
+        if i == n - 1 or ((ws is None or parent(model, i + 1) == i)
+                          and not model[i + 2, NOPOS]):
             ni = add(ni, cross(sub(p_next, oi), f_next))
-        if model[i + 1, BRANCH]:  # the later children's, stashed at o_i
-            fi, ni = add(fi, vec(Sf, i)), add(ni, vec(Sn, i))
+        if ws is not None:
+            if model[i + 1, BRANCH]:  # the later children's, stashed at o_i
+                fi, ni = add(fi, vec(Sf, i)), add(ni, vec(Sn, i))
         put(f, i, fi)
         put(nm, i, ni)
         # Eq. 33: projection on the axis of motion (force for a prismatic joint)
         tau[i] = dot(vec(z, i), fi if is_prismatic(model, i) else ni)
         f_next, n_next, p_next = fi, ni, oi
-        b = parent(model, i)
-        if b != i - 1:  # a later child: to its parent's stash, moved to o_b; then a leaf next
-            if b >= 0:
-                n_b = add(ni, cross(sub(oi, vec(o, b)), fi))
-                if model[i + 1, SUBEND] == model[b + 1, SUBEND]:  # b's last child: opens it
-                    put(Sf, b, fi)
-                    put(Sn, b, n_b)
-                else:
-                    put(Sf, b, add(vec(Sf, b), fi))
-                    put(Sn, b, add(vec(Sn, b), n_b))
-            f_next, n_next = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        if ws is not None:
+            b = parent(model, i)
+            if b != i - 1:  # a later child: to its parent's stash, moved to o_b; then a leaf
+                if b >= 0:
+                    n_b = add(ni, cross(sub(oi, vec(o, b)), fi))
+                    if model[i + 1, SUBEND] == model[b + 1, SUBEND]:  # b's last child: opens
+                        put(Sf, b, fi)
+                        put(Sn, b, n_b)
+                    else:
+                        put(Sf, b, add(vec(Sf, b), fi))
+                        put(Sn, b, add(vec(Sn, b), n_b))
+                f_next, n_next = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
 
 
 @nb.njit(**JIT)
@@ -169,15 +183,23 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     (n, 3) (module docstring). Returns OK, or NONFINITE if an input holds NaN or inf.
     ``pose_ready``: the scratch's pose buffers already hold the kinematics of this q (the
     simulation loop, after an mRNEA pass on the same state), so they are not computed again.
+    A serial chain (the model's TREE flag 0) runs the chain's copies of the kinematics and of
+    :func:`newton_euler`, without the tree's branches (as ``mrnea_ws``: docs/performance.md
+    section 16).
     """
     f, nm = force_buffers(ws, q.shape[0])
     if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, q.shape[0])
-    if not pose_ready:
-        kinematics(model, q, R, o, z, c, Ic, True)
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws)
+    if model[0, TREE]:
+        if not pose_ready:
+            kinematics(model, q, R, o, z, c, Ic, True)
+        newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws)
+    else:
+        if not pose_ready:
+            kinematics(model, q, R, o, z, c, Ic, None)
+        newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, None)
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 
