@@ -36,6 +36,7 @@ from mrnea.kernels.layout import (
     JIT,
     MASS,
     PARALLEL,
+    TREE,
     is_prismatic,
     own_scratch,
     parent,
@@ -103,7 +104,10 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic, True)
+    if model[0, TREE]:
+        kinematics(model, q, R, o, z, c, Ic, True)
+    else:  # a chain's copy, without the parent look-ups (as rnea_ws)
+        kinematics(model, q, R, o, z, c, Ic, None)
     S = np.zeros((n, 6))
     v = np.zeros((n, 6))
     cb = np.zeros((n, 6))  # velocity-product accelerations c_i = v_i x S_i qd_i

@@ -22,6 +22,7 @@ from mrnea.kernels.layout import (
     BRANCH,
     JIT,
     MASS,
+    TREE,
     carries,
     force_buffers,
     is_prismatic,
@@ -37,8 +38,12 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 def crba(model, q, H):
     """The mass matrix H (n, n) of one state."""
     R, o, z, c, Ic = pose_arrays(q.shape[0])
-    kinematics(model, q, R, o, z, c, Ic, True)
-    composite(model, o, z, c, Ic, H)
+    if model[0, TREE]:
+        kinematics(model, q, R, o, z, c, Ic, True)
+        composite(model, o, z, c, Ic, H, True)
+    else:  # a chain's copies, without the tree's branches (as rnea_ws)
+        kinematics(model, q, R, o, z, c, Ic, None)
+        composite(model, o, z, c, Ic, H, None)
 
 
 @nb.njit(**ALLOC)
@@ -49,11 +54,16 @@ def crba_bias(model, q, qd, fext, pe, H, u, ws):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic, True)
     f, nm = force_buffers(ws, n)  # the joint forces and moments, not needed here
     g = (model[0, 0], model[0, 1], model[0, 2])
-    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)
-    composite(model, o, z, c, Ic, H)
+    if model[0, TREE]:
+        kinematics(model, q, R, o, z, c, Ic, True)
+        newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)
+        composite(model, o, z, c, Ic, H, True)
+    else:  # a chain's copies, without the tree's branches (as rnea_ws)
+        kinematics(model, q, R, o, z, c, Ic, None)
+        newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, None)
+        composite(model, o, z, c, Ic, H, None)
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
@@ -77,29 +87,28 @@ def join(J, r, M1, h1, C1, J2, r2, M2, h2, C2):
 
 
 @nb.njit(**ALLOC)
-def composite(model, o, z, c, Ic, H):
+def composite(model, o, z, c, Ic, H, tree):
     """The composite-rigid-body recursion, given the kinematics of this state; fills H.
 
     The composite body of the first child (j + 1) is carried, as on a chain; on a tree a later
     child's is joined to its parent's stash (``Ms``, ``hs``, ``Js``, ``Cs``, by branch point)
     and joined to the parent's composite at its step (docs/notation.md, Trees). H_ij = 0 unless
-    one of i, j carries the other.
+    one of i, j carries the other. ``tree=None`` compiles a serial chain's copy, without the
+    stash and the parent look-ups (as ``kinematics``); ``tree=True`` runs any tree.
     """
     n = o.shape[0]
     Mc = 0.0  # composite mass
     hc = (0.0, 0.0, 0.0)  # composite first moment, sum m_k c_k
     Jc = np.zeros((1, 3, 3))  # composite inertia about the composite centre of mass
     Cc = (0.0, 0.0, 0.0)  # composite centre of mass
-    Ms = np.zeros(n)  # a tree's later children's composites, by parent
-    hs = np.zeros((n, 3))
-    Js = np.zeros((n, 3, 3))
-    Cs = np.zeros((n, 3))
+    if tree is not None:  # a tree's later children's composites, by parent
+        Ms, hs, Js, Cs = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros((n, 3))
     for j in range(n - 1, -1, -1):
         # add link j to the composite body (parallel-axis theorem about the new centre of mass)
         m = model[j + 1, MASS]
         cj = vec(c, j)
         Mc, hc, Cc = join(Jc, 0, Mc, hc, Cc, Ic, j, m, scale(cj, m), cj)
-        if model[j + 1, BRANCH]:  # the later children's, stashed
+        if tree is not None and model[j + 1, BRANCH]:  # the later children's, stashed
             Mc, hc, Cc = join(Jc, 0, Mc, hc, Cc, Js, j, Ms[j], vec(hs, j), vec(Cs, j))
 
         # force and moment (about C_j) that a unit acceleration of joint j needs
@@ -112,7 +121,7 @@ def composite(model, o, z, c, Ic, H):
             Nc = mv(Jc, 0, zj)
         for i in range(j + 1):
             h = 0.0  # unless joint i carries link j
-            if carries(model, i, j):
+            if tree is None or carries(model, i, j):
                 zi = vec(z, i)
                 if is_prismatic(model, i):
                     h = dot(zi, F)
@@ -120,6 +129,8 @@ def composite(model, o, z, c, Ic, H):
                     h = dot(zi, add(Nc, cross(sub(Cc, vec(o, i)), F)))
             H[i, j] = h
             H[j, i] = h
+        if tree is None:
+            continue
         b = parent(model, j)
         if b != j - 1:  # a later child: to its parent's stash; a leaf starts from nothing
             if b >= 0:
