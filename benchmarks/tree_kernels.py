@@ -17,33 +17,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numba as nb
 import numpy as np
-from serial_kernels import best_ns, copy_package
+from serial_kernels import best_ns, copy_package, loops
 from tree_fd import TREES, robots_dir
 
 
 def calls_of(pkg: str) -> dict:
     """Zero-argument calls (1000 kernel calls each) of one version, by call name."""
     M = importlib.import_module(pkg)
-    K = importlib.import_module(pkg + ".kernels.mrnea")
-    ID = importlib.import_module(pkg + ".kernels.rnea")
-    lay = importlib.import_module(pkg + ".kernels.layout")
-    hb, rnea = K.mrnea, ID.rnea
-
-    @nb.njit
-    def loop_hb(m, q, qd, H, u, ws, N):
-        s = 0
-        for _ in range(N):
-            s += hb(m, q, qd, None, None, H, u, ws)
-        return s
-
-    @nb.njit
-    def loop_id(m, q, qd, qdd, tau, ws, N):
-        s = 0
-        for _ in range(N):
-            s += rnea(m, q, qd, qdd, None, None, tau, ws)
-        return s
+    K, S, ID, lay = (importlib.import_module(pkg + mod) for mod in (
+        ".kernels.mrnea", ".kernels.solve", ".kernels.rnea", ".kernels.layout"))
+    _, loop_hb, _, loop_id = loops(K, S, ID)  # serial_kernels.py's compiled loops
 
     path, tips = TREES["baxter"]
     r = M.load_urdf(robots_dir() / path, tip=tips)

@@ -8,11 +8,12 @@ same terms of one joint; ``effort_limit(act, i, qd_i)`` (``effort_limits`` over 
 ``effort_box(act, i, qd_i)`` (the lower and upper effort limits of a cycle), ``side_limit`` (the
 one an effort meets) and ``motor_side`` (``motor_torques`` over a batch); the Coulomb friction
 law, ``coulomb`` (a moving joint), ``holding_friction`` (a joint held at rest) and
-``wanted_friction`` (a wanted motion). The actuator array ``act`` (n, NACT) as
-kernels/layout.py describes it: per joint, joint side, gear ratio G (motor turns per joint
-turn), rotor inertia J_m (motor side), viscous friction F_v, Coulomb friction F+ and F- (the
-magnitudes opposing positive and negative motion), the
-torque-speed curve, the joint limits and the gear efficiency eta (driving, back-driven).
+``wanted_friction`` (a wanted motion); a cycle's cost of each joint's velocity, piecewise linear
+(``joint_pieces``, ``start_piece``: the drive solve's, kernels/drive_solve.py). The actuator
+array ``act`` (n, NACT) as kernels/layout.py describes it: per joint, joint side, gear ratio G
+(motor turns per joint turn), rotor inertia J_m (motor side), viscous friction F_v, Coulomb
+friction F+ and F- (the magnitudes opposing positive and negative motion), the torque-speed
+curve, the joint limits and the gear efficiency eta (driving, back-driven).
 
 Actuator equation (Eqs. 42-43), joint side, on the rigid-body H and u' of one engine
 (kernels/engines.py)::
@@ -63,6 +64,8 @@ amount (1e-12 relative and more) is not.
 """
 
 from __future__ import annotations
+
+import math
 
 import numba as nb
 import numpy as np
@@ -206,6 +209,52 @@ def wanted_friction(h, v_des, Fp, Fn):
     friction sharing the effort h = (H_a qdd_des + u'_a)_i: coulomb(v_des), or, held at rest
     (v_des = 0), holding_friction(h)."""
     return coulomb(v_des, Fp, Fn) if v_des != 0.0 else holding_friction(h, Fp, Fn)
+
+
+@nb.njit(**INLINE)
+def joint_pieces(i, hybrid, v_des_i, Llo_i, Lhi_i, Fp, Fn, tauc_i, bp, sl):
+    """Breakpoints (sorted) into ``bp[:, i]`` and piece slopes into ``sl[:, i]`` of joint i's
+    convex piecewise-linear cost g_i in its velocity v (the drive's effort against its limits,
+    or -tau v, plus the Coulomb friction's; kernels/drive_solve.py, module docstring); returns
+    the number of breakpoints."""
+    if hybrid and Lhi_i == math.inf:  # fixed to the program: held at v_des forever
+        bp[0, i] = v_des_i
+        sl[0, i], sl[1, i] = -math.inf, math.inf
+        return 1
+    has_zero = Fp + Fn > 0.0
+    has_vdes = hybrid and Llo_i + Lhi_i > 0.0
+    nb_, iz, iv = 0, 2, 2  # number of breakpoints; index of the breakpoint 0, of v_des (2: none)
+    if has_zero and has_vdes and v_des_i == 0.0:  # merged
+        bp[0, i] = 0.0
+        nb_, iz, iv = 1, 0, 0
+    elif has_zero and has_vdes:
+        bp[0, i], bp[1, i] = min(0.0, v_des_i), max(0.0, v_des_i)
+        nb_ = 2
+        iz, iv = (0, 1) if v_des_i > 0.0 else (1, 0)
+    elif has_zero:
+        bp[0, i] = 0.0
+        nb_, iz = 1, 0
+    elif has_vdes:
+        bp[0, i] = v_des_i
+        nb_, iv = 1, 0
+    for k in range(nb_ + 1):  # piece k lies above breakpoints 0..k-1
+        fric = Fp if iz < k else -Fn  # slope of F+ max(v, 0) + F- max(-v, 0)
+        # of U max(v_des - v, 0) + D max(v - v_des, 0), or -tau v
+        drive = (Llo_i if iv < k else -Lhi_i) if hybrid else -tauc_i
+        sl[k, i] = drive + fric
+    return nb_
+
+
+@nb.njit(**INLINE)
+def start_piece(v0, nb_, i, bp):
+    """Pattern of a joint at v0: held (2k + 1) on breakpoint k, else free (2k) on piece k."""
+    k = 0
+    for j in range(nb_):
+        if v0 == bp[j, i]:
+            return 2 * j + 1
+        if v0 > bp[j, i]:
+            k = j + 1
+    return 2 * k
 
 
 @nb.njit(**INLINE)

@@ -107,7 +107,14 @@ import math
 import numba as nb
 from numba.extending import overload
 
-from mrnea.kernels.drive import beyond, coulomb, holding_friction, wanted_friction
+from mrnea.kernels.drive import (
+    beyond,
+    coulomb,
+    holding_friction,
+    joint_pieces,
+    start_piece,
+    wanted_friction,
+)
 from mrnea.kernels.drive_ways import (
     Refactor,
     TreeRefactor,
@@ -157,49 +164,6 @@ def _over(tau_req_i, Llo_i, Lhi_i):
     ``beyond``; for a symmetric box, |tau_req_i| over L_i)."""
     scale = abs(tau_req_i)
     return beyond(tau_req_i, Lhi_i, Lhi_i + scale) or beyond(-tau_req_i, Llo_i, Llo_i + scale)
-
-
-@nb.njit(**INLINE)
-def _setup_joint(i, hybrid, v_des_i, Llo_i, Lhi_i, Fp, Fn, tauc_i, bp, sl):
-    """Breakpoints (sorted) and piece slopes of g_i; returns their number."""
-    if hybrid and Lhi_i == math.inf:  # fixed to the program: held at v_des forever
-        bp[0, i] = v_des_i
-        sl[0, i], sl[1, i] = -math.inf, math.inf
-        return 1
-    has_zero = Fp + Fn > 0.0
-    has_vdes = hybrid and Llo_i + Lhi_i > 0.0
-    nb_, iz, iv = 0, 2, 2  # number of breakpoints; index of the breakpoint 0, of v_des (2: none)
-    if has_zero and has_vdes and v_des_i == 0.0:  # merged
-        bp[0, i] = 0.0
-        nb_, iz, iv = 1, 0, 0
-    elif has_zero and has_vdes:
-        bp[0, i], bp[1, i] = min(0.0, v_des_i), max(0.0, v_des_i)
-        nb_ = 2
-        iz, iv = (0, 1) if v_des_i > 0.0 else (1, 0)
-    elif has_zero:
-        bp[0, i] = 0.0
-        nb_, iz = 1, 0
-    elif has_vdes:
-        bp[0, i] = v_des_i
-        nb_, iv = 1, 0
-    for k in range(nb_ + 1):  # piece k lies above breakpoints 0..k-1
-        fric = Fp if iz < k else -Fn  # slope of F+ max(v, 0) + F- max(-v, 0)
-        # of U max(v_des - v, 0) + D max(v - v_des, 0), or -tau v
-        drive = (Llo_i if iv < k else -Lhi_i) if hybrid else -tauc_i
-        sl[k, i] = drive + fric
-    return nb_
-
-
-@nb.njit(**INLINE)
-def _start(v0, nb_, i, bp):
-    """Pattern of a joint at v0: held (2k + 1) on breakpoint k, else free (2k) on piece k."""
-    k = 0
-    for j in range(nb_):
-        if v0 == bp[j, i]:
-            return 2 * j + 1
-        if v0 > bp[j, i]:
-            k = j + 1
-    return 2 * k
 
 
 @nb.njit(**JIT)
@@ -310,10 +274,10 @@ def _active_set(Ha, ua, qd, v_des, dt, Llo, Lhi, Fpos, Fneg, mode, v, qdd, tau, 
         # Eq. 44's clamp (PAPER); a requirement within the limit up to rounding is given whole
         tauc[i] = (min(max(tau_req[i], -Llo[i]), Lhi[i]) if _over(tau_req[i], Llo[i], Lhi[i])
                    else tau_req[i])
-        nbp[i] = _setup_joint(i, hybrid, v_des[i], Llo[i], Lhi[i], Fpos[i], Fneg[i], tauc[i],
+        nbp[i] = joint_pieces(i, hybrid, v_des[i], Llo[i], Lhi[i], Fpos[i], Fneg[i], tauc[i],
                               bp, sl)
         v[i] = v_des[i] if hybrid and Llo[i] + Lhi[i] > 0.0 else qd[i]
-        pat[i] = _start(v[i], nbp[i], i, bp)
+        pat[i] = start_piece(v[i], nbp[i], i, bp)
         if pat[i] % 2 == 1:
             qdd[i] = (v[i] - qd[i]) / dt
         tabu[i] = 0
