@@ -206,7 +206,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
             check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
             ahead.start(run.robot.parents, validate.by_link(run.f_ext, run.f_ext_point),
-                        True)
+                        True, retime=True)
             # one process, one retiming: the single-state kernels the simulation compiles anyway
             # (mrnea.retime.path.one_state_at_a_time; issue 22)
             with compile_notice(quiet), retime_path.one_state_at_a_time():
