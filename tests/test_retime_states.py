@@ -23,6 +23,7 @@ from test_dynamics_pinocchio import get_case
 
 import mrnea
 from mrnea.actuators import actuator_mass_matrix_and_bias
+from mrnea.cli.base import COMPILE_NOTICE
 from mrnea.errors import StateError
 from mrnea.retime.path import actuator_terms_along, one_state_at_a_time
 
@@ -122,12 +123,12 @@ print("COMPILED " + json.dumps(names))
 @pytest.mark.slow
 def test_a_fresh_cli_retime_compiles_no_batch_kernel(tmp_path) -> None:
     """On an empty cache (no compile-ahead process): ``actuator_terms`` once, the simulation's
-    signature, and no parallel batch kernel."""
+    signature, no parallel batch kernel, and the compile notice said once."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
     out = subprocess.run([sys.executable, "-c", LISTEN, "retime", "puma560",
                           str(ROOT / "examples" / "puma_pick.toml"), "--out",
-                          str(tmp_path / "out"), "--quiet"], env=env, capture_output=True,
-                         text=True, timeout=900)
+                          str(tmp_path / "out")], env=env, capture_output=True, text=True,
+                         timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]
     line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
     compiled = json.loads(line[len("COMPILED "):])
@@ -135,3 +136,4 @@ def test_a_fresh_cli_retime_compiles_no_batch_kernel(tmp_path) -> None:
     assert names.count("actuator_terms") == 1
     assert not [k for k in names if k.endswith("_batch")], names
     assert "simulate_cycles" in names and "controllable_sets" in names  # it did compile
+    assert out.stderr.count(COMPILE_NOTICE) == 1, out.stderr[-2000:]
