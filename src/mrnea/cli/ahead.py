@@ -105,14 +105,15 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: boo
     (mrnea.simulate, kernels/simulate.py, kernels/achievable.py, summary.py, cycles.py,
     report/states.py).
 
-    A retiming (``retime``) reaches the program's requirement before the simulation, in its
-    cycle-resolution check (:func:`mrnea.retime.search.cycle_ratios`), about 12 s into a fresh
-    ``mrnea retime`` on the 2-core machine, when its own compiling of ``actuator_terms`` and the
-    TOPP-RA passes ends: it comes right after the drive solve (ready at about 8 s, 12.5 s).
-    The retiming's own kernels (``kernels/topp.py``, the effort limits and their tangents, 2 s
-    in all) are not compiled here: the command reaches them at the end of ``actuator_terms``,
-    before this process could have reached them without delaying the requirement (measured,
-    docs/performance.md section 7)."""
+    A retiming (``retime``) reaches the program's requirement before its simulation, in its
+    cycle-resolution check (:func:`mrnea.retime.search.cycle_ratios`), as soon as its own
+    compiling of ``actuator_terms`` and the TOPP-RA passes ends (about 13 s into a fresh
+    ``mrnea retime`` on an idle 2-core machine), and the drive solve a second or two later,
+    inside the simulation loop's compile: so the requirement comes first (5 s of compiling,
+    ready at about 8 s), then the drive solve (5 s more). The retiming's own kernels
+    (``kernels/topp.py``, the effort limits and their tangents: 2 s) are left to the command,
+    which reaches them as ``actuator_terms`` ends: compiled here first, they would make the
+    requirement late (docs/performance.md section 7, "A fresh ``mrnea retime``")."""
     import numba as nb
     import numpy as np
 
@@ -146,7 +147,7 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: boo
     reactions = (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean))
     requirement = (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean,
                                          i64, i64, nb.types.UniTuple(f2, 2), i1))
-    kernels = ([solve, requirement, cholesky, reactions] if retime else
+    kernels = ([requirement, solve, cholesky, reactions] if retime else
                [cholesky, solve, reactions, requirement])
     kernels += [
         (derived, (model, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
