@@ -37,8 +37,8 @@ from mrnea.kernels.achievable import (
     CLAMP_VELOCITY,
     HYBRID,
     PAPER,
-    achievable,
     achievable_batch,
+    achievable_ws,
     step,
 )
 from mrnea.kernels.drive_ways import solve_mode
@@ -139,8 +139,9 @@ def achievable_accelerations(
         status = np.empty(q.shape[0], dtype=np.int64)
         achievable_batch((m, act), q, qd, qdd_des, fe, pe, how, ENGINE_MRNEA, out, status,
                          batch_scratch(robot.n, ACHIEVABLE))
-    else:
-        status = achievable((m, act), q, qd, qdd_des, fe, pe, how, ENGINE_MRNEA, out)
+    else:  # the per-state kernel itself, as achievable_step calls step: no entry of its own
+        status = achievable_ws(m, act, q, qd, qdd_des, fe, pe, how, ENGINE_MRNEA, *out,
+                               entry_scratch(robot.n, ACHIEVABLE))
     validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     qdd, tau, phi, tau_req, limit, sat, stuck = out
     return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, qd),
