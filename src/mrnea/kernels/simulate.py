@@ -95,11 +95,16 @@ def program_requirement(compiled, program, dt, friction, k0, k1, out, status):
     K, n = q_cmd.shape
     ws = scratch(n, ACHIEVABLE)  # more rows than the RNEA needs: the loop's call, compiled once
     qdd_des = np.empty(n)
+    # the scratch never holds q_cmd[k]'s kinematics: pose_ready False, as a run-time bool, the
+    # type the loop's reactions_ws passes, so both share one compiled rnea_ws (a literal False
+    # or the default would be a second signature; docs/performance.md section 7)
+    pose_ready = k1 < k0
     for k in range(k0, k1):
         for i in range(n):
             v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]  # the program ends at rest
             qdd_des[i] = (v - qd_cmd[k, i]) / dt
-        status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws)
+        status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws,
+                            pose_ready)
         for i in range(n):
             v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
             h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])
