@@ -5,8 +5,10 @@ of changes that must not slow them: run it once per checkout, e.g.
     PYTHONPATH=/path/to/other/src python benchmarks/library_calls.py
     PYTHONPATH=$PWD/src python benchmarks/library_calls.py
 
-Prints one JSON object, seconds per call (:func:`timing.compare`: the fastest of interleaved
-rounds, after a warm-up call that compiles or loads the kernels): ``achievable`` one state's
+Prints one JSON object, seconds per call: the process's CPU time (``time.process_time``, every
+thread's: the batch runs on Numba's; a loaded machine's descheduling does not inflate it as it
+does the wall), the least of 15 rounds of at least 0.2 s each, after a warm-up call that
+compiles or loads the kernels: ``achievable`` one state's
 :func:`mrnea.achievable_accelerations` (hybrid), ``achievable_batch`` the same for 1,000 states,
 ``step`` one :func:`mrnea.achievable.achievable_step`, ``simulate`` :func:`mrnea.simulate` of
 examples/puma_pick.toml with its wrench (every cycle with its reactions, the program's
@@ -17,13 +19,11 @@ from __future__ import annotations
 
 import json
 import os
-import sys
+import time
+import timeit
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).parent))
-from timing import compare
 
 import mrnea
 from mrnea.achievable import achievable_step
@@ -47,7 +47,12 @@ def main() -> None:
         "simulate": lambda: mrnea.simulate(robot, q_cmd, dt=prog.dt, f_ext=prog.f_ext,
                                            f_ext_point=prog.f_ext_point),
     }
-    best = compare(contenders, rounds=7)
+    best = {}
+    for name, fn in contenders.items():
+        fn()  # compiles or loads the kernels
+        timer = timeit.Timer(fn, timer=time.process_time)
+        number = max(1, int(0.2 / timer.timeit(1)))
+        best[name] = min(timer.repeat(15, number)) / number
     print(json.dumps({"mrnea": str(Path(mrnea.__file__).parent), "K": int(q_cmd.shape[0]),
                       **{k: float(f"{v:.4g}") for k, v in best.items()},
                       "load": [round(load0, 2), round(os.getloadavg()[0], 2)]}))
