@@ -137,7 +137,7 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool
                        ws)),
         (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean)),
         (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean, i64, i64,
-                               nb.types.UniTuple(f2, 2), i1)),
+                               nb.types.UniTuple(f2, 2), i1, ws)),
         (derived, (model, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
                    nb.types.Tuple((f2, f2, f2, b2, b2)), f1, i64, i64)),
         (peaks.run_peaks, (nb.types.Tuple((f2, f2, f2, f2, b2, b2, f3)),
