@@ -290,7 +290,6 @@ chain_pass = nb.njit(**INTO_CALLER)(mrnea_pass)  # a chain's copy, compiled into
 tree_pass = nb.njit(**JIT)(mrnea_pass)  # a tree's, a call of its own
 
 
-
 @nb.njit(**ENTRY)
 def fd_mrnea(model, q, qd, tau, fext, pe, qdd, ws):
     """The paper's forward dynamics: one mRNEA pass, then H qdd = tau - u' (Eq. 2).
