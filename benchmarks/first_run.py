@@ -25,7 +25,8 @@ children, the compile-ahead process included), ``own_cpu_s`` (the command's proc
 its critical path when the second process has a core of its own), the compile total [s] and
 the kernels (name, signature, seconds; ``self_s``: the
 seconds less those of the kernels compiled inside it, i.e. its own typing, lowering and LLVM work
-on everything linked into it). On a shared machine
+on everything linked into it; ``end_s``: when its compile ended, seconds after the command's
+interpreter started running mrnea, so the list reads as a timeline). On a shared machine
 wall times are noisy; CPU times are the steadier figure. docs/performance.md quotes its numbers.
 """
 
@@ -43,6 +44,7 @@ CHILD = r"""
 import json, sys, time
 from numba.core import event
 
+T0 = time.perf_counter()
 events = []
 stack = []  # per open compile: [start time, seconds of its direct children]
 
@@ -60,7 +62,7 @@ class Record(event.Listener):
         mod = getattr(getattr(disp, "py_func", None), "__module__", "")
         events.append({"kernel": f"{mod}.{name}", "signature": str(d.get("args")),
                        "seconds": round(t, 3), "self_s": round(t - children, 3),
-                       "nested": len(stack)})
+                       "nested": len(stack), "end_s": round(time.perf_counter() - T0, 2)})
 
 event.register("numba:compile", Record())
 try:

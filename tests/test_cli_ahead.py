@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -55,6 +56,30 @@ def test_a_demo_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) ->
     assert "simulate_cycles" in compiled and "actuator_terms" in compiled  # it did compile
 
 
+@pytest.mark.slow
+def test_a_retime_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) -> None:
+    """The retiming's order (the program's requirement second) and signatures: those of the
+    retiming's own calls (its cycle-resolution check, the verifying simulation, the report)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
+    puma_parents = "-1,0,1,2,3,4"
+    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", puma_parents, "0", "1", "1"],
+                   env=env, check=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", LISTEN, "retime", "puma560",
+                          "examples/puma_pick.toml", "--out", str(tmp_path / "retime"),
+                          "--quiet"], env=env, capture_output=True, text=True, timeout=900,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
+    line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
+    compiled = set(json.loads(line[len("COMPILED "):]))
+    kernels = ahead.signatures((-1, 0, 1, 2, 3, 4), False, True, retime=True)
+    ahead_names = {k.py_func.__qualname__ for k, _ in kernels}
+    assert len(ahead_names) == 8
+    assert [k.py_func.__qualname__ for k, _ in kernels][:2] == ["program_requirement",
+                                                              "solve_cycle"]
+    assert not compiled & ahead_names, compiled & ahead_names
+    assert "simulate_cycles" in compiled and "controllable_sets" in compiled  # it did compile
+
+
 def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> None:
     started = []
 
@@ -71,12 +96,12 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))
     assert ahead.start((-1, 0, 1, 2), False, True) is not None
-    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1"]
+    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1", "0"]
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (2.1, 0.5, 0.5))  # saturated
     assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
-    assert ahead.start((-1, 0, 1, 2), True, False) is not None
-    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0"]
+    assert ahead.start((-1, 0, 1, 2), True, False, retime=True) is not None
+    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0", "1"]
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
     monkeypatch.setenv("MRNEA_AHEAD", "0")  # off
     assert ahead.start((-1, 0, 1, 2), False, True) is None

@@ -67,20 +67,21 @@ def _cold() -> bool:
     return not os.path.exists(index)
 
 
-def start(parents: Sequence[int], per_link: bool, report: bool) -> subprocess.Popen | None:
+def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
+          ) -> subprocess.Popen | None:
     """Start the second process on a cold cache (module docstring) for a simulation of a robot
     whose joints hang from ``parents`` (:attr:`mrnea.Robot.parents`) with reactions (the CLI's),
-    its wrench given per link (``per_link``) or not, and with a report (``report``: bearing
-    loads, 3D view). Returns it, or None where it would not gain. None of the kernels it
-    compiles depends on the engine (``--fd``)."""
+    its wrench given per link (``per_link``) or not, with a report (``report``: bearing
+    loads, 3D view), and for a retiming (``retime``: :func:`signatures`' order). Returns it, or
+    None where it would not gain. None of the kernels it compiles depends on the engine
+    (``--fd``)."""
     wanted = os.environ.get("MRNEA_AHEAD")
     if wanted == "0" or not (wanted == "1" or _spare_core()) or not _cold():
         return None
     try:
         proc = subprocess.Popen(
             [sys.executable, "-m", "mrnea.cli.ahead", ",".join(map(str, parents)),
-             str(int(per_link)),
-             str(int(report))],
+             str(int(per_link)), str(int(report)), str(int(retime))],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     except OSError:  # no process to spare: the command compiles alone
         return None
@@ -97,12 +98,22 @@ def _end(proc: subprocess.Popen) -> None:
             proc.kill()
 
 
-def signatures(parents: Sequence[int], per_link: bool, report: bool
+def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
                ) -> list[tuple[object, tuple]]:
     """The (kernel, argument types) the command will call, in the order it reaches them:
     arrays of the dtypes, dimensions, layouts and read-only flags its callers pass
     (mrnea.simulate, kernels/simulate.py, kernels/achievable.py, summary.py, cycles.py,
-    report/states.py)."""
+    report/states.py).
+
+    A retiming (``retime``) reaches the program's requirement before its simulation, in its
+    cycle-resolution check (:func:`mrnea.retime.search.cycle_ratios`), as soon as its own
+    compiling of ``actuator_terms`` and the TOPP-RA passes ends (about 13 s into a fresh
+    ``mrnea retime`` on an idle 2-core machine), and the drive solve a second or two later,
+    inside the simulation loop's compile: so the requirement comes first (5 s of compiling,
+    ready at about 8 s), then the drive solve (5 s more). The retiming's own kernels
+    (``kernels/topp.py``, the effort limits and their tangents: 2 s) are left to the command,
+    which reaches them as ``actuator_terms`` ends: compiled here first, they would make the
+    requirement late (docs/performance.md section 7, "A fresh ``mrnea retime``")."""
     import numba as nb
     import numpy as np
 
@@ -131,13 +142,15 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool
     how = t(solve_mode(HYBRID, len(parents), parents=parents))
     boolean, f64, i64 = nb.types.boolean, nb.types.float64, nb.types.int64
     program = nb.types.Tuple((f2, f2, FE, FE))
-    kernels = [
-        (cholesky_solve, (a2, f1, a2, f1)),
-        (solve_cycle, (f2, f1, f1, f1, f64, f1, f1, f1, f1, how, f1, f1, f1, f1, f1, b1, b1,
-                       ws)),
-        (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean)),
-        (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean, i64, i64,
-                               nb.types.UniTuple(f2, 2), i1, ws)),
+    cholesky = (cholesky_solve, (a2, f1, a2, f1))
+    solve = (solve_cycle, (f2, f1, f1, f1, f64, f1, f1, f1, f1, how, f1, f1, f1, f1, f1, b1, b1,
+                           ws))
+    reactions = (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean))
+    requirement = (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean,
+                                         i64, i64, nb.types.UniTuple(f2, 2), i1, ws))
+    kernels = ([requirement, solve, cholesky, reactions] if retime else
+               [cholesky, solve, reactions, requirement])
+    kernels += [
         (derived, (model, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
                    nb.types.Tuple((f2, f2, f2, b2, b2)), f1, i64, i64)),
         (peaks.run_peaks, (nb.types.Tuple((f2, f2, f2, f2, b2, b2, f3)),
@@ -150,10 +163,10 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool
 
 def main(argv: list[str]) -> None:
     """Compile :func:`signatures` of ``argv`` = (the parents, comma-separated, per_link 0/1,
-    report 0/1)."""
+    report 0/1[, retime 0/1, default 0])."""
     parents = [int(p) for p in argv[0].split(",")]
-    per_link, report = argv[1] == "1", argv[2] == "1"
-    for kernel, sig in signatures(parents, per_link, report):
+    per_link, report, retime = argv[1] == "1", argv[2] == "1", argv[3:4] == ["1"]
+    for kernel, sig in signatures(parents, per_link, report, retime):
         kernel.compile(sig)
 
 

@@ -179,10 +179,6 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
     its robot; the robot options override the program's. Writes retimed.csv, retimed.toml,
     summary.json and report.html into --out.
     """
-    # toppra and SciPy take 1-4 s to import: before the run owns its folder (the stop bound)
-    import mrnea.retime.toppra  # noqa: F401
-    from mrnea.retime import retime as retime_program
-
     robot_arg, program_arg = (None, robot) if program is None else (robot, program)
     csv = (program_arg or "").lower().endswith(".csv")
     run = load_run(robot_arg, program_arg, dt if csv else None, interpolation, robot_options,
@@ -198,15 +194,24 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         raise MrneaError("--jerk-limit: only --method toppra takes it")
     t = np.arange(run.q_cmd.shape[0]) * run.dt
     tool, cartesian = _one_tool(run.cartesian, prog if not csv else None)
+    # the second process first, so that it compiles while this one imports toppra (issue 22;
+    # a run refused below ends it at exit)
+    ahead.start(run.robot.parents, validate.by_link(run.f_ext, run.f_ext_point), True,
+                retime=True)
+    # toppra and SciPy take 1-4 s to import: before the run owns its folder (the stop bound)
+    import mrnea.retime.toppra  # noqa: F401
+    from mrnea.retime import path as retime_path
+    from mrnea.retime import retime as retime_program
+
     try:
         with own_folder(Path(out)) as folder:
             paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
                                              *((POSES, CARTESIAN) if cartesian else ()))}
             check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
-            ahead.start(run.robot.parents, validate.by_link(run.f_ext, run.f_ext_point),
-                        True)
-            with compile_notice(quiet):
+            # one process, one retiming: the single-state kernels the simulation compiles anyway
+            # (mrnea.retime.path.one_state_at_a_time; issue 22)
+            with compile_notice(quiet), retime_path.one_state_at_a_time():
                 try:
                     res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
                                          margin=margin, f_ext=run.f_ext,
@@ -376,6 +381,7 @@ def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
     program's own requirement; or why no timing can help: a path that starts or goes outside a
     joint's position limits (:func:`outside_limits`), a requirement no speed can meet."""
     from mrnea.retime import scale_estimate
+    from mrnea.retime.path import one_state_at_a_time
 
     if (why := outside_limits(robot, q_cmd, dt)) is not None:
         return f"No timing can make it achievable: {why}"
@@ -387,7 +393,8 @@ def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
             f"{Path(program).stem}-retimed", *run, *_option_args(options)]
     T = (q_cmd.shape[0] - 1) * dt
     try:
-        f = scale_estimate(robot, q_cmd, dt, f_ext, f_ext_point)
+        with one_state_at_a_time():  # the kernels check and simulate compiled (issue 22)
+            f = scale_estimate(robot, q_cmd, dt, f_ext, f_ext_point)
     except MrneaError as exc:
         return f"No timing can make it achievable: {exc}"
     return (f"Retime it: mrnea retime {shlex.join(args)}\n(uniform time scaling would take "

@@ -7,7 +7,7 @@ the wrench), and verifies the result by simulation. It is also ``mrnea.retime``;
 name is the function, import this package's modules as ``from mrnea.retime import scale``.
 
 Modules: :mod:`~mrnea.retime.path` (pieces, splines, grids, the second-order form of the efforts
-from one batched mRNEA call), :mod:`~mrnea.retime.rows` (the limits as TOPP-RA's linear rows,
+from one mRNEA call over the grid), :mod:`~mrnea.retime.rows` (the limits as TOPP-RA's linear rows,
 tightened on the safe side), :mod:`~mrnea.retime.toppra` (the solves), :mod:`~mrnea.retime.scale`
 (Hollerbach's uniform time scaling and its estimate), :mod:`~mrnea.retime.job` (dwells, the
 wrench, verification), :mod:`~mrnea.retime.result` (:class:`RetimeResult`),

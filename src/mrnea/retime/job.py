@@ -32,7 +32,7 @@ from mrnea.simulate import SimulationResult, simulate
 
 TIMINGS = ("coefficients", "rows", "toppra", "jerk", "sampling", "verification")
 """What :attr:`Job.timings` splits a retiming's time into (seconds each): the splines and the
-one batched mRNEA call per piece (scale: the Hollerbach coefficients), the constraint rows and
+one mRNEA call over the grid per piece (scale: the Hollerbach coefficients), the constraint rows and
 their linearisation, the TOPP-RA solves (toppra's set-up included), the jerk-limited linear
 programs (0 without a jerk limit), the sampling of the profile
 at dt with the wrench, and the verifying simulations."""
