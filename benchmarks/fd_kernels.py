@@ -10,7 +10,7 @@ alternating call by call, thread CPU time, best of 5 per round; medians over the
     python benchmarks/fd_kernels.py ROUNDS OLD/src/mrnea NEW/src/mrnea [...]
 
 prints per call and version the median (and best) over the rounds [ns] and each version's
-median over the first's (docs/performance.md, section 18). ``FD_CALLS=aba,fd_crba`` limits
+median over the first's (docs/performance.md, section 19). ``FD_CALLS=aba,fd_crba`` limits
 the calls timed.
 """
 

@@ -165,8 +165,8 @@ def test_compiled_arrays_live_outside_the_robot_and_go_with_it() -> None:
     mrnea.forward_dynamics(robot, q, q, q)
     assert vars(robot).keys() == before.keys()
     assert all(vars(robot)[k] is v for k, v in before.items())
-    model, shape, ws, act = compiled.BY_ID[id(robot)]
-    assert model.shape == (6, NCOL) and act.shape == (5, NACT) and shape == (5,)
+    model, shape, ws, act, tree = compiled.BY_ID[id(robot)]
+    assert model.shape == (6, NCOL) and act.shape == (5, NACT) and shape == (5,) and not tree
     other = robot.with_gravity((0.0, 0.0, 9.81))
     mrnea.inverse_dynamics(other, q, q, q)
     assert compiled.BY_ID[id(other)][2] is ws

@@ -24,6 +24,7 @@ it is stuck. Each mode's law with it is solved exactly, all joints together
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import Literal
 
@@ -37,8 +38,8 @@ from mrnea.kernels.achievable import (
     CLAMP_VELOCITY,
     HYBRID,
     PAPER,
-    achievable,
     achievable_batch,
+    achievable_ws,
     step,
 )
 from mrnea.kernels.drive_ways import solve_mode
@@ -48,6 +49,15 @@ from mrnea.model import Robot
 
 Mode = Literal["hybrid", "paper"]
 MODES = {"hybrid": HYBRID, "paper": PAPER}
+_SCRATCH = threading.local()  # per Python thread, per n: the ACHIEVABLE scratch of one state
+
+
+def _scratch(n: int) -> tuple[np.ndarray, ...]:
+    """This thread's ``ACHIEVABLE`` scratch for n joints, made on its first use: the per-state
+    kernels release the GIL, so threads must not share one; made once, not per call (about
+    5 us: measured with benchmarks/library_calls.py's achievable call, about 100 us)."""
+    kept = _SCRATCH.__dict__
+    return kept.get(n) or kept.setdefault(n, entry_scratch(n, ACHIEVABLE))
 
 
 @dataclass(frozen=True)
@@ -139,8 +149,9 @@ def achievable_accelerations(
         status = np.empty(q.shape[0], dtype=np.int64)
         achievable_batch((m, act), q, qd, qdd_des, fe, pe, how, ENGINE_MRNEA, out, status,
                          batch_scratch(robot.n, ACHIEVABLE))
-    else:
-        status = achievable((m, act), q, qd, qdd_des, fe, pe, how, ENGINE_MRNEA, out)
+    else:  # the per-state kernel itself, as achievable_step calls step: no entry of its own
+        status = achievable_ws(m, act, q, qd, qdd_des, fe, pe, how, ENGINE_MRNEA, *out,
+                               _scratch(robot.n))
     validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     qdd, tau, phi, tau_req, limit, sat, stuck = out
     return AchievableResult(qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, qd),
@@ -180,7 +191,7 @@ def achievable_step(
     status = step(m, act, arrays["q"], arrays["qd"], arrays["q_next_cmd"], arrays["qd_next_cmd"],
                   dt, fe, pe, solve_mode(code, n, parents=robot.parents), ENGINE_MRNEA, qdd_des,
                   qdd, tau, phi, tau_req, limit, sat, stuck, q_next, qd_next, clamp,
-                  entry_scratch(n, ACHIEVABLE))
+                  _scratch(n))
     validate.check_status(robot, status, {**states, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return StepResult(
         qdd=qdd, tau=tau, tau_motor=motor_torque(robot, tau, arrays["qd"]), tau_required=tau_req,

@@ -29,7 +29,7 @@ from mrnea import compiled, validate
 from mrnea.errors import StateError
 from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents, motor_torques
 from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import batch_scratch
+from mrnea.kernels.layout import ACHIEVABLE, batch_scratch, entry_scratch
 from mrnea.kernels.simulate import program_requirement as requirement_kernel
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
@@ -139,7 +139,8 @@ def program_requirement(
     program = (Q, V, *validate.wrench_per_cycle(robot, f_ext, f_ext_point, K))
     m, _, _, act = compiled.of(robot)
     req, limit, status = np.empty_like(Q), np.empty_like(Q), np.empty(K, dtype=np.int64)
-    requirement_kernel((m, act), program, dt, friction, 0, K, (req, limit), status)
+    requirement_kernel((m, act), program, dt, friction, 0, K, (req, limit), status,
+                       entry_scratch(robot.n, ACHIEVABLE))
     for k in np.flatnonzero(status != OK):
         validate.check_cycle(robot, int(k), int(status[k]), Q[k], V[k], dt)
     return req, limit

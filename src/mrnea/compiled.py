@@ -9,38 +9,90 @@ so one scratch serves every Robot of n joints and every Python thread. A Robot s
 process is compiled there on its first call.
 
 The fast path of :mod:`mrnea.dynamics` reads ``BY_ID[id(robot)]`` itself (a KeyError sends the
-call to the validated path, which calls :func:`of`).
+call to the validated path, which calls :func:`of`); its fifth item, whether the Robot is a tree,
+picks the entries compiled for a tree's model type (kernels/layout.py: a chain's and a tree's
+model arrays differ in type, so that each compiles only its own copies of the passes).
+
+The compile notice. Numba compiles each kernel on its first call and caches it on disk; on an
+empty cache a library call can take seconds to a minute. The first time in a process that Numba
+starts compiling one of mrnea's kernels, the library says so once: a WARNING record
+:data:`COMPILE_NOTICE` on the logger ``"mrnea"``, which Python prints as one line on stderr
+when logging is not configured. A warm run (every kernel loaded from the cache) says nothing:
+Numba raises its ``numba:compile`` event only when it really compiles. Off:
+``logging.getLogger("mrnea").setLevel(logging.ERROR)``, or the environment variable
+``MRNEA_COMPILE_NOTICE=0`` (the ``mrnea`` command sets it for itself and the processes it
+starts: it says so in its own words, mrnea/cli/base.py). A user's own Numba functions raise no
+notice. Logging, not :mod:`warnings`: a notice is no warning about the caller's code, and a
+warnings filter set to "error" would raise inside Numba's compiler.
+The library never starts the command's compile-ahead process (mrnea/cli/ahead.py) by itself: a
+library call that starts another Python process would surprise its caller (its CPU, its
+memory, a child under a Dask worker or a test runner). To fill the cache before a program's
+first call, run ``mrnea check`` once on a robot with as many joints, or call the functions once.
 """
 
 from __future__ import annotations
 
+import logging
+import os
 import weakref
 
 import numpy as np
+from numba.core import event
 
-from mrnea.kernels.layout import compile_actuators, compile_model, entry_scratch
+from mrnea.kernels.layout import TREE, compile_actuators, compile_model, entry_scratch
 from mrnea.model import Robot
 
-# BY_ID[id(robot)] = (model, shape, scratch, act): the compiled model (n + 1, NCOL) and actuator
-# array (n, NACT), both read-only (kernels/layout.py), the shape (n,) of one state and the
-# single-state entries' scratch (one per n). A plain tuple: the fast path unpacks it, and CPython
-# unpacks an exact tuple faster than a named one (about 25 ns, measured).
-BY_ID: dict[int, tuple[np.ndarray, tuple[int], tuple[np.ndarray, ...], np.ndarray]] = {}
+# BY_ID[id(robot)] = (model, shape, scratch, act, tree): the compiled model (n + 1, NCOL) and
+# actuator array (n, NACT), both read-only (kernels/layout.py), the shape (n,) of one state, the
+# single-state entries' scratch (one per n) and whether the model is a tree's. A plain tuple: the
+# fast path unpacks it, and CPython unpacks an exact tuple faster than a named one (about 25 ns,
+# measured).
+BY_ID: dict[int, tuple[np.ndarray, tuple[int], tuple[np.ndarray, ...], np.ndarray, bool]] = {}
 _SCRATCH: dict[int, tuple[np.ndarray, ...]] = {}
 
 
 def of(robot: Robot) -> tuple[np.ndarray, tuple[int], tuple[np.ndarray, ...], np.ndarray]:
-    """``(model, shape, scratch, act)`` of a (validated) Robot (:data:`BY_ID`), made on its
-    first call."""
+    """``(model, shape, scratch, act)`` of a (validated) Robot (:data:`BY_ID`'s first four), made
+    on its first call."""
     try:
-        return BY_ID[id(robot)]
+        return BY_ID[id(robot)][:4]
     except KeyError:
         pass
     n = robot.n
     ws = _SCRATCH.get(n) or _SCRATCH.setdefault(n, entry_scratch(n))
-    new = (compile_model(robot), (n,), ws, compile_actuators(robot))
+    model = compile_model(robot)
+    new = (model, (n,), ws, compile_actuators(robot), bool(model[0, TREE]))
     key = id(robot)
     kept = BY_ID.setdefault(key, new)  # another thread may have been first: keep one
     if kept is new:
         weakref.finalize(robot, BY_ID.pop, key, None).atexit = False
-    return kept
+    return kept[:4]
+
+
+#: What the library says, once per process, when Numba starts compiling one of its kernels.
+COMPILE_NOTICE = ("mrnea: compiling its kernels (first run only, up to a minute; cached "
+                  "afterwards)...")
+_LOG = logging.getLogger("mrnea")
+
+
+class _CompileNotice(event.Listener):
+    """Logs :data:`COMPILE_NOTICE` when Numba starts compiling a kernel of mrnea's, once per
+    process (module docstring)."""
+
+    shown = False
+
+    def on_start(self, ev: event.Event) -> None:
+        if _CompileNotice.shown:
+            return
+        func = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
+        if not getattr(func, "__module__", "").startswith("mrnea."):
+            return  # the caller's own Numba function
+        _CompileNotice.shown = True
+        if os.environ.get("MRNEA_COMPILE_NOTICE") != "0":
+            _LOG.warning(COMPILE_NOTICE)
+
+    def on_end(self, ev: event.Event) -> None:
+        pass
+
+
+event.register("numba:compile", _CompileNotice())

@@ -62,7 +62,17 @@ from mrnea.kernels.engines import (
 )
 from mrnea.kernels.kinematics import frames, frames_batch, jacobian_batch, link_jacobian_ws
 from mrnea.kernels.kinematics import jacobian as jacobian_kernel
-from mrnea.kernels.layout import IN_T, MODEL_T, OUT1_T, OUT2_T, OUT3_T, SCRATCH_T, batch_scratch
+from mrnea.kernels.layout import (
+    IN_T,
+    MODEL_T,
+    MODEL_TREE_T,
+    OUT1_T,
+    OUT2_T,
+    OUT3_T,
+    SCRATCH_T,
+    TREE,
+    batch_scratch,
+)
 from mrnea.kernels.mrnea import fd_mrnea, mrnea
 from mrnea.kernels.rnea import reactions, reactions_batch, rnea, rnea_batch
 from mrnea.kernels.status import OK
@@ -86,23 +96,28 @@ class _Entry:
     call and returns it.
     The kernel's arguments are ``(model, *states, *optional, *outputs, scratch)``: ``optional``
     counts the inputs ``free`` passes as None (the wrench and its point; a Jacobian's point).
+    These entries take a serial chain's model; ``tree``, the same entries for a tree's model (the
+    two differ in type: kernels/layout.py), is used where ``BY_ID``'s tree flag is set (a
+    chain's entry given a tree's model would read it in the wrong order).
     """
 
-    __slots__ = ("_kernel", "call", "free", "links")
+    __slots__ = ("_kernel", "call", "free", "links", "tree")
 
     def __init__(self, kernel: nb.core.registry.CPUDispatcher, *outputs: nb.types.Type,
-                 optional: int = 2) -> None:
+                 optional: int = 2, model: nb.types.Type = MODEL_T) -> None:
         py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT
         states = [IN_T] * (py_func.__code__.co_argcount - 2 - optional - len(outputs))
         self._kernel = kernel
+        self.tree = (self if model is MODEL_TREE_T else
+                     _Entry(kernel, *outputs, optional=optional, model=MODEL_TREE_T))
         if hasattr(kernel, "compile"):
             given, none = [IN_T] * optional, [nb.types.none] * optional
             self.call = self._first(
-                "call", nb.types.int64(MODEL_T, *states, *given, *outputs, SCRATCH_T))
+                "call", nb.types.int64(model, *states, *given, *outputs, SCRATCH_T))
             self.free = self._first(
-                "free", nb.types.int64(MODEL_T, *states, *none, *outputs, SCRATCH_T))
+                "free", nb.types.int64(model, *states, *none, *outputs, SCRATCH_T))
             self.links = self._first(
-                "links", nb.types.int64(MODEL_T, *states, *[OUT2_T] * optional, *outputs,
+                "links", nb.types.int64(model, *states, *[OUT2_T] * optional, *outputs,
                                         SCRATCH_T))
         else:
             self.call = self.free = self.links = kernel
@@ -150,6 +165,8 @@ def _evaluate(
     the outputs' shapes for one state (a batch prepends B). Returns the outputs."""
     batched, arrays, fe, pe = validate.inputs(robot, states, f_ext, f_ext_point)
     m, _, ws, _ = compiled.of(robot)
+    if m[0, TREE]:
+        kernel = kernel.tree
     if batched:
         B = arrays[0].shape[0]
         outputs = [np.empty((B, *shape)) for shape in shapes(robot.n)]
@@ -182,10 +199,10 @@ def inverse_dynamics(
     """
     if f_ext is None and f_ext_point is None:
         try:  # the fast path (module docstring)
-            m, shape, ws, _ = BY_ID[id(robot)]
+            m, shape, ws, _, tree = BY_ID[id(robot)]
             if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
                 tau = np.empty(shape)
-                if _RNEA.free(m, q, qd, qdd, None, None, tau, ws) == OK:
+                if (_RNEA.tree if tree else _RNEA).free(m, q, qd, qdd, None, None, tau, ws) == OK:
                     return tau
         except _FAST_MISS:
             pass
@@ -210,10 +227,11 @@ def mass_matrix_and_bias(
     """
     if f_ext is None and f_ext_point is None:
         try:  # the fast path (module docstring); an unknown method fails here, and below
-            m, shape, ws, _ = BY_ID[id(robot)]
+            m, shape, ws, _, tree = BY_ID[id(robot)]
             if q.dtype is qd.dtype is _F64 and q.ndim == qd.ndim == 1:
                 H, u = np.empty(shape * 2), np.empty(shape)  # (n, n), (n,)
-                if _HB[method][0].free(m, q, qd, None, None, H, u, ws) == OK:
+                e = _HB[method][0]
+                if (e.tree if tree else e).free(m, q, qd, None, None, H, u, ws) == OK:
                     return H, u
         except _FAST_MISS:
             pass
@@ -241,10 +259,11 @@ def forward_dynamics(
     """
     if f_ext is None and f_ext_point is None:
         try:  # the fast path (module docstring); an unknown method fails here, and below
-            m, shape, ws, _ = BY_ID[id(robot)]
+            m, shape, ws, _, tree = BY_ID[id(robot)]
             if q.dtype is qd.dtype is tau.dtype is _F64 and q.ndim == qd.ndim == tau.ndim == 1:
                 qdd = np.empty(shape)
-                if _FD[method][0].free(m, q, qd, tau, None, None, qdd, ws) == OK:
+                e = _FD[method][0]
+                if (e.tree if tree else e).free(m, q, qd, tau, None, None, qdd, ws) == OK:
                     return qdd
         except _FAST_MISS:
             pass
@@ -273,10 +292,11 @@ def joint_reactions(
     """
     if f_ext is None and f_ext_point is None:
         try:  # the fast path (module docstring)
-            m, shape, ws, _ = BY_ID[id(robot)]
+            m, shape, ws, _, tree = BY_ID[id(robot)]
             if q.dtype is qd.dtype is qdd.dtype is _F64 and q.ndim == qd.ndim == qdd.ndim == 1:
                 out = np.empty((*shape, 6))
-                if _REACTIONS.free(m, q, qd, qdd, None, None, out, ws) == OK:
+                e = _REACTIONS.tree if tree else _REACTIONS
+                if e.free(m, q, qd, qdd, None, None, out, ws) == OK:
                     return out
         except _FAST_MISS:
             pass
@@ -317,10 +337,10 @@ def forward_kinematics(robot: Robot, q: ArrayLike, tool: Tool = None) -> NDArray
         T = forward_kinematics(robot, q)
         return np.concatenate([T, (T[..., link + 1, :, :] @ Tt)[..., None, :, :]], axis=-3)
     try:  # the fast path (module docstring)
-        m, shape, ws, _ = BY_ID[id(robot)]
+        m, shape, ws, _, tree = BY_ID[id(robot)]
         if q.dtype is _F64 and q.ndim == 1:
             T = np.empty((shape[0] + 1, 4, 4))
-            if _FRAMES.free(m, q, T, ws) == OK:
+            if (_FRAMES.tree if tree else _FRAMES).free(m, q, T, ws) == OK:
                 return T
     except _FAST_MISS:
         pass
@@ -331,7 +351,7 @@ def forward_kinematics(robot: Robot, q: ArrayLike, tool: Tool = None) -> NDArray
         status = np.empty(q.shape[0], dtype=np.int64)
         frames_batch(m, q, T, status, batch_scratch(robot.n))
     else:
-        status = _FRAMES.free(m, q, T, ws)
+        status = (_FRAMES.tree if m[0, TREE] else _FRAMES).free(m, q, T, ws)
     validate.check_status(robot, status, {"q": q})
     return T
 
@@ -367,14 +387,14 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
     if link is not None:
         return _link_jacobian(robot, q, point, link)
     try:  # the fast path (module docstring); a point must be a (3,) float64 array
-        m, shape, ws, _ = BY_ID[id(robot)]
+        m, shape, ws, _, tree = BY_ID[id(robot)]
         if q.dtype is _F64 and q.ndim == 1 and (point is None or (
                 point.dtype is _F64 and point.ndim == 1)):
             J = np.empty((6, shape[0]))
             if point is None:
-                status = _JACOBIAN.free(m, q, None, J, ws)
+                status = (_JACOBIAN.tree if tree else _JACOBIAN).free(m, q, None, J, ws)
             else:
-                status = _JACOBIAN.call(m, q, point, J, ws)
+                status = (_JACOBIAN.tree if tree else _JACOBIAN).call(m, q, point, J, ws)
             if status == OK:
                 return J
     except _FAST_MISS:
@@ -386,7 +406,7 @@ def jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None = None,
         status = np.empty(q.shape[0], dtype=np.int64)
         jacobian_batch(m, q, p, J, status, batch_scratch(robot.n))
     else:
-        status = _JACOBIAN.call(m, q, p, J, ws)
+        status = (_JACOBIAN.tree if m[0, TREE] else _JACOBIAN).call(m, q, p, J, ws)
     validate.check_status(robot, status, {"q": q, "point": p})
     return J
 

@@ -36,7 +36,7 @@ from mrnea.kernels.derived import derived
 from mrnea.kernels.drive import actuator_terms
 from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
-from mrnea.kernels.layout import entry_scratch
+from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.solve import cholesky_solve
 from mrnea.kernels.status import OK
@@ -394,6 +394,7 @@ def simulate(
     run = (res.q, res.qd, res.qdd_des, res.qdd, res.tau, res.coulomb, res.tau_required,
            res.limit, res.saturated, res.stuck, clamp,
            np.empty((0, n, 6)) if res.reaction is None else res.reaction)
+    ws = entry_scratch(n, ACHIEVABLE)  # the loop's and the requirement's, in turn
     done = kept = 0  # cycles done, and the bytes of the streamed table that hold them
     with contextlib.nullcontext() if stream is None else create(stream, overwrite,
                                                                  binary=True) as fh:
@@ -401,11 +402,11 @@ def simulate(
             while done < K:
                 k1 = min(K, done + CHUNK)
                 k, status = simulate_cycles((m, act), program, dt, how, engine,
-                                            catch_up, reactions, done, k1, run)
+                                            catch_up, reactions, done, k1, run, ws)
                 if status != OK:
                     validate.check_cycle(robot, k, status, res.q[k], res.qd[k], dt)
                 program_requirement((m, act), program, dt, True, done, k1,
-                                    (res.program_effort, res.program_limit), status_k)
+                                    (res.program_effort, res.program_limit), status_k, ws)
                 for k in np.flatnonzero(status_k[done:k1] != OK) + done:
                     validate.check_cycle(robot, int(k), int(status_k[k]), Qc[k], Vc[k], dt)
                 rows = slice(done, k1)

@@ -117,7 +117,8 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool
     from mrnea.kernels.solve import cholesky_solve
 
     t = nb.typeof
-    ro2 = np.zeros((1, 1))
+    tree = any(p != i - 1 for i, p in enumerate(parents))
+    ro2 = np.zeros((2, 2), order="F" if tree else "C")  # the model: a tree's is F order (layout.py)
     ro2.flags.writeable = False
     f1, f2, f3 = t(np.zeros(1)), t(np.zeros((1, 1))), t(np.zeros((1, 1, 1)))
     b1, b2 = t(np.zeros(1, bool)), t(np.zeros((1, 1), bool))
@@ -136,7 +137,7 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool
                        ws)),
         (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean)),
         (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean, i64, i64,
-                               nb.types.UniTuple(f2, 2), i1)),
+                               nb.types.UniTuple(f2, 2), i1, ws)),
         (derived, (model, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
                    nb.types.Tuple((f2, f2, f2, b2, b2)), f1, i64, i64)),
         (peaks.run_peaks, (nb.types.Tuple((f2, f2, f2, f2, b2, b2, f3)),

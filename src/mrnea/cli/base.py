@@ -244,6 +244,9 @@ class _Group(click.Group):
 
     def main(self, args: Any = None, prog_name: str | None = None,
              complete_var: str | None = None, standalone_mode: bool = True, **extra: Any) -> Any:
+        # the command says it compiles in its own words (compile_notice, never with --quiet):
+        # the library's notice (mrnea/compiled.py) off here and in the processes it starts
+        os.environ["MRNEA_COMPILE_NOTICE"] = "0"
         try:
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.exceptions.NoArgsIsHelpError as exc:  # ``mrnea`` alone: the help

@@ -1,14 +1,15 @@
 """Achievable accelerations: what the actuators can really do this cycle (paper Secs. II, V).
 
-Usage: ``status = achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, out)`` with
-``compiled = (model, act)`` and ``out = (qdd, tau, phi, tau_req, limit, sat, stuck)``; ``status =
-step(model, act, q, qd, q_cmd, qd_cmd, dt, fext, pe, mode, engine, qdd_des, qdd, tau, phi,
-tau_req, limit, sat, stuck, q_next, qd_next, clamp, ws)`` with ``ws`` an ``ACHIEVABLE`` scratch
-(kernels/layout.py); ``mode`` is ``solve_mode(PAPER or HYBRID, n)`` (kernels/drive_solve.py: the
-mode with the drive solve's way for n joints, a compile-time choice). The kernels Python calls
-take tuples; the per-state kernels inside the
-batch and simulation loops (``achievable_ws``, ``step``) take their arrays one by one, which
-measured 3-6 % faster in the simulation loop (docs/design.md).
+Usage: ``status = achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau,
+phi, tau_req, limit, sat, stuck, ws)``; ``status = step(model, act, q, qd, q_cmd, qd_cmd, dt,
+fext, pe, mode, engine, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, q_next, qd_next,
+clamp, ws)``; ``ws`` an ``ACHIEVABLE`` scratch (kernels/layout.py; from Python
+``entry_scratch(n, ACHIEVABLE)``); ``mode`` is ``solve_mode(PAPER or HYBRID, n)``
+(kernels/drive_solve.py: the mode with the drive solve's way for n joints, a compile-time
+choice). Python calls these two per-state kernels themselves (mrnea.achievable), with exactly
+the argument types the batch and simulation loops give them, so a first run compiles each once
+(no entry of its own: docs/performance.md section 7); they take their arrays one by one, which
+measured 3-6 % faster in the simulation loop than tuples (docs/design.md).
 
 The drive's law (kernels/drive.py): tau = H_a qdd + u'_a + phi (Eqs. 42-43), the effort limit at
 speed and set-valued Coulomb friction phi. One cycle is one exact solve of that law with the
@@ -38,8 +39,6 @@ from mrnea.kernels.common import finite
 from mrnea.kernels.drive import actuator_terms, beyond, coulomb, effort_box
 from mrnea.kernels.drive_solve import HYBRID, PAPER, solve_cycle
 from mrnea.kernels.layout import (
-    ACHIEVABLE,
-    ALLOC,
     FNEG,
     FPOS,
     JIT,
@@ -49,25 +48,14 @@ from mrnea.kernels.layout import (
     VLIM,
     achievable_buffers,
     own_scratch,
-    scratch,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
-__all__ = ["CLAMP_POSITION", "CLAMP_VELOCITY", "HYBRID", "PAPER", "achievable",
-           "achievable_batch", "achievable_ws", "step"]
+__all__ = ["CLAMP_POSITION", "CLAMP_VELOCITY", "HYBRID", "PAPER", "achievable_batch",
+           "achievable_ws", "step"]
 
 # clamp flags of ``step``, per joint
 CLAMP_POSITION, CLAMP_VELOCITY = 1, 2
-
-
-@nb.njit(**ALLOC)
-def achievable(compiled, q, qd, qdd_des, fext, pe, mode, engine, out):
-    """``achievable_ws`` with its own scratch; ``compiled = (model, act)``, ``out = (qdd, tau,
-    phi, tau_req, limit, sat, stuck)``."""
-    model, act = compiled
-    qdd, tau, phi, tau_req, limit, sat, stuck = out
-    return achievable_ws(model, act, q, qd, qdd_des, fext, pe, mode, engine, qdd, tau, phi,
-                         tau_req, limit, sat, stuck, scratch(q.shape[0], ACHIEVABLE))
 
 
 @nb.njit(**JIT)

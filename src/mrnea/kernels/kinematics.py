@@ -12,7 +12,9 @@ angular, Pinocchio's order)::
     prismatic k:  v = z_k,               w = 0
 
 so that the joints supply ``J^T [f_e; n_e]`` against a wrench the last link exerts at p (Eq. 1's
-J^T k_e). Scratch: a ``POSE`` one or larger (the pose slots of ``layout.pose_buffers``).
+J^T k_e). Scratch: a ``POSE`` one or larger (the pose slots of ``layout.pose_buffers``). The
+kinematics pass is a chain's copy for a chain's model, a tree's for a tree's (its type:
+kernels/layout.py ``tree_of``).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from mrnea.kernels.layout import (
     is_prismatic,
     own_scratch,
     pose_buffers,
+    tree_of,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
@@ -39,7 +42,7 @@ def frames_ws(model, q, out, ws):
     if not finite(q):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic, True)
+    kinematics(model, q, R, o, z, c, Ic, tree_of(model))
     for a in range(4):  # the base frame: the identity
         for b in range(4):
             out[0, a, b] = 1.0 if a == b else 0.0
@@ -76,7 +79,7 @@ def link_jacobian_ws(model, q, t, pe, J, ws):
     if not (finite(q) and finite(pe)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic, True)
+    kinematics(model, q, R, o, z, c, Ic, tree_of(model))
     p = tip_point(o, R, t + 1, pe)  # o_t + R_t p_e, base coordinates
     for k in range(n):
         zk = vec(z, k)

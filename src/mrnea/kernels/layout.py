@@ -31,6 +31,16 @@ Row 0 holds the gravity vector in ``[0:3]`` and, in ``[TREE]``, 1 for a tree (so
 Joints are in depth-first order from the base (``Robot`` checks it), so λ(i) < i and every
 subtree is a contiguous index range; the integer columns are stored as exact floats.
 
+Chain or tree is a compile-time choice, made by the array's TYPE: a serial chain's model is
+row-major (C order, :data:`MODEL_T`), a tree's column-major (Fortran order,
+:data:`MODEL_TREE_T`); the values, and so every result, are the same. :func:`tree_of` and
+:func:`tree_scratch` read the type, so that Numba compiles only a chain's copies of the passes
+for a chain (without the tree's branches) and only a tree's for a tree: a program runs one robot,
+and its first run compiles one set (docs/performance.md section 18). The tree's copies run any
+model, so any layout but C runs correctly; only a C-order copy of a TREE's model (``m.copy()``,
+``np.ascontiguousarray(m)``) would run a chain's copies on a tree: copy a model with
+``order="K"`` (pickling keeps the order), or make it again with :func:`compile_model`.
+
 NOPOS and NOCOM are the specialisation the paper's Sec. IV makes by hand for the SDT: terms with
 a zero offset vanish, and the kernels skip them (``compile_model(robot, specialise=False)``
 leaves both flags at 0 and so runs every term: the general path the tests compare with).
@@ -81,6 +91,7 @@ from typing import TYPE_CHECKING
 
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
 if TYPE_CHECKING:
     from mrnea.model import Robot
@@ -128,7 +139,8 @@ PARALLEL = {**JIT, "parallel": True}
 INTO_CALLER = {"inline": "always"}
 
 # --- the types of the single-state entries (dynamics._Entry compiles them for exactly these) -----
-MODEL_T = nb.types.Array(nb.types.float64, 2, "C", readonly=True)  # the compiled model
+MODEL_T = nb.types.Array(nb.types.float64, 2, "C", readonly=True)  # a serial chain's model
+MODEL_TREE_T = nb.types.Array(nb.types.float64, 2, "F", readonly=True)  # a tree's
 IN_T = nb.types.Array(nb.types.float64, 1, "A")  # a state: any layout
 OUT1_T = nb.types.Array(nb.types.float64, 1, "C")  # outputs, as the wrappers allocate them
 OUT2_T = nb.types.Array(nb.types.float64, 2, "C")
@@ -216,8 +228,44 @@ def compile_model(robot: Robot, specialise: bool = True) -> np.ndarray:
         if specialise:
             m[i, NOPOS] = float(not j.is_prismatic and not np.any(j.origin[:3, 3]))
             m[i, NOCOM] = float(not np.any(lk.com))
+    if m[0, TREE]:
+        m = np.asfortranarray(m)  # the type that compiles a tree's copies (module docstring)
     m.setflags(write=False)
     return m
+
+
+def model_type_is_chain(model: nb.types.Type) -> bool:
+    """Whether a compiled model's Numba type is a serial chain's (C order: module docstring)."""
+    return isinstance(model, nb.types.Array) and model.layout == "C"
+
+
+def tree_of(model):
+    """None for a serial chain's model, True for a tree's, chosen by the model's TYPE (module
+    docstring): passed as the ``tree`` argument of ``common.kinematics``, it compiles the chain's
+    copy (without the parent look-ups) for a chain only. Python body for NUMBA_DISABLE_JIT;
+    compiled code uses the overload."""
+    return True if model[0, TREE] else None
+
+
+def tree_scratch(model, ws):
+    """None for a serial chain's model, else the scratch ``ws`` (as :func:`tree_of`): the
+    ``ws`` argument of ``rnea.newton_euler`` and ``rnea.link_forces``, None compiling a chain's
+    copy. Python body for NUMBA_DISABLE_JIT; compiled code uses the overload."""
+    return ws if model[0, TREE] else None
+
+
+@overload(tree_of, inline="always")
+def _tree_of_overload(model):
+    if model_type_is_chain(model):
+        return lambda model: None
+    return lambda model: True
+
+
+@overload(tree_scratch, inline="always")
+def _tree_scratch_overload(model, ws):
+    if model_type_is_chain(model):
+        return lambda model, ws: None
+    return lambda model, ws: ws
 
 
 def compile_actuators(robot: Robot) -> np.ndarray:

@@ -71,7 +71,6 @@ from mrnea.kernels.layout import (
     NOPOS,
     STASH,
     SUBEND,
-    TREE,
     carries,
     column_stash,
     is_prismatic,
@@ -80,6 +79,7 @@ from mrnea.kernels.layout import (
     pose_buffers,
     solve_buffers,
     stash_buffers,
+    tree_of,
 )
 from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import solve_forward
@@ -128,29 +128,43 @@ def mrnea_full(model, q, qd, fext, pe, H, u, ws):
     return mrnea_ws(model, q, qd, fext, pe, H, u, True, ws)
 
 
-@nb.njit(**JIT)
+@nb.njit(**INTO_CALLER)
 def mrnea_ws(model, q, qd, fext, pe, H, u, full, ws):
     """:func:`mrnea` (``full``: :func:`mrnea_full`) on the scratch ``ws`` (kernels/layout.py).
 
-    A serial chain (the model's TREE flag 0) runs :func:`mrnea_pass` compiled for ``tree=None``:
-    Numba drops the tree's branches from that copy, so a chain runs the operations of the
-    pass before trees, at its speed (the branches left in, never taken, cost a chain 14-19 %
-    of the pass: docs/performance.md section 14). That copy is compiled into this function
+    Compiled into its caller: it passes :func:`pass_of` the chain/tree choice the model's type
+    makes (kernels/layout.py ``tree_of``: None for a chain, True for a tree), so that a chain
+    compiles neither the tree's copy of the pass nor its callees (docs/performance.md
+    section 18).
+    """
+    return pass_of(model, q, qd, fext, pe, H, u, full, ws, tree_of(model))
+
+
+@nb.njit(**JIT)
+def pass_of(model, q, qd, fext, pe, H, u, full, ws, tree):
+    """:func:`mrnea_ws`'s pass; ``tree``: None on a serial chain, True on a tree.
+
+    A serial chain runs :func:`mrnea_pass` compiled for ``tree=None``: Numba drops the tree's
+    branches from that copy, so a chain runs the operations of the pass before trees, at its
+    speed (the branches left in, never taken, cost a chain 14-19 % of the pass:
+    docs/performance.md section 14). That copy is compiled into this function
     (``chain_pass``): a call of its own passed every array argument as a dozen scalars, about
-    80 a state, 2-4 % of a chain's pass (docs/performance.md section 16). A tree's copy
-    (``tree_pass``) stays a call of its own, so that this function's compile does not grow by
-    a second inlined copy.
+    80 a state, 2-4 % of a chain's pass (docs/performance.md section 16). A tree runs the
+    tree's copy (``tree_pass``), a call of its own. Numba prunes ``tree is None`` on an
+    argument's type, so each compiles only its own branch (a choice read from the model's
+    values compiled both: section 18).
     """
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
-    if model[0, TREE]:
-        return tree_pass(model, q, qd, fext, pe, H, u, full, ws, True)
-    return chain_pass(model, q, qd, fext, pe, H, u, full, ws, None)
+    if tree is None:
+        return chain_pass(model, q, qd, fext, pe, H, u, full, ws, None)
+    return tree_pass(model, q, qd, fext, pe, H, u, full, ws, True)
 
 
 def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
     """The pass of :func:`mrnea_ws` on finite inputs; ``tree``: None on a serial chain (the
-    tree's branches compiled out), True on a tree. Compiled twice below, never called as is."""
+    tree's branches compiled out), True on a tree. Compiled twice below (``chain_pass``,
+    ``tree_pass``: :func:`pass_of` calls one), never called as is."""
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
     kinematics(model, q, R, o, z, c, Ic, tree)
@@ -272,7 +286,7 @@ def mrnea_pass(model, q, qd, fext, pe, H, u, full, ws, tree):
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
-chain_pass = nb.njit(**INTO_CALLER)(mrnea_pass)  # a chain's copy, compiled into mrnea_ws
+chain_pass = nb.njit(**INTO_CALLER)(mrnea_pass)  # a chain's copy, compiled into pass_of
 tree_pass = nb.njit(**JIT)(mrnea_pass)  # a tree's, a call of its own
 
 

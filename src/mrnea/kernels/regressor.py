@@ -27,7 +27,15 @@ from __future__ import annotations
 import numba as nb
 
 from mrnea.kernels.common import add, cross, dot, finite, kinematics, mtv, mvt, rot, scale, sub, vec
-from mrnea.kernels.layout import INLINE, JIT, PARALLEL, is_prismatic, own_scratch, pose_buffers
+from mrnea.kernels.layout import (
+    INLINE,
+    JIT,
+    PARALLEL,
+    is_prismatic,
+    own_scratch,
+    pose_buffers,
+    tree_of,
+)
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
 
@@ -70,7 +78,7 @@ def regressor_ws(model, q, qd, qdd, Y, ws):
     if not (finite(q) and finite(qd) and finite(qdd)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic, True)
+    kinematics(model, q, R, o, z, c, Ic, tree_of(model))  # a chain's copy for a chain
     for j in range(n):
         for col in range(10 * n):
             Y[j, col] = 0.0

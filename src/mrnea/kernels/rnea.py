@@ -50,7 +50,6 @@ from mrnea.kernels.layout import (
     PARALLEL,
     ROT,
     SUBEND,
-    TREE,
     branch_buffers,
     effort_buffer,
     force_buffers,
@@ -59,6 +58,8 @@ from mrnea.kernels.layout import (
     parent,
     pose_buffers,
     stash_buffers,
+    tree_of,
+    tree_scratch,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
@@ -131,8 +132,8 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
     later child's are moved to its parent's point and stashed (``ws``'s ``stash_buffers``)
     until the parent's step adds them (Eqs. 18-19 summed over the children). ``ws=None``
     compiles a serial chain's copy, without the tree's branches and without the scratch among
-    its arguments (as ``link_forces``'s; :func:`rnea_ws` chooses by the model's TREE flag); any
-    scratch runs any tree.
+    its arguments (as ``link_forces``'s; :func:`rnea_ws` chooses by the model's type,
+    kernels/layout.py ``tree_scratch``); any scratch runs any tree.
     """
     n = qd.shape[0]
     link_forces(model, o, z, c, Ic, qd, qdd, g, f, nm, ws)
@@ -183,23 +184,18 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     (n, 3) (module docstring). Returns OK, or NONFINITE if an input holds NaN or inf.
     ``pose_ready``: the scratch's pose buffers already hold the kinematics of this q (the
     simulation loop, after an mRNEA pass on the same state), so they are not computed again.
-    A serial chain (the model's TREE flag 0) runs the chain's copies of the kinematics and of
-    :func:`newton_euler`, without the tree's branches (as ``mrnea_ws``: docs/performance.md
-    section 16).
+    A serial chain's model (its type: kernels/layout.py ``tree_of``) runs the chain's copies of
+    the kinematics and of :func:`newton_euler`, without the tree's branches (as ``mrnea_ws``:
+    docs/performance.md sections 16, 18); a tree's, the tree's.
     """
     f, nm = force_buffers(ws, q.shape[0])
     if not (finite(q) and finite(qd) and finite(qdd) and finite(fext) and finite(pe)):
         return NONFINITE
     R, o, z, c, Ic = pose_buffers(ws, q.shape[0])
     g = (model[0, 0], model[0, 1], model[0, 2])
-    if model[0, TREE]:
-        if not pose_ready:
-            kinematics(model, q, R, o, z, c, Ic, True)
-        newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws)
-    else:
-        if not pose_ready:
-            kinematics(model, q, R, o, z, c, Ic, None)
-        newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, None)
+    if not pose_ready:
+        kinematics(model, q, R, o, z, c, Ic, tree_of(model))
+    newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, tree_scratch(model, ws))
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 

@@ -2,13 +2,15 @@
 program's own requirement, every cycle at once.
 
 Usage: ``k, status = simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions,
-k0, k1, run)``
+k0, k1, run, ws)``
 with ``compiled = (model, act)``, ``mode = solve_mode(PAPER or HYBRID, n)``
 (kernels/drive_solve.py), ``program = (q_cmd, qd_cmd, fext, pe)`` and
 ``run = (q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench)``, unpacked
 once per call: the per-cycle ``step`` takes its arrays one by one (docs/design.md).
-``program_requirement(compiled, program, dt, friction, k0, k1, out, status)`` with
-``out = (req, limit)`` fills rows k0 <= k < k1.
+``program_requirement(compiled, program, dt, friction, k0, k1, out, status, ws)`` with
+``out = (req, limit)`` fills rows k0 <= k < k1. ``ws``: an ``ACHIEVABLE`` scratch made in
+Python (kernels/layout.py ``entry_scratch``), which both may share (each writes a slot before
+it reads it); one made here would compile ``layout.scratch`` into a first run (about 0.8 s).
 
 Row k describes instant t_k = k dt: the program q_cmd[k], its velocity over the interval that ends
 at t_k, qd_cmd[k] = (q_cmd[k] - q_cmd[k-1]) / dt (the paper's desired velocity), the robot's state
@@ -44,19 +46,18 @@ import numpy as np
 from mrnea.kernels.achievable import step
 from mrnea.kernels.drive import drive_effort, side_limit, wanted_friction
 from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import ACHIEVABLE, ALLOC, FNEG, FPOS, scratch
+from mrnea.kernels.layout import ALLOC, FNEG, FPOS
 from mrnea.kernels.rnea import reactions_ws, rnea_ws
 from mrnea.kernels.status import OK
 
 
 @nb.njit(**ALLOC)
-def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0, k1, run):
+def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0, k1, run, ws):
     """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
     q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench = run
-    K, n = q_cmd.shape
-    ws = scratch(n, ACHIEVABLE)  # step's, then the reactions'
+    K, n = q_cmd.shape  # ws: step's, then the reactions'
     nxt = np.empty((3, n))  # the next state and the velocity wanted over the next interval
     q_next, qd_next, v = nxt[0], nxt[1], nxt[2]
     for k in range(k0, k1):
@@ -83,7 +84,7 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0
 
 
 @nb.njit(**ALLOC)
-def program_requirement(compiled, program, dt, friction, k0, k1, out, status):
+def program_requirement(compiled, program, dt, friction, k0, k1, out, status, ws):
     """The program's own requirement (module docstring) in cycles k0 <= k < k1: out = (req,
     limit), each (K, n) [N m | N], joint side; status (K,) per cycle; ``friction`` False leaves
     the Coulomb term out (its share is set-valued at rest: Hollerbach's time scaling,
@@ -92,14 +93,18 @@ def program_requirement(compiled, program, dt, friction, k0, k1, out, status):
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
     req, limit = out
-    K, n = q_cmd.shape
-    ws = scratch(n, ACHIEVABLE)  # more rows than the RNEA needs: the loop's call, compiled once
+    K, n = q_cmd.shape  # ws: more rows than the RNEA needs, the loop's type: compiled once
     qdd_des = np.empty(n)
+    # the scratch never holds q_cmd[k]'s kinematics: pose_ready False, as a run-time bool, the
+    # type the loop's reactions_ws passes, so both share one compiled rnea_ws (a literal False
+    # or the default would be a second signature; docs/performance.md section 7)
+    pose_ready = k1 < k0
     for k in range(k0, k1):
         for i in range(n):
             v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]  # the program ends at rest
             qdd_des[i] = (v - qd_cmd[k, i]) / dt
-        status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws)
+        status[k] = rnea_ws(model, q_cmd[k], qd_cmd[k], qdd_des, fext[k], pe[k], req[k], ws,
+                            pose_ready)
         for i in range(n):
             v = 0.0 if k + 1 >= K else qd_cmd[k + 1, i]
             h = req[k, i] + drive_effort(act, i, qd_cmd[k, i], qdd_des[i])

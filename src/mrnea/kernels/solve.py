@@ -21,9 +21,10 @@ from __future__ import annotations
 
 import numba as nb
 import numpy as np
+from numba.extending import overload
 
 from mrnea.kernels.common import finite
-from mrnea.kernels.layout import INTO_CALLER, JIT, PARENT, TREE
+from mrnea.kernels.layout import INTO_CALLER, JIT, PARENT, model_type_is_chain, tree_of
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
 PIVOT_TOL = 1e-13  # a pivot below PIVOT_TOL * max(diag H) counts as zero
@@ -142,6 +143,23 @@ def ltl_substitute(lam, L, rhs, x):
         x[i] *= L[i, i]
 
 
+def model_solve(model, H, rhs, L, qdd):
+    """qdd from ``H qdd = rhs`` (L: scratch): the dense Cholesky for a serial chain's model, the
+    tree's LTL for a tree's, chosen by the model's type (kernels/layout.py ``tree_of``), so that
+    a chain does not compile the tree's. Python body for NUMBA_DISABLE_JIT; compiled code uses
+    the overload."""
+    if tree_of(model) is None:
+        return cholesky_solve(H, rhs, L, qdd)
+    return ltl_solve(model, H, rhs, L, qdd)
+
+
+@overload(model_solve, inline="always")
+def _model_solve_overload(model, H, rhs, L, qdd):
+    if model_type_is_chain(model):
+        return lambda model, H, rhs, L, qdd: cholesky_solve(H, rhs, L, qdd)
+    return lambda model, H, rhs, L, qdd: ltl_solve(model, H, rhs, L, qdd)
+
+
 @nb.njit(**INTO_CALLER)
 def solve_forward(model, status, H, u, tau, L, rhs, qdd):
     """Forward dynamics once a pass has filled H and u' and returned ``status`` (Eq. 2): qdd
@@ -155,10 +173,7 @@ def solve_forward(model, status, H, u, tau, L, rhs, qdd):
         return status
     for i in range(tau.shape[0]):
         rhs[i] = tau[i] - u[i]
-    if model[0, TREE]:
-        status = ltl_solve(model, H, rhs, L, qdd)
-    else:
-        status = cholesky_solve(H, rhs, L, qdd)
+    status = model_solve(model, H, rhs, L, qdd)
     return status if status != OK or finite(qdd) else OVERFLOW
 
 

@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 
 from mrnea.kernels.common import finite, kinematics, sized
-from mrnea.kernels.layout import ALLOC, ENTRY_ALLOC, INTO_CALLER, TREE, force_buffers, pose_buffers
+from mrnea.kernels.layout import ENTRY_ALLOC, force_buffers, pose_buffers, tree_of, tree_scratch
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
@@ -24,29 +24,20 @@ def walker_orin(model, q, qd, fext, pe, H, u, ws):
     """H (n, n) and u' (n,) of one state by n + 1 Newton-Euler passes; returns a status.
     Poses and forces go to the scratch ``ws`` (kernels/layout.py).
 
-    A serial chain (the model's TREE flag 0) runs the chain's copies of the kinematics and of
-    ``newton_euler`` (``ws=None``: the tree's branches compiled out and the scratch not among
-    the n + 1 calls' arguments, each array of which is passed as about a dozen scalars), that
-    pass compiled into this function, as ``rnea_ws`` and ``mrnea_ws`` do (docs/performance.md
-    sections 16 and 18); a tree runs the tree's copies, a call of its own."""
+    A serial chain's model (its type: kernels/layout.py ``tree_of``, ``tree_scratch``) runs the
+    chain's copies of the kinematics and of ``newton_euler`` (``ws=None``: the tree's branches
+    compiled out and the scratch not among the n + 1 calls' arguments, each array of which is
+    passed as about a dozen scalars: docs/performance.md section 19); a tree's the tree's."""
     if not sized(model, q, qd, qd):
         return SIZE
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
-    if model[0, TREE]:
-        return tree_pass(model, q, qd, fext, pe, H, u, ws, True, ws)
-    return chain_pass(model, q, qd, fext, pe, H, u, ws, None, None)
-
-
-def walker_orin_pass(model, q, qd, fext, pe, H, u, ws, tree, branches):
-    """The passes of :func:`walker_orin` on finite inputs: ``tree`` None and ``branches`` None
-    on a serial chain, True and the scratch ``ws`` on a tree (``kinematics``' and
-    ``newton_euler``'s last arguments). Compiled twice below, never called as is."""
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    kinematics(model, q, R, o, z, c, Ic, tree)
+    kinematics(model, q, R, o, z, c, Ic, tree_of(model))
     f, nm = force_buffers(ws, n)
     g = (model[0, 0], model[0, 1], model[0, 2])
+    branches = tree_scratch(model, ws)
     newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, branches)
     zero_n = np.zeros(n)
     unit = np.zeros(n)
@@ -58,7 +49,3 @@ def walker_orin_pass(model, q, qd, fext, pe, H, u, ws, tree, branches):
         H[:, k] = col
         unit[k] = 0.0
     return OK if finite(H) and finite(u) else OVERFLOW
-
-
-chain_pass = nb.njit(**INTO_CALLER)(walker_orin_pass)  # a chain's copy, compiled into walker_orin
-tree_pass = nb.njit(**ALLOC)(walker_orin_pass)  # a tree's, a call of its own

@@ -92,7 +92,8 @@ def rigid_body_terms(robot: Robot, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
     u, H, ub = np.empty((K, n)), np.empty((K, n, n)), np.empty((K, n))
     st_u, st_h = np.empty(K, dtype=np.int64), np.empty(K, dtype=np.int64)
     for k in range(K):
-        st_u[k] = rnea_ws(m, Q[k], QD[k], QDD[k], FE[k], PE[k], u[k], ws)
+        st_u[k] = rnea_ws(m, Q[k], QD[k], QDD[k], FE[k], PE[k], u[k], ws, False)  # a bool, as
+        # program_requirement passes: one compiled rnea_ws
         st_h[k] = actuator_terms(m, act, Q[k], QD[k], FE[k], PE[k], ENGINE_MRNEA, H[k], ub[k],
                                  ws)
     validate.check_status(robot, st_u, states)
