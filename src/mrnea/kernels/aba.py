@@ -193,23 +193,25 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
     if status != OK:
         return status
 
-    # pass 3, base to tip: accelerations, each link's from its parent's (the base's: -g)
-    acc = np.zeros((n, 6))
+    # pass 3, base to tip: accelerations, each link's from its parent's (the base's: -g), into
+    # cb, not read again (no array of its own: one allocation less a call): a_i = a_λ(i) + c_i,
+    # then a_i += S_i qdd_i
     g = (model[0, 0], model[0, 1], model[0, 2])
+    base = (0.0, 0.0, 0.0, -g[0], -g[1], -g[2])
     for i in range(n):
         p = parent(model, i)
         if p >= 0:
-            acc[i] = acc[p]
+            for a in range(6):
+                cb[i, a] = cb[p, a] + cb[i, a]
         else:
-            acc[i, 3], acc[i, 4], acc[i, 5] = -g[0], -g[1], -g[2]
-        for a in range(6):
-            acc[i, a] += cb[i, a]
+            for a in range(6):
+                cb[i, a] = base[a] + cb[i, a]
         s = 0.0
         for a in range(6):
-            s += U[i, a] * acc[i, a]
+            s += U[i, a] * cb[i, a]
         qdd[i] = (u[i] - s) / D[i]
         for a in range(6):
-            acc[i, a] += S[i, a] * qdd[i]
+            cb[i, a] += S[i, a] * qdd[i]
     return OK if finite(qdd) else OVERFLOW
 
 
