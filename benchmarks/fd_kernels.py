@@ -18,60 +18,46 @@ from __future__ import annotations
 
 import importlib
 import os
-import shutil
-import site
-import statistics
 import sys
-import tempfile
 from pathlib import Path
 
 import numba as nb
 import numpy as np
-from serial_kernels import best_ns, copy_package
+from serial_kernels import compare, ur5_urdf
 
 CALLS = ("fd_crba", "crba_bias", "fd_walker_orin", "walker_orin", "aba")
+
+
+def _fd_loop(f):
+    """A compiled loop of N calls of a forward-dynamics kernel ``f(model, q, qd, tau, fext, pe,
+    qdd, ws)``."""
+    @nb.njit
+    def loop(m, q, qd, tau, qdd, H, u, ws, N):
+        s = 0
+        for _ in range(N):
+            s += f(m, q, qd, tau, None, None, qdd, ws)
+        return s
+    return loop
+
+
+def _hb_loop(f):
+    """A compiled loop of N calls of an H-and-u' kernel ``f(model, q, qd, fext, pe, H, u,
+    ws)``."""
+    @nb.njit
+    def loop(m, q, qd, tau, qdd, H, u, ws, N):
+        s = 0
+        for _ in range(N):
+            s += f(m, q, qd, None, None, H, u, ws)
+        return s
+    return loop
 
 
 def loops(E, C, W, A):
     """Compiled loops of N calls of one version's fd_crba, crba_bias, fd_walker_orin,
     walker_orin and aba."""
-    fdc, cb, fdw, wo, aba = E.fd_crba, C.crba_bias, E.fd_walker_orin, W.walker_orin, A.aba
-
-    @nb.njit
-    def loop_fdc(m, q, qd, tau, qdd, H, u, ws, N):
-        s = 0
-        for _ in range(N):
-            s += fdc(m, q, qd, tau, None, None, qdd, ws)
-        return s
-
-    @nb.njit
-    def loop_cb(m, q, qd, tau, qdd, H, u, ws, N):
-        s = 0
-        for _ in range(N):
-            s += cb(m, q, qd, None, None, H, u, ws)
-        return s
-
-    @nb.njit
-    def loop_fdw(m, q, qd, tau, qdd, H, u, ws, N):
-        s = 0
-        for _ in range(N):
-            s += fdw(m, q, qd, tau, None, None, qdd, ws)
-        return s
-
-    @nb.njit
-    def loop_wo(m, q, qd, tau, qdd, H, u, ws, N):
-        s = 0
-        for _ in range(N):
-            s += wo(m, q, qd, None, None, H, u, ws)
-        return s
-
-    @nb.njit
-    def loop_aba(m, q, qd, tau, qdd, H, u, ws, N):
-        s = 0
-        for _ in range(N):
-            s += aba(m, q, qd, tau, None, None, qdd, ws)
-        return s
-    return dict(zip(CALLS, (loop_fdc, loop_cb, loop_fdw, loop_wo, loop_aba), strict=True))
+    return dict(zip(CALLS, (_fd_loop(E.fd_crba), _hb_loop(C.crba_bias),
+                            _fd_loop(E.fd_walker_orin), _hb_loop(W.walker_orin),
+                            _fd_loop(A.aba)), strict=True))
 
 
 def calls_of(pkg: str, urdf: Path | None, names: list[str]) -> dict:
@@ -96,37 +82,10 @@ def calls_of(pkg: str, urdf: Path | None, names: list[str]) -> dict:
 
 
 def main() -> None:
-    rounds, sources = int(sys.argv[1]), [Path(a).resolve() for a in sys.argv[2:]]
     names = os.environ.get("FD_CALLS", ",".join(CALLS)).split(",")
-    urdf = next((p for p in (Path(sp) / "cmeel.prefix/share/example-robot-data/robots"
-                             / "ur_description/urdf/ur5_robot.urdf"
-                             for sp in site.getsitepackages()) if p.is_file()), None)
-    tmp = Path(tempfile.mkdtemp(prefix="mrnea_versions_"))
-    sys.path.insert(0, str(tmp))
-    pkgs = [f"mrnea_v{i}" for i in range(len(sources))]
-    for src, pkg in zip(sources, pkgs, strict=True):
-        copy_package(src, tmp, pkg)
-    calls = {pkg: calls_of(pkg, urdf, names) for pkg in pkgs}
-    for c in calls.values():
-        for f in c.values():
-            assert f() == -1000  # compile; every call returns OK (-1)
-    keys = list(calls[pkgs[0]])
-    res = {(pkg, k): [] for pkg in pkgs for k in keys}
-    for _ in range(rounds):
-        for k in keys:
-            for pkg in pkgs:
-                res[pkg, k].append(best_ns(calls[pkg][k]))
-    for i, src in enumerate(sources):
-        print(f"v{i}: {src}")
-    print("| call | " + " | ".join(f"v{i} median (best) [ns]" for i in range(len(pkgs)))
-          + " | " + " | ".join(f"v{i} / v0" for i in range(1, len(pkgs))) + " |")
-    for k in keys:
-        med = [statistics.median(res[pkg, k]) for pkg in pkgs]
-        best = [min(res[pkg, k]) for pkg in pkgs]
-        print(f"| {k[0]} {k[1]} | " + " | ".join(f"{a:.0f} ({b:.0f})" for a, b in
-                                                 zip(med, best, strict=True))
-              + " | " + " | ".join(f"{a / med[0]:.3f}" for a in med[1:]) + " |")
-    shutil.rmtree(tmp, ignore_errors=True)
+    urdf = ur5_urdf()
+    compare(int(sys.argv[1]), [Path(a).resolve() for a in sys.argv[2:]],
+            lambda pkg: calls_of(pkg, urdf, names), expect=-1000)  # every call OK (-1)
 
 
 if __name__ == "__main__":

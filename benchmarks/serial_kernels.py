@@ -114,20 +114,28 @@ def best_ns(f) -> float:
     return best / 1000
 
 
-def main() -> None:
-    rounds, sources = int(sys.argv[1]), [Path(a).resolve() for a in sys.argv[2:]]
-    urdf = next((p for p in (Path(sp) / "cmeel.prefix/share/example-robot-data/robots"
+def ur5_urdf() -> Path | None:
+    """example-robot-data's UR5 URDF where it is installed, else None."""
+    return next((p for p in (Path(sp) / "cmeel.prefix/share/example-robot-data/robots"
                              / "ur_description/urdf/ur5_robot.urdf"
                              for sp in site.getsitepackages()) if p.is_file()), None)
+
+
+def compare(rounds: int, sources: list[Path], calls_of, expect: int | None = None) -> None:
+    """Copy each checkout's package (:func:`copy_package`), make its calls (``calls_of(pkg)``:
+    zero-argument calls by (robot, call)), compile them (each first call's sum must equal
+    ``expect`` where given), time them interleaved for ``rounds`` rounds (:func:`best_ns`) and
+    print the table of medians (and bests) [ns] and ratios."""
     tmp = Path(tempfile.mkdtemp(prefix="mrnea_versions_"))
     sys.path.insert(0, str(tmp))
     pkgs = [f"mrnea_v{i}" for i in range(len(sources))]
     for src, pkg in zip(sources, pkgs, strict=True):
         copy_package(src, tmp, pkg)
-    calls = {pkg: calls_of(pkg, urdf) for pkg in pkgs}
+    calls = {pkg: calls_of(pkg) for pkg in pkgs}
     for c in calls.values():
         for f in c.values():
-            f()  # compile
+            s = f()  # compile
+            assert expect is None or s == expect, s
     keys = list(calls[pkgs[0]])
     res = {(pkg, k): [] for pkg in pkgs for k in keys}
     for _ in range(rounds):
@@ -145,6 +153,12 @@ def main() -> None:
                                                  zip(med, best, strict=True))
               + " | " + " | ".join(f"{a / med[0]:.3f}" for a in med[1:]) + " |")
     shutil.rmtree(tmp, ignore_errors=True)
+
+
+def main() -> None:
+    urdf = ur5_urdf()
+    compare(int(sys.argv[1]), [Path(a).resolve() for a in sys.argv[2:]],
+            lambda pkg: calls_of(pkg, urdf))
 
 
 if __name__ == "__main__":

@@ -464,3 +464,37 @@ def figure_scales(page) -> list[float]:
     at its own size; below 0.7 a report figure's text is unreadable)."""
     return page.evaluate("[...document.querySelectorAll('figure img')].map("
                          "i => i.getBoundingClientRect().width / i.naturalWidth)")
+
+
+# A fresh process's record of what Numba compiles: every compile's (qualified name, argument
+# types), from Numba's own "numba:compile" events, printed on one "COMPILED " line. Prefix a
+# script with COMPILE_LISTENER and end it with COMPILE_REPORT; CLI_COMPILES runs the command line
+# given as the script's arguments (`python -c CLI_COMPILES demo --out X`).
+COMPILE_LISTENER = r"""
+import json, sys
+from numba.core import event
+names = []
+class Record(event.Listener):
+    def on_start(self, ev):
+        pass
+    def on_end(self, ev):
+        d = ev.data or {}
+        f = getattr(d.get("dispatcher"), "py_func", None)
+        names.append([getattr(f, "__qualname__", "?"), str(d.get("args"))])
+"""
+COMPILE_REPORT = 'print("COMPILED " + json.dumps(names))\n'
+CLI_COMPILES = COMPILE_LISTENER + r"""
+event.register("numba:compile", Record())
+from mrnea.cli import main
+try:
+    main(sys.argv[1:], standalone_mode=True)
+except SystemExit:
+    pass
+""" + COMPILE_REPORT
+
+
+def compiled_kernels(stdout: str) -> list[tuple[str, str]]:
+    """The (qualified name, argument types) of every compile a COMPILE_LISTENER script
+    printed."""
+    line = next(x for x in stdout.splitlines() if x.startswith("COMPILED "))
+    return [tuple(k) for k in json.loads(line[len("COMPILED "):])]

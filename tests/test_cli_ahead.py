@@ -8,34 +8,15 @@ spare) and when it does not.
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from conftest import CLI_COMPILES, compiled_kernels
 
 from mrnea.cli import ahead
-
-LISTEN = r"""
-import json, sys
-from numba.core import event
-names = []
-class Record(event.Listener):
-    def on_start(self, ev):
-        pass
-    def on_end(self, ev):
-        f = getattr((ev.data or {}).get("dispatcher"), "py_func", None)
-        names.append(getattr(f, "__qualname__", "?"))
-event.register("numba:compile", Record())
-from mrnea.cli import main
-try:
-    main(sys.argv[1:], standalone_mode=True)
-except SystemExit:
-    pass
-print("COMPILED " + json.dumps(names))
-"""
 
 
 @pytest.mark.slow
@@ -44,11 +25,11 @@ def test_a_demo_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) ->
     sdt_parents, report = "-1,0,1,2", "1"
     subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", sdt_parents, "0", report], env=env,
                    check=True, timeout=900)
-    out = subprocess.run([sys.executable, "-c", LISTEN, "demo", "--out", str(tmp_path / "demo"),
-                          "--quiet"], env=env, capture_output=True, text=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "demo", "--out",
+                          str(tmp_path / "demo"), "--quiet"], env=env, capture_output=True,
+                         text=True, timeout=900)
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
-    line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
-    compiled = set(json.loads(line[len("COMPILED "):]))
+    compiled = {name for name, _ in compiled_kernels(out.stdout)}
     ahead_names = {k.py_func.__qualname__
                    for k, _ in ahead.signatures((-1, 0, 1, 2), False, True)}
     assert len(ahead_names) == 8
@@ -64,13 +45,12 @@ def test_a_retime_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) 
     puma_parents = "-1,0,1,2,3,4"
     subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", puma_parents, "0", "1", "1"],
                    env=env, check=True, timeout=900)
-    out = subprocess.run([sys.executable, "-c", LISTEN, "retime", "puma560",
+    out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "retime", "puma560",
                           "examples/puma_pick.toml", "--out", str(tmp_path / "retime"),
                           "--quiet"], env=env, capture_output=True, text=True, timeout=900,
                          cwd=Path(__file__).resolve().parents[1])
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
-    line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
-    compiled = set(json.loads(line[len("COMPILED "):]))
+    compiled = {name for name, _ in compiled_kernels(out.stdout)}
     kernels = ahead.signatures((-1, 0, 1, 2, 3, 4), False, True, retime=True)
     ahead_names = {k.py_func.__qualname__ for k, _ in kernels}
     assert len(ahead_names) == 8

@@ -8,7 +8,6 @@ view's evaluations compiles no batch kernel and no second signature of the kerne
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -16,7 +15,15 @@ import sys
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import PinChain, random_states, rel_err, to_pinocchio
+from conftest import (
+    COMPILE_LISTENER,
+    COMPILE_REPORT,
+    PinChain,
+    compiled_kernels,
+    random_states,
+    rel_err,
+    to_pinocchio,
+)
 from test_dynamics_pinocchio import B, get_case
 from test_tree_pinocchio import random_tree
 
@@ -87,18 +94,8 @@ def test_report_states_refuse_what_the_public_api_refuses() -> None:
         rigid_body_terms(c.robot, q, qd[:2], c.s["qdd"][:3])
 
 
-FRESH = r"""
-import json, sys
+FRESH = COMPILE_LISTENER + r"""
 import numpy as np
-from numba.core import event
-names = []
-class Record(event.Listener):
-    def on_start(self, ev):
-        pass
-    def on_end(self, ev):
-        d = ev.data or {}
-        f = getattr(d.get("dispatcher"), "py_func", None)
-        names.append((getattr(f, "__qualname__", "?"), str(d.get("args"))))
 import mrnea
 from mrnea.report.states import link_frames, rigid_body_terms
 from mrnea.trajectory import quintic
@@ -109,8 +106,7 @@ res = mrnea.simulate(robot, q_cmd, dt=0.01)
 event.register("numba:compile", Record())
 rigid_body_terms(robot, res.q, res.qd, res.qdd)
 link_frames(robot, res.q)
-print("COMPILED " + json.dumps(names))
-"""
+""" + COMPILE_REPORT
 
 
 @pytest.mark.slow
@@ -123,7 +119,6 @@ def test_after_a_simulation_the_report_states_compile_only_the_frames(tmp_path) 
     out = subprocess.run([sys.executable, "-c", FRESH], env=env, capture_output=True, text=True,
                          timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]
-    line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
-    compiled = json.loads(line[len("COMPILED "):])
+    compiled = compiled_kernels(out.stdout)
     names = sorted(name for name, _ in compiled)
     assert names in (["frames_ws"], ["finite", "frames_ws"]), compiled  # and its finite(out)

@@ -10,7 +10,6 @@ retiming compiles no batch kernel and no second signature of ``actuator_terms``.
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -18,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PinChain, random_states, rel_err, to_pinocchio
+from conftest import CLI_COMPILES, PinChain, compiled_kernels, random_states, rel_err, to_pinocchio
 from test_dynamics_pinocchio import get_case
 
 import mrnea
@@ -99,40 +98,17 @@ def test_one_state_at_a_time_refuses_what_the_public_function_refuses() -> None:
             actuator_terms_along(robot, np.zeros((4, robot.n)), np.zeros((3, robot.n)))
 
 
-LISTEN = r"""
-import json, sys
-from numba.core import event
-names = []
-class Record(event.Listener):
-    def on_start(self, ev):
-        pass
-    def on_end(self, ev):
-        d = ev.data or {}
-        f = getattr(d.get("dispatcher"), "py_func", None)
-        names.append([getattr(f, "__qualname__", "?"), str(d.get("args"))])
-event.register("numba:compile", Record())
-from mrnea.cli import main
-try:
-    main(sys.argv[1:], standalone_mode=True)
-except SystemExit:
-    pass
-print("COMPILED " + json.dumps(names))
-"""
-
-
 @pytest.mark.slow
 def test_a_fresh_cli_retime_compiles_no_batch_kernel(tmp_path) -> None:
     """On an empty cache (no compile-ahead process): ``actuator_terms`` once, the simulation's
     signature, no parallel batch kernel, and the compile notice said once."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
-    out = subprocess.run([sys.executable, "-c", LISTEN, "retime", "puma560",
+    out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "retime", "puma560",
                           str(ROOT / "examples" / "puma_pick.toml"), "--out",
                           str(tmp_path / "out")], env=env, capture_output=True, text=True,
                          timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]
-    line = next(x for x in out.stdout.splitlines() if x.startswith("COMPILED "))
-    compiled = json.loads(line[len("COMPILED "):])
-    names = [k for k, _ in compiled]
+    names = [name for name, _ in compiled_kernels(out.stdout)]
     assert names.count("actuator_terms") == 1
     assert not [k for k in names if k.endswith("_batch")], names
     assert "simulate_cycles" in names and "controllable_sets" in names  # it did compile
