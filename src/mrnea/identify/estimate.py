@@ -260,8 +260,9 @@ def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: 
     cond = _condition(W[:K_fit][used[:K_fit]])
     if not cond <= MAX_CONDITION:
         raise StateError(f"log: its {K_fit} samples fitted ({int(used[:K_fit].sum())} joint "
-                         f"rows) do not determine every base parameter (condition number {cond:.3g} of the base "
-                         f"regressor, at most {MAX_CONDITION:g} taken): record a longer log, "
+                         f"rows) do not determine every base parameter (condition number "
+                         f"{cond:.3g} of the base regressor, at most {MAX_CONDITION:g} "
+                         "taken): record a longer log, "
                          "or one of `mrnea excite`'s trajectories")
     prior = np.concatenate([inertial_parameters(robot), actuator_parameters(robot)])
     theta = _consistent(robot, base, beta, info, prior_weight) if physical else prior
