@@ -91,15 +91,12 @@ def _outputs(out: Path, extra: tuple[str, ...] = ()) -> list[Path]:
 def _write_outputs(res, out: Path, force: bool, view3d: bool,
                    extra_figures: dict | None = None, interpolation: str | None = None) -> Path:
     from mrnea.report import write_report
-    from mrnea.report.drawing import save_figure
 
     res.save_summary(out / SUMMARY, overwrite=force)  # cycles.csv: streamed by _run
-    for name, fig in (extra_figures or {}).items():
-        checkpoint()
-        save_figure(fig, out / f"{name}.png", force, dpi=110)
     checkpoint()
     return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures,
-                        interpolation=interpolation, view3d=view3d, png_folder=out)
+                        interpolation=interpolation, view3d=view3d, png_folder=out,
+                        extra_png_dpi=110)  # fig3.png as `mrnea fig3` writes it
 
 
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
