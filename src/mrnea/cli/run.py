@@ -153,7 +153,6 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     Writes report.html, PNG figures, cycles.csv and summary.json, and the paper's Fig. 3. Its
     program is PROGRAM 'demo' of the other commands (examples/sdt_training.toml).
     """
-    from mrnea.report import fig3
     from mrnea.robots.sdt_profile import training_profile
 
     robot = robots.sdt()
@@ -161,6 +160,8 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
         check_new(_outputs(folder, ("fig3",)), force)
         res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
+        from mrnea.report import fig3  # matplotlib: after the second process started, if any
+
         with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)

@@ -22,8 +22,9 @@ from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, write_file
+from mrnea.report import FIGURES
 from mrnea.report.drawing import DPI, MAX_POINTS, fmt_number, joint_units, png_data_uri
-from mrnea.report.figures import FIGURES, plot_result, require_result
+from mrnea.report.figures import plot_result, require_result
 from mrnea.report.pngs import draw_pngs
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
