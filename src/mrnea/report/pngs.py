@@ -2,13 +2,15 @@
 
 Drawing is most of a warm ``mrnea demo`` after its simulation (the Agg canvas: ticks, texts,
 lines; about 0.5 s a figure for the SDT's six figures, one process, one core) and matplotlib
-holds the GIL while it draws, so threads would not help. On Linux, with at least two CPUs for
-this process and no other Python thread running, :func:`draw_pngs` forks: the child (a copy of
-this process, figures included: nothing is pickled but the PNG bytes it sends back) draws its
-share while this process draws the rest. The bytes are those of
+holds the GIL while it draws, so threads would not help. On Linux, with a CPU idle now
+(:func:`_idle_cpu`) and no other Python thread running, :func:`draw_pngs` forks: the child (a
+copy of this process, figures included: nothing is pickled but the PNG bytes it sends back)
+draws its share while this process draws the rest. The objects both share are frozen out of
+the garbage collector meanwhile (``gc.freeze``), so that neither copies the other's pages by
+collecting. The bytes are those of
 :func:`mrnea.report.drawing.png_bytes` either way (the same figure, the same Agg code): only
-the wall time differs. Elsewhere (Windows and macOS have no safe ``fork``; one CPU; a thread
-that might hold a lock the child would need) everything is drawn here, one figure after
+the wall time differs. Elsewhere (Windows and macOS have no safe ``fork``; no idle CPU; a
+thread that might hold a lock the child would need) everything is drawn here, one figure after
 another.
 
 The child never runs this process's exit handlers (it leaves by ``os._exit``), writes no file
@@ -20,6 +22,7 @@ and this process draws its share itself.
 
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import select
@@ -39,11 +42,22 @@ PATIENCE = 30.0
 
 
 def _can_fork() -> bool:
-    """Linux, two CPUs or more for this process, and no other Python thread (a forked child
-    inherits only the calling thread: a lock another one held would never be released)."""
-    if not sys.platform.startswith("linux") or threading.active_count() != 1:
+    """Linux, and no other Python thread (a forked child inherits only the calling thread: a
+    lock another one held would never be released in it)."""
+    return sys.platform.startswith("linux") and threading.active_count() == 1
+
+
+def _idle_cpu() -> bool:
+    """A CPU idle now besides this process's: fewer runnable tasks (this one included) than
+    CPUs for this process (/proc/loadavg's fourth field, a snapshot). On a loaded machine, or
+    while the compile-ahead process (cli/ahead.py) still runs, a child would only compete for
+    the cores, and cost its own start (fonts, text caches: about 0.3 s of CPU)."""
+    try:
+        with open("/proc/loadavg") as fh:
+            running = int(fh.read().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):  # not readable: do not guess
         return False
-    return len(os.sched_getaffinity(0)) >= 2
+    return running < len(os.sched_getaffinity(0))
 
 
 def _cost(job: tuple[Figure, float]) -> float:
@@ -115,17 +129,20 @@ def draw_pngs(jobs: Sequence[tuple[Figure, float]]) -> list[bytes]:
     out: list[bytes | None] = [None] * len(jobs)
     pid = None
     here = list(range(len(jobs)))
-    if len(jobs) >= 2 and _can_fork():
+    if len(jobs) >= 2 and _can_fork() and _idle_cpu():
         here, there = _split(jobs)
         read_fd, write_fd = os.pipe()
+        gc.freeze()  # neither process's collector writes to the objects they share (copy-on-write)
         try:
             pid = os.fork()
         except OSError:  # no process to spare: all drawn here
+            gc.unfreeze()
             os.close(read_fd)
             os.close(write_fd)
             here = list(range(len(jobs)))
         else:
             if pid == 0:
+                gc.disable()  # short-lived: its garbage goes with it
                 os.close(read_fd)
                 _child(write_fd, [jobs[i] for i in there])
             os.close(write_fd)
@@ -138,12 +155,14 @@ def draw_pngs(jobs: Sequence[tuple[Figure, float]]) -> list[bytes]:
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
             os.close(read_fd)
+            gc.unfreeze()
         raise
     if pid is not None:
         ratio = (sum(_cost(jobs[i]) for i in there)
                  / max(sum(_cost(jobs[i]) for i in here), 1e-9))
         deadline = time.monotonic() + PATIENCE + ratio * (time.monotonic() - start)
         got = _collect(pid, read_fd, deadline)
+        gc.unfreeze()
         if got is None or len(got) != len(there):
             got = [png_bytes(*jobs[i]) for i in there]
         for i, png in zip(there, got, strict=True):
