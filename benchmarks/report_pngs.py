@@ -6,7 +6,11 @@ and Fig. 3 at the report's 100 dpi, and Fig. 3 again at 110 dpi (``fig3.png``).
 
 Usage::
 
-    python benchmarks/report_pngs.py [ROUNDS]    # default 3; docs/performance.md section 7
+    python benchmarks/report_pngs.py [ROUNDS] [--fork]   # default 3; docs/performance.md section 7
+
+``draw_pngs`` forks only when a CPU is idle at that instant (``pngs._idle_cpu``); ``--fork``
+forks whatever the load (to measure the split itself on a loaded machine). Each round says
+whether it forked.
 """
 
 from __future__ import annotations
@@ -23,11 +27,15 @@ def _cpu() -> float:
     return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
 
 
-def main(rounds: int = 3) -> None:
+def main(rounds: int = 3, force: bool = False) -> None:
     from mrnea import robots, simulate
-    from mrnea.report import fig3, plot_result
+    from mrnea.report import fig3, plot_result, pngs
     from mrnea.report.drawing import DPI, png_bytes
     from mrnea.report.pngs import draw_pngs
+
+    idle = pngs._idle_cpu
+    forked: list[bool] = []
+    pngs._idle_cpu = lambda: forked.append(force or idle()) or forked[-1]
     from mrnea.robots.sdt_profile import training_profile
 
     robot = robots.sdt()
@@ -44,9 +52,10 @@ def main(rounds: int = 3) -> None:
         two = draw_pngs(jobs)
         c2, t2 = _cpu(), time.perf_counter()
         print(f"round {r + 1}: one process {t1 - t:.2f} s wall, {c1 - c:.2f} s CPU; draw_pngs "
-              f"{t2 - t1:.2f} s wall, {c2 - c1:.2f} s CPU; same bytes {one == two}; load "
-              f"{os.getloadavg()[0]:.1f}", flush=True)
+              f"{t2 - t1:.2f} s wall, {c2 - c1:.2f} s CPU; same bytes {one == two}; forked "
+              f"{forked[-1]}; load {os.getloadavg()[0]:.1f}", flush=True)
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 3)
+    args = [a for a in sys.argv[1:] if a != "--fork"]
+    main(int(args[0]) if args else 3, "--fork" in sys.argv[1:])
