@@ -55,9 +55,9 @@ def outputs() -> dict[str, np.ndarray]:
                 k = f"{name}{spec}{s}"
                 ws = entry_scratch(n)
                 out[k + "tau"] = np.empty(n)
-                rnea_ws(m, q, qd, qdd, fe, pe, out[k + "tau"], ws)
+                rnea_ws(m, q, qd, qdd, fe, pe, out[k + "tau"], ws, False)
                 out[k + "rx"] = np.empty((n, 6))
-                reactions_ws(m, q, qd, qdd, fe, pe, out[k + "rx"], ws)
+                reactions_ws(m, q, qd, qdd, fe, pe, out[k + "rx"], ws, False)
                 for tag, engine in (("mrnea", None), ("full", None), ("wo", walker_orin),
                                     ("crba", crba_bias)):
                     H, u = np.empty((n, n)), np.empty(n)

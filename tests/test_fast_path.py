@@ -62,8 +62,8 @@ def test_fast_path_hands_other_inputs_to_the_validated_path(robot, fn: str) -> N
 
 @pytest.mark.parametrize("fn", FUNCTIONS)
 def test_free_motion_entry_equals_a_zero_wrench(robot, fn: str) -> None:
-    """The free-motion entry (compiled without the wrench terms) gives the results of the
-    general entry with a zero wrench, bit for bit."""
+    """The free-motion entry (``fext=None``: the entry passes the zero wrench itself,
+    kernels/entry.py) gives the results of the general entry with a zero wrench, bit for bit."""
     rng = np.random.default_rng(8)
     for _ in range(5):
         kw = {a: rng.uniform(-2, 2, N) for a in _state_args(fn)}

@@ -31,9 +31,10 @@ or without its point) goes straight to a kernel's compiled ``free`` entry (:clas
 robot's compiled arrays and the scratch :mod:`mrnea.compiled` keeps: at n = 6 the kernel takes about
 2 us, so every check in Python counts. The wrapper checks only what the entry cannot (dtype and
 ndim: the entry would read another dtype or ndim wrongly); the kernel checks the lengths (status
-SIZE) and finiteness. Anything else (lists, a batch, a wrong length, NaN, a Robot not compiled yet
-or a non-Robot, which fail with KeyError, AttributeError or the entry's TypeError) takes the
-validated path, :func:`_evaluate`, which converts the inputs (:mod:`mrnea.validate`) or names the
+SIZE), the layout (a strided view: status LAYOUT) and finiteness. Anything else (lists, a
+batch, a wrong length, a strided view, NaN, a Robot not compiled yet or a non-Robot, which fail
+with KeyError, AttributeError or the entry's TypeError) takes the validated path,
+:func:`_evaluate`, which converts the inputs (:mod:`mrnea.validate`) or names the
 offending one.
 """
 
@@ -89,9 +90,12 @@ class _Entry:
     Numba's dispatcher types every argument on every call to pick the compiled version; at this
     size that costs about a third of a call. The public functions check what the entry cannot
     (the fast path in the module docstring, or :func:`mrnea.validate.inputs`), so they call an
-    entry directly: ``free`` takes ``fext=None, pe=None`` (no external wrench: Numba compiles that
-    case without reading either, and two fewer arrays cross from Python), ``call`` takes both
-    arrays, ``links`` the per-link wrench arrays (n, 6) and (n, 3) (a wrench by link name).
+    entry directly: ``free`` takes ``fext=None, pe=None`` (no external wrench: two fewer arrays
+    cross from Python; the kernel passes the zero wrench to its pass itself, so that the pass is
+    the batches' and the loop's compiled copy: kernels/entry.py), ``call`` takes both arrays,
+    ``links`` the per-link wrench arrays (n, 6) and (n, 3) (a wrench by link name). The state
+    arrays are typed any layout (``IN_T``); the kernel reads them as C arrays where they are
+    contiguous, else returns LAYOUT and the wrapper takes the validated path.
     ``Dispatcher.compile`` compiles an entry (or loads it from Numba's disk cache) on its first
     call and returns it.
     The kernel's arguments are ``(model, *states, *optional, *outputs, scratch)``: ``optional``

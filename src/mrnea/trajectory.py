@@ -54,6 +54,9 @@ PATH_BYTES = 48
 
 # Quintic rest-to-rest s(u) = 10u³ - 15u⁴ + 6u⁵: peak ds/du at u = 1/2 and peak |d²s/du²| at
 # u = 1/2 ± √3/6.
+#: How far beyond what binds within a jerk-limited move's time scale its limits are kept
+#: (:func:`_scurve_timing`): velocity x1e8, acceleration x1e16, jerk x1e24.
+SCURVE_REACH = 1e8
 QUINTIC_PEAK_VELOCITY = 15.0 / 8.0
 QUINTIC_PEAK_ACCELERATION = 10.0 / math.sqrt(3.0)
 
@@ -383,20 +386,28 @@ def _scurve_timing(dq: NDArray, vmax: NDArray, amax: NDArray, jmax: NDArray
     moving = d > 0.0
     if not moving.any():
         return 0.0, lambda u: np.ones_like(u)
+    v, a, j = (float(np.min(lim[moving] / d[moving])) for lim in (vmax, amax, jmax))
+    # ruckig overflows on limits far beyond any the move reaches (a jerk of 1e200, every limit
+    # 1e100): each is capped at SCURVE_REACH times what binds within the move's time scale Ts
+    # (the caps only lower limits the profile cannot use: the same profile but for phases
+    # below ~1e-8 Ts), and a Ts far from 1 s is scaled out (ruckig then plans in t / Ts)
+    Ts = max(1.0 / v, a ** -0.5, j ** (-1.0 / 3.0))
+    v, a, j = (min(v, SCURVE_REACH / Ts), min(a, SCURVE_REACH ** 2 / Ts ** 2),
+               min(j, SCURVE_REACH ** 3 / Ts ** 3))
+    c = Ts if not 1e-3 <= Ts <= 1e3 else 1.0
     inp = ruckig.InputParameter(1)
     inp.current_position, inp.target_position = [0.0], [1.0]
-    inp.max_velocity = [float(np.min(vmax[moving] / d[moving]))]
-    inp.max_acceleration = [float(np.min(amax[moving] / d[moving]))]
-    inp.max_jerk = [float(np.min(jmax[moving] / d[moving]))]
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = [v * c], [a * c ** 2], [j * c ** 3]
     traj = ruckig.Trajectory(1)
     result = ruckig.Ruckig(1).calculate(inp, traj)
     if result not in (ruckig.Result.Working, ruckig.Result.Finished):
         raise StateError(f"ruckig found no jerk-limited profile ({result.name}) for a move of "
                          f"{dq.tolist()} within the limits")
-    T = float(traj.duration)
+    T_c = float(traj.duration)  # in t / c
+    T = T_c * c
 
     def shape(u: NDArray) -> NDArray:
-        s = np.array([traj.at_time(x * T)[0][0] for x in u.tolist()])
+        s = np.array([traj.at_time(x * T_c)[0][0] for x in u.tolist()])
         return np.where(u >= 1.0, 1.0, s)
 
     return T, shape

@@ -1,6 +1,6 @@
 """Linear moves joined by blended corners (``blend`` [m]): one tool path, timed as one.
 
-Usage: ``poses, owner, targets = chain_poses(moves, T0, dt)``: the tool poses (N + 1, 4, 4)
+Usage: ``poses, owner, targets = chain_poses(moves, T0, dt, room)``: the tool poses (N + 1, 4, 4)
 (base frame) at the cycles of consecutive ``linear`` moves (:class:`mrnea.io.moves.Move`),
 each but the last with ``blend`` r > 0, starting at rest at the pose ``T0`` and ending at rest
 at the last move's target; ``owner`` (N + 1,) the move (1-based index) each cycle belongs to
@@ -53,6 +53,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.cartesian.path import Room
 from mrnea.errors import StateError
 from mrnea.io.moves import Move
 from mrnea.trajectory import cycles
@@ -206,11 +207,12 @@ def _line_phases(length: float, vs: float, ve: float, v: float, a: float
     return [p for p in phases if p[0] > 0.0]
 
 
-def chain_poses(moves: Sequence[Move], T0: NDArray, dt: float
+def chain_poses(moves: Sequence[Move], T0: NDArray, dt: float, room: Room
                 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
     """(poses (N + 1, 4, 4), owner (N + 1,), targets (M, 4, 4)) of linear moves joined by
     their blends (module docstring). StateError: a blend too large for its segments, a move
-    that goes nowhere, a corner that turns straight back."""
+    that goes nowhere, a corner that turns straight back, cycles beyond the memory budget
+    (``room``)."""
     from scipy.spatial.transform import Rotation
 
     segs = _segments(moves, T0)
@@ -244,6 +246,7 @@ def chain_poses(moves: Sequence[Move], T0: NDArray, dt: float
                                                 for d, v0, acc in phases])])
     T = float(t_start[-1])
     N = int(cycles(T, dt))
+    room.check(N + 1)
     tau = np.arange(N + 1) * (T / N)  # uniformly slowed to whole cycles
     ph = np.clip(np.searchsorted(t_start, tau, side="right") - 1, 0, len(phases) - 1)
     d = tau - t_start[ph]

@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.cartesian.blend import chain_poses
-from mrnea.cartesian.path import move_poses
+from mrnea.cartesian.path import Room, move_poses
 from mrnea.cartesian.verdict import Finding, findings
 from mrnea.dynamics import forward_kinematics
 from mrnea.errors import ProgramFileError, StateError, quote
@@ -191,7 +191,7 @@ def solve(program: Program, robot: Robot) -> Program:
         start_err = np.column_stack([res.position_error, res.orientation_error])
     rows, poses, owner, is_cart, errs = [q[None]], [T[None]], [np.ones(1, np.int64)], \
         [np.full(1, first.type == "poses")], [start_err]
-    targets = []
+    targets, done = [], 1  # done: the cycles made so far (the memory check's, Room)
     for chain in _chains(spec.moves):
         mv = chain[-1]
         if frames[mv.index - 1] is not frame:  # another tool: from where it is now
@@ -202,16 +202,17 @@ def solve(program: Program, robot: Robot) -> Program:
                 target, limits = _joint_move(mv, q, robot, where)
                 _, qs = _JOINT_PROFILES[mv.profile](np.array([q, target]), dt, *limits)
                 qs = qs[1:]
+                Room(done, robot.n).check(len(qs))
                 Ts = forward_kinematics(robot, qs, tool=frame)[:, -1] if len(qs) else qs[:, :0]
                 e = np.zeros((len(qs), 2))
                 own, cart = np.full(len(qs), mv.index, np.int64), False
             else:
                 if len(chain) > 1:
-                    Ts, own, ends = chain_poses(chain, T, dt)
+                    Ts, own, ends = chain_poses(chain, T, dt, Room(done, robot.n))
                     targets += [(m.index, end) for m, end in zip(chain, ends, strict=True)]
                 else:
                     Ts = _poses_of(mv, T, where) if mv.type == "poses" else \
-                        move_poses(mv, T, dt)[1]
+                        move_poses(mv, T, dt, Room(done, robot.n))[1]
                     own = np.full(len(Ts), mv.index, np.int64)
                     targets.append((mv.index, Ts[-1]))
                 Ts, own = Ts[1:], own[1:]
@@ -226,6 +227,7 @@ def solve(program: Program, robot: Robot) -> Program:
         if len(qs):
             q, T = qs[-1], Ts[-1]
         hold = int(cycles(mv.dwell, dt))
+        done += len(qs) + hold
         rows += [qs, _hold(q, hold)]
         poses += [Ts, _hold(T, hold)]
         owner += [own, np.full(hold, mv.index, np.int64)]

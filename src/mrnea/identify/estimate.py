@@ -48,6 +48,11 @@ from mrnea.model import Robot
 MIN_SPEED = 1e-2  # [rad/s | m/s]: a joint's rows below this speed are left out
 PRIOR_WEIGHT = 1e-3
 MAX_NFEV = 300  # evaluations of the consistent fit (step 3)
+#: The largest condition number of the base regressor over the fitted rows (columns scaled to
+#: unit norm) :func:`identify` accepts: beyond, a base parameter is not determined by the log
+#: (the efforts' noise amplified 1e10 times; a rank-deficient regressor gives inf). A shipped
+#: excitation gives 6-10, the shipped Puma log about 2e3.
+MAX_CONDITION = 1e10
 
 
 @dataclass(frozen=True)
@@ -120,15 +125,22 @@ def _least_squares(W: NDArray, tau: NDArray, used: NDArray
         j = int(np.argmin(N_j))
         raise StateError(f"log: joint {j + 1} moves faster than min_speed in {N_j[j]} samples; "
                          f"the log cannot identify it")
+    rms = np.sqrt((np.where(used, tau, 0.0) ** 2).sum(axis=0) / N_j)
+    if not np.all(rms > 0):
+        j = int(np.argmin(rms))
+        raise StateError(f"log: joint {j + 1}'s effort is 0 in every sample it moves in; the "
+                         "log has no efforts to identify it from")
+    # each joint's sigma at least eps times its efforts' rms: an exact fit weighs no joint by
+    # 1e300 (the weights' squares would overflow)
+    floor = np.finfo(float).eps * rms
     dof = N_j * (1.0 - r / used.sum())
     for _ in range(2):  # ordinary, then weighted by each joint's residual variance
         res = np.where(used, tau - W @ beta, 0.0)
-        sigma = np.sqrt((res ** 2).sum(axis=0) / np.maximum(dof, 1.0))
-        sigma = np.maximum(sigma, 1e-300)
+        sigma = np.maximum(np.sqrt((res ** 2).sum(axis=0) / np.maximum(dof, 1.0)), floor)
         w = (1.0 / np.broadcast_to(sigma, used.shape))[used]
         beta = _solve(A * w[:, None], b * w)
     res = np.where(used, tau - W @ beta, 0.0)
-    sigma = np.maximum(np.sqrt((res ** 2).sum(axis=0) / np.maximum(dof, 1.0)), 1e-300)
+    sigma = np.maximum(np.sqrt((res ** 2).sum(axis=0) / np.maximum(dof, 1.0)), floor)
     w = (1.0 / np.broadcast_to(sigma, used.shape))[used]
     info = (A * w[:, None] ** 2).T @ A
     return beta, np.linalg.pinv(info), sigma, info
@@ -246,6 +258,12 @@ def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: 
     fit_log = log.part(slice(0, K_fit))
     beta, cov, sigma, info = _least_squares(W[:K_fit], log.tau[:K_fit], used[:K_fit])
     cond = _condition(W[:K_fit][used[:K_fit]])
+    if not cond <= MAX_CONDITION:
+        raise StateError(f"log: its {K_fit} samples fitted ({int(used[:K_fit].sum())} joint "
+                         f"rows) do not determine every base parameter (condition number "
+                         f"{cond:.3g} of the base regressor, at most {MAX_CONDITION:g} "
+                         "taken): record a longer log, "
+                         "or one of `mrnea excite`'s trajectories")
     prior = np.concatenate([inertial_parameters(robot), actuator_parameters(robot)])
     theta = _consistent(robot, base, beta, info, prior_weight) if physical else prior
     ident, offset = _robot(robot, theta) if physical else (robot, np.zeros(robot.n))

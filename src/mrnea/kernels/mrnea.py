@@ -28,8 +28,9 @@ the backward pass is a 3 x n coefficient matrix times qdd plus a 3-vector (Eqs. 
   (kernels/layout.py) skip them, and the tests check the result is bit-for-bit the general one.
 
 ``ws`` is a scratch (kernels/layout.py). ``mrnea`` and ``fd_mrnea`` are the
-single-state entries (they check the state's lengths, status SIZE); ``mrnea_ws``, which does
-not, is what the batch kernels and the simulation loop call.
+single-state entries (they check the state's lengths, status SIZE, and layout, LAYOUT, and call
+``mrnea_ws`` with the loops' types: kernels/entry.py); ``mrnea_ws``, which does not check, is
+what the batch kernels and the simulation loop call.
 
 Beyond the paper (which treats revolute joints): for a prismatic joint i the effort is the force
 along its axis, so h_ik = z_i . E_ik and u'_i = z_i . E_i. Eq. 14 folds the external force f_e
@@ -59,6 +60,7 @@ from mrnea.kernels.common import (
     tip_wrench,
     vec,
 )
+from mrnea.kernels.entry import contiguous, loop_args
 from mrnea.kernels.layout import (
     BRANCH,
     DEPTH,
@@ -83,7 +85,7 @@ from mrnea.kernels.layout import (
 )
 from mrnea.kernels.rnea import link_forces
 from mrnea.kernels.solve import solve_forward
-from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
+from mrnea.kernels.status import LAYOUT, NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**INLINE)
@@ -114,7 +116,10 @@ def mrnea(model, q, qd, fext, pe, H, u, ws):
     """
     if not sized(model, q, qd, qd):
         return SIZE
-    return mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
+    if not (contiguous(q) and contiguous(qd) and contiguous(fext) and contiguous(pe)):
+        return LAYOUT  # the wrapper's validated path (kernels/entry.py)
+    qc, qdc, _, fe, p = loop_args(q, qd, None, fext, pe)  # the loops' types: one pass for all
+    return mrnea_ws(model, qc, qdc, fe, p, H, u, False, ws)
 
 
 @nb.njit(**ENTRY)
@@ -300,6 +305,9 @@ def fd_mrnea(model, q, qd, tau, fext, pe, qdd, ws):
     """
     if not sized(model, q, qd, tau):
         return SIZE
+    if not (contiguous(q) and contiguous(qd) and contiguous(fext) and contiguous(pe)):
+        return LAYOUT  # as mrnea
     H, L, u, rhs = solve_buffers(ws, q.shape[0])
-    status = mrnea_ws(model, q, qd, fext, pe, H, u, False, ws)
+    qc, qdc, _, fe, p = loop_args(q, qd, None, fext, pe)
+    status = mrnea_ws(model, qc, qdc, fe, p, H, u, False, ws)
     return solve_forward(model, status, H, u, tau, L, rhs, qdd)

@@ -40,9 +40,11 @@ from mrnea.kernels.common import (
     tip_wrench,
     vec,
 )
+from mrnea.kernels.entry import contiguous, loop_args
 from mrnea.kernels.layout import (
     BRANCH,
     ENTRY,
+    INTO_CALLER,
     JIT,
     MASS,
     NOCOM,
@@ -61,7 +63,7 @@ from mrnea.kernels.layout import (
     tree_of,
     tree_scratch,
 )
-from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
+from mrnea.kernels.status import LAYOUT, NONFINITE, OK, OVERFLOW, SIZE
 
 
 @nb.njit(**JIT)
@@ -179,11 +181,14 @@ def newton_euler(model, R, o, z, c, Ic, qd, qdd, g, fext, pe, tau, f, nm, ws):
 
 
 @nb.njit(**JIT)
-def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
+def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready):
     """Inverse dynamics of one state; fills tau (n,) and the scratch's ``force_buffers`` f, nm
     (n, 3) (module docstring). Returns OK, or NONFINITE if an input holds NaN or inf.
     ``pose_ready``: the scratch's pose buffers already hold the kinematics of this q (the
     simulation loop, after an mRNEA pass on the same state), so they are not computed again.
+    Every caller passes it as a run-time bool (:func:`fresh` where it is False): a literal or
+    an omitted default would type another signature, a second compiled copy of the passes
+    (docs/performance.md section 7).
     A serial chain's model (its type: kernels/layout.py ``tree_of``) runs the chain's copies of
     the kinematics and of :func:`newton_euler`, without the tree's branches (as ``mrnea_ws``:
     docs/performance.md sections 16, 18); a tree's, the tree's.
@@ -199,24 +204,35 @@ def rnea_ws(model, q, qd, qdd, fext, pe, tau, ws, pose_ready=False):
     return OK if finite(tau) and finite(f) and finite(nm) else OVERFLOW
 
 
+@nb.njit(**INTO_CALLER)
+def fresh(q):
+    """``pose_ready`` False as a run-time bool (``rnea_ws``): the type the loop's passes give."""
+    return q.shape[0] < 0
+
+
 @nb.njit(**ENTRY)
 def rnea(model, q, qd, qdd, fext, pe, tau, ws):
     """Joint efforts tau (n,) of one state; returns a status (``rnea_ws``, after checking the
-    state's lengths)."""
+    state's lengths, SIZE, and layout, LAYOUT: ``rnea_ws`` is called with the batch's and the
+    loop's types, kernels/entry.py)."""
     if not sized(model, q, qd, qdd):
         return SIZE
-    return rnea_ws(model, q, qd, qdd, fext, pe, tau, ws)
+    if not (contiguous(q) and contiguous(qd) and contiguous(qdd) and contiguous(fext)
+            and contiguous(pe)):
+        return LAYOUT
+    qc, qdc, qddc, fe, p = loop_args(q, qd, qdd, fext, pe)
+    return rnea_ws(model, qc, qdc, qddc, fe, p, tau, ws, fresh(q))
 
 
 @nb.njit(**JIT)
-def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
+def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready):
     """Joint reaction wrenches of one state, each in its joint frame (Eq. 32).
 
     ``out[i] = [f; n]`` (6,): force [N] and moment [N m] that link i-1 exerts on link i through
     joint i, in the joint frame (the parent's frame moved by the joint origin, fixed to the
     parent: the bearing's housing), the moment about the joint frame's origin o_i.
     Scratch: any kind (its ``effort_buffer`` holds the efforts, not returned). ``pose_ready``:
-    as ``rnea_ws``.
+    as ``rnea_ws`` (a run-time bool).
     """
     n = q.shape[0]
     status = rnea_ws(model, q, qd, qdd, fext, pe, effort_buffer(ws), ws, pose_ready)
@@ -245,10 +261,15 @@ def reactions_ws(model, q, qd, qdd, fext, pe, out, ws, pose_ready=False):
 
 @nb.njit(**ENTRY)
 def reactions(model, q, qd, qdd, fext, pe, out, ws):
-    """``reactions_ws`` after checking the state's lengths (status SIZE)."""
+    """``reactions_ws`` after checking the state's lengths (status SIZE) and layout (LAYOUT),
+    with the loop's types (as :func:`rnea`)."""
     if not sized(model, q, qd, qdd):
         return SIZE
-    return reactions_ws(model, q, qd, qdd, fext, pe, out, ws)
+    if not (contiguous(q) and contiguous(qd) and contiguous(qdd) and contiguous(fext)
+            and contiguous(pe)):
+        return LAYOUT
+    qc, qdc, qddc, fe, p = loop_args(q, qd, qdd, fext, pe)
+    return reactions_ws(model, qc, qdc, qddc, fe, p, out, ws, fresh(q))
 
 
 @nb.njit(**PARALLEL)
@@ -256,7 +277,8 @@ def rnea_batch(model, Q, QD, QDD, FEXT, PE, TAU, STATUS, ws):
     """``rnea`` over a batch: Q, QD, QDD, TAU (B, n); FEXT (B, 6); PE (B, 3); STATUS (B,); ws: a
     ``batch_scratch`` (kernels/layout.py)."""
     for b in nb.prange(Q.shape[0]):
-        STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], own_scratch(ws))
+        STATUS[b] = rnea_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], TAU[b], own_scratch(ws),
+                            fresh(Q))
 
 
 @nb.njit(**PARALLEL)
@@ -264,4 +286,4 @@ def reactions_batch(model, Q, QD, QDD, FEXT, PE, OUT, STATUS, ws):
     """``reactions`` over a batch, as ``rnea_batch``: OUT (B, n, 6)."""
     for b in nb.prange(Q.shape[0]):
         STATUS[b] = reactions_ws(model, Q[b], QD[b], QDD[b], FEXT[b], PE[b], OUT[b],
-                                 own_scratch(ws))
+                                 own_scratch(ws), fresh(Q))

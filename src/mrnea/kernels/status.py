@@ -10,3 +10,5 @@ NONFINITE = -2  # an input holds NaN or inf
 OVERFLOW = -3  # finite inputs gave a result that is not finite: values too large for float64
 SIZE = -4  # a state array's length is not the model's n (checked by the single-state entries)
 CYCLE_LIMIT = -5  # the exact cycle solve reached its exact-arithmetic step bound (rounding)
+LAYOUT = -6  # a state array a single-state entry cannot read as C (kernels/entry.py): the wrapper
+# then takes its validated path, whose arrays are C-contiguous, so no caller ever sees it
