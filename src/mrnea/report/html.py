@@ -436,11 +436,11 @@ def write_report(
     extra_files = list((extra_figures or {}).items()) if extra_png_dpi is not None else []
     drawn = draw_pngs([(fig, DPI) for _, fig in figures]
                       + [(fig, extra_png_dpi) for _, fig in extra_files])
-    if pngs is not None:
+    if pngs is not None:  # the own figures as the page embeds them, then the extra files
         pngs.mkdir(parents=True, exist_ok=True)
-        for k, (name, _) in enumerate(list(own.items()) + extra_files):
-            write_file(pngs / f"{name}.png", drawn[k if k < len(own) else len(figures) + k
-                                                   - len(own)], overwrite)
+        for name, png in zip([*own, *(n for n, _ in extra_files)],
+                             [*drawn[:len(own)], *drawn[len(figures):]], strict=True):
+            write_file(pngs / f"{name}.png", png, overwrite)
     fig_html = []
     for k, (name, fig) in enumerate(figures):
         caption = f": {_e(_CAPTIONS[name])}" if name in _CAPTIONS else ""
