@@ -94,7 +94,8 @@ def test_the_path_estimate_bounds_a_profiles_peak(n: int) -> None:
 def test_the_run_estimate_bounds_a_simulations_peak(n: int) -> None:
     """simulate, then the summary (bearing loads: the largest temporaries after the run)."""
     robot = random_chain(np.random.default_rng(1), n)
-    simulate(robot, np.zeros((3, n)), 0.001)  # loads the compiled loop: not the run's memory
+    # compiles (or loads) the loop and the summary's kernels: not the run's memory
+    simulate(robot, np.zeros((3, n)), 0.001).summary()
     K = 20_000
     q = np.linspace(0.0, 0.01, K)[:, None] * np.ones(n)
     q.setflags(write=False)  # as a program's path: simulate copies it

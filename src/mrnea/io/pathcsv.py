@@ -122,9 +122,11 @@ def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64
         size = os.stat(path).st_size
     except (OSError, ValueError):
         size = 0  # read_text says what is wrong with the file
-    # the text (up to 4 bytes a character) and the numbers (8 bytes for a cell of >= 2 bytes)
-    require_memory(9 * size, f"{path}: reading this {format_bytes(size)} path CSV file",
-                   "resample it more coarsely or split it", ProgramFileError)
+    # the text (up to 4 bytes a character) and the numbers (8 bytes for a cell of >= 2 bytes);
+    # a file over the size limit is read_text's to refuse, whatever the memory
+    if size <= MAX_CSV_SIZE:
+        require_memory(9 * size, f"{path}: reading this {format_bytes(size)} path CSV file",
+                       "resample it more coarsely or split it", ProgramFileError)
     text = read_text(path, "path CSV file", ProgramFileError, MAX_CSV_SIZE)
     header: list[str] | None = None
     header_line = 0
