@@ -91,15 +91,12 @@ def _outputs(out: Path, extra: tuple[str, ...] = ()) -> list[Path]:
 def _write_outputs(res, out: Path, force: bool, view3d: bool,
                    extra_figures: dict | None = None, interpolation: str | None = None) -> Path:
     from mrnea.report import write_report
-    from mrnea.report.drawing import save_figure
 
     res.save_summary(out / SUMMARY, overwrite=force)  # cycles.csv: streamed by _run
-    for name, fig in (extra_figures or {}).items():
-        checkpoint()
-        save_figure(fig, out / f"{name}.png", force, dpi=110)
     checkpoint()
     return write_report(res, out / REPORT, overwrite=force, extra_figures=extra_figures,
-                        interpolation=interpolation, view3d=view3d, png_folder=out)
+                        interpolation=interpolation, view3d=view3d, png_folder=out,
+                        extra_png_dpi=110)  # fig3.png as `mrnea fig3` writes it
 
 
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
@@ -156,7 +153,6 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     Writes report.html, PNG figures, cycles.csv and summary.json, and the paper's Fig. 3. Its
     program is PROGRAM 'demo' of the other commands (examples/sdt_training.toml).
     """
-    from mrnea.report import fig3
     from mrnea.robots.sdt_profile import training_profile
 
     robot = robots.sdt()
@@ -164,6 +160,8 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
         check_new(_outputs(folder, ("fig3",)), force)
         res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
+        from mrnea.report import fig3  # matplotlib: after the second process started, if any
+
         with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)

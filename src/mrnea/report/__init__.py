@@ -13,11 +13,25 @@
 
 Drawing helpers, decimation (:data:`MAX_POINTS`) and :func:`~mrnea.report.drawing.save_figure`
 are in :mod:`mrnea.report.drawing`; every file is written through :mod:`mrnea.io.writer`.
+
+The package imports matplotlib only when one of these is first asked for (PEP 562): a command
+names its output files (:data:`FIGURES`) before its simulation, and matplotlib's import
+(about 0.8 s) then waits until the figures are drawn.
 """
 
-from mrnea.report.drawing import MAX_POINTS
-from mrnea.report.figures import FIGURES, plot_result
-from mrnea.report.html import write_report
-from mrnea.report.paper import fig3
+from importlib import import_module
+from typing import Any
+
+FIGURES = ("motion", "efforts", "reactions", "tracking")
+"""The names of :func:`plot_result`'s figures (and of their PNG files)."""
+
+_WHERE = {"MAX_POINTS": "drawing", "fig3": "paper", "plot_result": "figures",
+          "write_report": "html"}
 
 __all__ = ["FIGURES", "MAX_POINTS", "fig3", "plot_result", "write_report"]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(import_module(f"mrnea.report.{_WHERE[name]}"), name)

@@ -229,12 +229,12 @@ def fmt_number(x: float, sig: int = 4) -> str:
     return f"{x:.{sig - 1}e}"
 
 
-def png_bytes(fig: Figure) -> bytes:
-    """``fig`` drawn as a PNG file at :data:`DPI`, without a version stamp (the bytes
+def png_bytes(fig: Figure, dpi: float = DPI) -> bytes:
+    """``fig`` drawn as a PNG file at ``dpi``, without a version stamp (the bytes
     :func:`save_figure` writes for a ``.png`` path)."""
     buf = io.BytesIO()
     with _rendering():
-        fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None})
+        fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
     return buf.getvalue()
 
 

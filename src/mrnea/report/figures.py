@@ -22,6 +22,7 @@ from matplotlib.patches import Patch
 from mrnea.errors import OutputError, StateError
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new
+from mrnea.report import FIGURES
 from mrnea.report.drawing import (
     MAX_JOINTS,
     axes_grid,
@@ -39,9 +40,6 @@ from mrnea.summary import TIMES
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
-
-FIGURES = ("motion", "efforts", "reactions", "tracking")
-"""The names of :func:`plot_result`'s figures (and of their PNG files)."""
 
 _MIN_ERR = 1e-9  # tracking-error axes span at least ±_MIN_ERR [rad | m]
 _C_CMD, _C_ACT, _C_REQ, _C_LIM = "0.35", "C0", "C1", "C3"

@@ -22,8 +22,10 @@ from mrnea.errors import OutputError, StateError
 from mrnea.io.pathcsv import INTERPOLATIONS
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, write_file
-from mrnea.report.drawing import MAX_POINTS, fmt_number, joint_units, png_bytes, png_data_uri
-from mrnea.report.figures import FIGURES, plot_result, require_result
+from mrnea.report import FIGURES
+from mrnea.report.drawing import DPI, MAX_POINTS, fmt_number, joint_units, png_data_uri
+from mrnea.report.figures import plot_result, require_result
+from mrnea.report.pngs import draw_pngs
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
 from mrnea.validate import choice
@@ -347,6 +349,7 @@ def write_report(
     interpolation: str | None = None,
     view3d: bool = True,
     png_folder: str | os.PathLike[str] | None = None,
+    extra_png_dpi: float | None = None,
 ) -> Path:
     """Write one self-contained HTML report of a simulation run.
 
@@ -385,6 +388,13 @@ def write_report(
         Also write the figures of :func:`plot_result` there as ``<name>.png``: the bytes the
         page embeds, so each figure is drawn once (the files :func:`plot_result` with a
         ``path`` writes; ``overwrite`` as for ``path``, every file checked before any work).
+    extra_png_dpi : float, optional
+        With ``png_folder``: also write each of ``extra_figures`` there as ``<name>.png``,
+        drawn at this resolution [dots per inch] (the CLI's ``fig3.png``: 110, as
+        ``mrnea fig3`` writes it; the page embeds it at the report's 100).
+
+    All the PNGs are drawn by :func:`mrnea.report.pngs.draw_pngs`: a share in a second
+    process where the machine has a CPU to spare.
 
     Returns
     -------
@@ -407,8 +417,9 @@ def write_report(
                          f"{type(extra_figures).__name__}")
     pngs = (None if png_folder is None
             else as_path(png_folder, "png_folder", OutputError))
-    check_new([path, *([] if pngs is None else [pngs / f"{n}.png" for n in FIGURES])],
-              overwrite)  # before any rendering
+    files = [] if pngs is None else [*FIGURES, *(() if extra_png_dpi is None
+                                                 else (extra_figures or {}))]
+    check_new([path, *(pngs / f"{n}.png" for n in files)], overwrite)  # before any rendering
     if interpolation is not None:
         choice("interpolation", interpolation, INTERPOLATIONS)
     try:
@@ -422,15 +433,19 @@ def write_report(
     view3d = view3d and result.K > 0
     own = plot_result(result)
     figures = list(own.items()) + list((extra_figures or {}).items())
+    extra_files = list((extra_figures or {}).items()) if extra_png_dpi is not None else []
+    drawn = draw_pngs([(fig, DPI) for _, fig in figures]
+                      + [(fig, extra_png_dpi) for _, fig in extra_files])
+    if pngs is not None:  # the own figures as the page embeds them, then the extra files
+        pngs.mkdir(parents=True, exist_ok=True)
+        for name, png in zip([*own, *(n for n, _ in extra_files)],
+                             [*drawn[:len(own)], *drawn[len(figures):]], strict=True):
+            write_file(pngs / f"{name}.png", png, overwrite)
     fig_html = []
     for k, (name, fig) in enumerate(figures):
         caption = f": {_e(_CAPTIONS[name])}" if name in _CAPTIONS else ""
         slug = re.sub(r"[^A-Za-z0-9_-]+", "-", str(name)).strip("-")
-        png = png_bytes(fig)  # the figure drawn as saved: figure_axes reads that layout
-        if pngs is not None and k < len(own):
-            pngs.mkdir(parents=True, exist_ok=True)
-            write_file(pngs / f"{name}.png", png, overwrite)
-        uri = png_data_uri(png)
+        uri = png_data_uri(drawn[k])
         axes = f" data-xaxes='{figure_axes(fig)}'" if view3d else ""
         fig_html.append(
             f'<figure id="fig{k + 1}-{slug}"{axes}><div class="figscroll">'

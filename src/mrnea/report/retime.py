@@ -29,6 +29,7 @@ from mrnea.errors import OutputError, StateError
 from mrnea.io.source import as_path
 from mrnea.io.writer import check_new, write_file
 from mrnea.report.drawing import (
+    DPI,
     MAX_JOINTS,
     axes_grid,
     fit_ylim,
@@ -40,6 +41,7 @@ from mrnea.report.drawing import (
     png_data_uri,
 )
 from mrnea.report.html import _e, _kv_table, _row, page, stamp
+from mrnea.report.pngs import draw_pngs
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import figure_axes, license_html, scene_html
 
@@ -223,8 +225,10 @@ def write_retime_report(result: RetimeResult, path: str | os.PathLike[str],
     check_new([path], overwrite)
     cls = "ok" if result.achievable else "bad"
     figs = []
-    for k, (name, fig) in enumerate(retime_figures(result).items()):
-        uri = png_data_uri(fig)  # drawn as saved: figure_axes reads that layout
+    drawn = retime_figures(result)  # fixed layouts: figure_axes needs no drawing here
+    for k, ((name, fig), png) in enumerate(zip(drawn.items(), draw_pngs(
+            [(fig, DPI) for fig in drawn.values()]), strict=True)):
+        uri = png_data_uri(png)
         axes = (f" data-xaxes='{figure_axes(fig)}'" if view3d and name == "effort_ratio"
                 else "")
         # below 960 px a figure keeps a readable size and pans inside its own box (.figscroll,
