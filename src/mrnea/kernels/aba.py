@@ -36,11 +36,11 @@ from mrnea.kernels.layout import (
     JIT,
     MASS,
     PARALLEL,
-    TREE,
     is_prismatic,
     own_scratch,
     parent,
     pose_buffers,
+    tree_of,
 )
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW, SIZE
 
@@ -104,10 +104,8 @@ def aba(model, q, qd, tau, fext, pe, qdd, ws):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
-    if model[0, TREE]:
-        kinematics(model, q, R, o, z, c, Ic, True)
-    else:  # a chain's copy, without the parent look-ups (as rnea_ws)
-        kinematics(model, q, R, o, z, c, Ic, None)
+    # a chain's copy, without the parent look-ups, for a chain's model (its type: layout.py)
+    kinematics(model, q, R, o, z, c, Ic, tree_of(model))
     S = np.zeros((n, 6))
     v = np.zeros((n, 6))
     cb = np.zeros((n, 6))  # velocity-product accelerations c_i = v_i x S_i qd_i

@@ -22,13 +22,14 @@ from mrnea.kernels.layout import (
     BRANCH,
     JIT,
     MASS,
-    TREE,
     carries,
     force_buffers,
     is_prismatic,
     parent,
     pose_arrays,
     pose_buffers,
+    tree_of,
+    tree_scratch,
 )
 from mrnea.kernels.rnea import newton_euler
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
@@ -36,34 +37,32 @@ from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 
 @nb.njit(**ALLOC)
 def crba(model, q, H):
-    """The mass matrix H (n, n) of one state."""
+    """The mass matrix H (n, n) of one state (a chain's or a tree's copies by the model's type,
+    as :func:`crba_bias`)."""
     R, o, z, c, Ic = pose_arrays(q.shape[0])
-    if model[0, TREE]:
-        kinematics(model, q, R, o, z, c, Ic, True)
-        composite(model, o, z, c, Ic, H, True)
-    else:  # a chain's copies, without the tree's branches (as rnea_ws)
-        kinematics(model, q, R, o, z, c, Ic, None)
-        composite(model, o, z, c, Ic, H, None)
+    kinematics(model, q, R, o, z, c, Ic, tree_of(model))
+    composite(model, o, z, c, Ic, H, tree_of(model))
 
 
 @nb.njit(**ALLOC)
 def crba_bias(model, q, qd, fext, pe, H, u, ws):
     """H by CRBA and u' by one Newton-Euler pass with qdd = 0, on one kinematics pass; the
-    same contract (and status) as ``mrnea``. Poses and forces go to the scratch ``ws``."""
+    same contract (and status) as ``mrnea``. Poses and forces go to the scratch ``ws``.
+
+    A serial chain's model (its type: kernels/layout.py ``tree_of``, ``tree_scratch``) compiles
+    the chain's copies of the kinematics, ``newton_euler`` and :func:`composite` alone; a tree's
+    the tree's. (A run-time test of the TREE flag compiled both into every chain's kernel, and
+    cost a chain 2-4 % a call: docs/performance.md section 20.)"""
     if not (finite(q) and finite(qd) and finite(fext) and finite(pe)):
         return NONFINITE
     n = q.shape[0]
     R, o, z, c, Ic = pose_buffers(ws, n)
     f, nm = force_buffers(ws, n)  # the joint forces and moments, not needed here
     g = (model[0, 0], model[0, 1], model[0, 2])
-    if model[0, TREE]:
-        kinematics(model, q, R, o, z, c, Ic, True)
-        newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, ws)
-        composite(model, o, z, c, Ic, H, True)
-    else:  # a chain's copies, without the tree's branches (as rnea_ws)
-        kinematics(model, q, R, o, z, c, Ic, None)
-        newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, None)
-        composite(model, o, z, c, Ic, H, None)
+    tree = tree_of(model)
+    kinematics(model, q, R, o, z, c, Ic, tree)
+    newton_euler(model, R, o, z, c, Ic, qd, None, g, fext, pe, u, f, nm, tree_scratch(model, ws))
+    composite(model, o, z, c, Ic, H, tree)
     return OK if finite(H) and finite(u) else OVERFLOW
 
 
