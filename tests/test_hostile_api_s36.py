@@ -57,3 +57,16 @@ def test_cutoff_not_a_number(cutoff):
 def test_identify_rejects_non_finite_or_negative_settings(name, value):
     with pytest.raises(StateError, match=f"{name}: must be a finite number >= 0, got {value}"):
         identify(puma560(), _moving_log(), **{name: value})
+
+
+def test_solve_path_rejects_complex_poses():
+    from mrnea.ik import solve_path
+    with pytest.raises(StateError, match="poses: expected real numbers, got an array of complex"):
+        solve_path(puma560(), np.eye(4) + 0j, np.zeros(N))
+
+
+@pytest.mark.parametrize("hold", [3, None, 2.5, {"joint1": 1}.values()])
+def test_solve_path_hold_not_a_list(hold):
+    from mrnea.ik import solve_path
+    with pytest.raises(StateError, match="hold: expected a list of joint names, got"):
+        solve_path(puma560(), np.eye(4), np.zeros(N), hold=hold)
