@@ -70,3 +70,11 @@ def test_solve_path_hold_not_a_list(hold):
     from mrnea.ik import solve_path
     with pytest.raises(StateError, match="hold: expected a list of joint names, got"):
         solve_path(puma560(), np.eye(4), np.zeros(N), hold=hold)
+
+
+@pytest.mark.parametrize("grid", [2**70, 10_001, 10**9])
+def test_retime_grid_too_large_is_refused_before_any_work(grid):
+    import mrnea
+    program = np.linspace(np.zeros(N), np.full(N, 0.5), 50)
+    with pytest.raises(StateError, match=f"grid: expected an int >= 10 and <= 10000, got {grid}"):
+        mrnea.retime(puma560(), program, 0.01, grid=grid)
