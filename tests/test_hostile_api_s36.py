@@ -78,3 +78,10 @@ def test_retime_grid_too_large_is_refused_before_any_work(grid):
     program = np.linspace(np.zeros(N), np.full(N, 0.5), 50)
     with pytest.raises(StateError, match=f"grid: expected an int >= 10 and <= 10000, got {grid}"):
         mrnea.retime(puma560(), program, 0.01, grid=grid)
+
+
+def test_forward_kinematics_rejects_a_complex_tool():
+    import mrnea
+    from mrnea.errors import MrneaError
+    with pytest.raises(MrneaError, match=r"tool.*complex numbers, expected real ones"):
+        mrnea.forward_kinematics(puma560(), np.zeros(N), tool=np.eye(4) + 0j)
