@@ -39,6 +39,8 @@ def warn(message: str, stacklevel: int) -> None:
 def frozen_array(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
     """A read-only float64 copy of ``a`` with the given shape, all entries finite."""
     try:
+        if np.iscomplexobj(a):
+            raise TypeError("complex numbers, expected real ones")
         arr = np.array(a, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ModelError(f"{what}: not a numeric array ({exc})") from None

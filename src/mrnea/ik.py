@@ -60,10 +60,7 @@ class IKPath(NamedTuple):
 
 
 def _poses(poses: ArrayLike) -> tuple[NDArray[np.float64], bool]:
-    try:
-        P = np.asarray(poses, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise StateError(f"poses: not a numeric array: {poses!r}") from None
+    P = validate.numeric(poses, "poses")
     if P.ndim not in (2, 3) or P.shape[-2:] != (4, 4) or (P.ndim == 3 and P.shape[0] == 0):
         raise StateError(f"poses: expected a (4, 4) pose or (K, 4, 4) poses, got shape {P.shape}")
     if not np.isfinite(P).all():
@@ -85,6 +82,9 @@ def moving_joints(robot: Robot, link: int, hold: Sequence[str] = ()) -> NDArray[
     ``hold`` that is no joint of the robot, or every carrying joint held."""
     if isinstance(hold, str):
         raise StateError(f"hold: expected a list of joint names, got the string {hold!r}")
+    if not isinstance(hold, (list, tuple, set, frozenset)):
+        raise StateError(f"hold: expected a list of joint names, got {type(hold).__name__} "
+                         f"{hold!r}")
     names = robot.joint_names
     for name in hold:
         if name not in names:

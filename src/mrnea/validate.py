@@ -86,16 +86,25 @@ def callable_or_none(fn: object, name: str) -> None:
         raise StateError(f"{name}: expected a callable or None, got {fn!r}")
 
 
-def array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
-    """``x`` as a C-contiguous, writable float64 array of shape (width,) or (B, width), all
-    finite (the kernels are compiled for exactly such arrays)."""
+def numeric(x: ArrayLike, name: str) -> NDArray[np.float64]:
+    """``x`` as a C-contiguous, writable float64 array of any shape: real numbers only (not
+    strings, objects, complex numbers, None or a ragged nesting); finiteness and shape are the
+    caller's."""
+    if x is None:
+        raise StateError(f"{name}: expected an array of real numbers, got None")
     try:
         a = np.asarray(x)
     except (TypeError, ValueError):
         raise StateError(f"{name}: not a numeric array: {x!r}") from None
     if a.dtype.kind not in "biuf":
         raise StateError(f"{name}: expected real numbers, got an array of {a.dtype}")
-    a = np.require(a, dtype=np.float64, requirements=["C", "W"])
+    return np.require(a, dtype=np.float64, requirements=["C", "W"])
+
+
+def array(x: ArrayLike, name: str, width: int) -> NDArray[np.float64]:
+    """``x`` as a C-contiguous, writable float64 array of shape (width,) or (B, width), all
+    finite (the kernels are compiled for exactly such arrays)."""
+    a = numeric(x, name)
     if a.ndim not in (1, 2) or a.shape[-1] != width or (a.ndim == 2 and a.shape[0] == 0):
         raise StateError(f"{name}: expected shape ({width},) or (B, {width}), got {a.shape}")
     if not np.isfinite(a).all():

@@ -23,6 +23,7 @@ squares, then the physically consistent parameters nearest to them (docs/identif
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -252,6 +253,9 @@ def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: 
         raise StateError(f"holdout: must be in [0, 1), got {holdout}")
     min_speed = validate.real(min_speed, "min_speed")
     prior_weight = validate.real(prior_weight, "prior_weight")
+    for name, value in (("min_speed", min_speed), ("prior_weight", prior_weight)):
+        if not (math.isfinite(value) and value >= 0):
+            raise StateError(f"{name}: must be a finite number >= 0, got {value}")
     base = base_parameters(robot)
     W, used = base_rows(robot, base, log, cutoff_hz, min_speed)
     K_fit = log.K if validation is not None or holdout == 0 else round(log.K * (1 - holdout))

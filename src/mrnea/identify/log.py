@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mrnea import validate
 from mrnea.errors import LogFileError, StateError, quote
 from mrnea.io.source import read_text
 from mrnea.model import Robot
@@ -48,16 +49,16 @@ class Log:
     qdd: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
-        t = np.asarray(self.time, dtype=float)
+        t = validate.numeric(self.time, "log: time")
         if t.ndim != 1 or t.size < 2 * (3 * FILTER_ORDER + 1):
             raise StateError(f"log: time must be (K,) with K >= {6 * FILTER_ORDER + 2} samples, "
                              f"got shape {t.shape}")
         K = t.size
         for name in ("q", "tau", "qd", "qdd"):
             v = getattr(self, name)
-            if v is None:
+            if v is None and name in ("qd", "qdd"):
                 continue
-            a = np.asarray(v, dtype=float)
+            a = validate.numeric(v, f"log: {name}")
             if a.ndim != 2 or a.shape[0] != K:
                 raise StateError(f"log: {name} must be ({K}, n), got shape {a.shape}")
             bad = np.argwhere(~np.isfinite(a))
@@ -94,7 +95,8 @@ def derivatives(time: ArrayLike, q: ArrayLike, cutoff_hz: float = CUTOFF_HZ
     """Filtered q, qd, qdd (K, n) of positions q (K, n) sampled at ``time`` (K,) [s]
     (module docstring). The sample rate is the median of the time steps; ``cutoff_hz`` must be
     below half of it (Nyquist)."""
-    t, q = np.asarray(time, dtype=float), np.asarray(q, dtype=float)
+    t, q = validate.numeric(time, "time"), validate.numeric(q, "q")
+    cutoff_hz = validate.real(cutoff_hz, "cutoff_hz")
     with np.errstate(divide="ignore", over="ignore"):
         fs = 1.0 / float(np.median(np.diff(t)))
     if not MIN_CUTOFF_RATIO * fs <= cutoff_hz < fs / 2:

@@ -26,6 +26,9 @@ from mrnea.retime.scale import retime_scale
 METHODS = {"toppra": "toppra", "scale": "scale"}
 GRID = (200, 1000)  # default grid intervals per moving piece: half its rows, clipped to this
 JERK_GRID = 600  # ... with jerk limits clipped to [this, GRID[1]] (docs/retime.md "Jerk limits")
+#: The most grid intervals per moving piece ``grid`` takes: 10x the largest default (docs/retime.md,
+#: "The grid"); beyond, toppra's per-point solves run for hours and the arrays outgrow memory.
+MAX_GRID = 10_000
 
 
 def retime(
@@ -132,8 +135,8 @@ def retime(
         if not np.all(jerk > 0):
             raise StateError(f"jerk_limit: must be > 0, got {jerk.tolist()}")
     if grid is not None and (isinstance(grid, bool) or not isinstance(grid, numbers.Integral)
-                             or grid < 10):
-        raise StateError(f"grid: expected an int >= 10, got {grid!r}")
+                             or not 10 <= grid <= MAX_GRID):
+        raise StateError(f"grid: expected an int >= 10 and <= {MAX_GRID}, got {grid!r}")
     for name, value in (("acceleration_limit", acc), ("jerk_limit", jerk)):
         if method == "scale" and value is not None:
             raise StateError(f"{name}: only method 'toppra' takes it")
