@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numba as nb
 import numpy as np
-from serial_kernels import compare, ur5_urdf
+from serial_kernels import compare, serial_states, ur5_urdf
 
 CALLS = ("fd_crba", "crba_bias", "fd_walker_orin", "walker_orin", "aba")
 
@@ -62,19 +62,12 @@ def loops(E, C, W, A):
 
 def calls_of(pkg: str, urdf: Path | None, names: list[str]) -> dict:
     """Zero-argument calls (1000 kernel calls each) of one version, by (robot, call)."""
-    M = importlib.import_module(pkg)
-    robots = importlib.import_module(pkg + ".robots")
-    lay = importlib.import_module(pkg + ".kernels.layout")
     E, C, W, A = (importlib.import_module(f"{pkg}.kernels.{mod}")
                   for mod in ("engines", "crba", "walker_orin", "aba"))
     lp = loops(E, C, W, A)
     out = {}
-    chains = {"puma": robots.puma560(), "sdt": robots.sdt()}
-    if urdf is not None:
-        chains["ur5"] = M.load_urdf(urdf)
-    for name, r in chains.items():
-        q, qd, tau = (np.random.default_rng(0).standard_normal((3, r.n)))
-        m, ws, n = lay.compile_model(r), lay.entry_scratch(r.n), r.n
+    for name, m, q, qd, tau, ws in serial_states(pkg, urdf):
+        n = q.size
         a = (m, q, qd, tau, np.empty(n), np.empty((n, n)), np.empty(n), ws)
         for call in names:
             out[name, call] = lambda f=lp[call], a=a: f(*a, 1000)

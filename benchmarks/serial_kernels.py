@@ -28,6 +28,7 @@ import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numba as nb
@@ -79,22 +80,29 @@ def loops(K, S, ID):
     return loop_fd, loop_hb, loop_chol, loop_id
 
 
-def calls_of(pkg: str, urdf: Path | None) -> dict:
-    """Zero-argument calls (1000 kernel calls each) of one version, by (robot, call)."""
+def serial_states(pkg: str, urdf: Path | None) -> Iterator[tuple]:
+    """Per serial robot of one version (Puma 560, SDT, and the UR5 where ``urdf`` is given):
+    its name, compiled model, a random state q, qd, tau (seed 0) and entry scratch."""
     M = importlib.import_module(pkg)
     robots = importlib.import_module(pkg + ".robots")
-    K = importlib.import_module(pkg + ".kernels.mrnea")
-    S = importlib.import_module(pkg + ".kernels.solve")
     lay = importlib.import_module(pkg + ".kernels.layout")
-    ID = importlib.import_module(pkg + ".kernels.rnea")
-    loop_fd, loop_hb, loop_chol, loop_id = loops(K, S, ID)
-    out = {}
     chains = {"puma": robots.puma560(), "sdt": robots.sdt()}
     if urdf is not None:
         chains["ur5"] = M.load_urdf(urdf)
     for name, r in chains.items():
-        q, qd, tau = (np.random.default_rng(0).standard_normal((3, r.n)))
-        m, ws, n = lay.compile_model(r), lay.entry_scratch(r.n), r.n
+        q, qd, tau = np.random.default_rng(0).standard_normal((3, r.n))
+        yield name, lay.compile_model(r), q, qd, tau, lay.entry_scratch(r.n)
+
+
+def calls_of(pkg: str, urdf: Path | None) -> dict:
+    """Zero-argument calls (1000 kernel calls each) of one version, by (robot, call)."""
+    K = importlib.import_module(pkg + ".kernels.mrnea")
+    S = importlib.import_module(pkg + ".kernels.solve")
+    ID = importlib.import_module(pkg + ".kernels.rnea")
+    loop_fd, loop_hb, loop_chol, loop_id = loops(K, S, ID)
+    out = {}
+    for name, m, q, qd, tau, ws in serial_states(pkg, urdf):
+        n = q.size
         qdd, H, u, tau_id = np.empty(n), np.empty((n, n)), np.empty(n), np.empty(n)
         assert K.mrnea(m, q, qd, None, None, H, u, ws) == -1  # OK
         H0, L, x = H.copy(), np.empty((n, n)), np.empty(n)
