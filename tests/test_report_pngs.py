@@ -5,6 +5,7 @@ fails or hangs is replaced by drawing here."""
 from __future__ import annotations
 
 import os
+import sys
 import threading
 
 import numpy as np
@@ -14,7 +15,15 @@ from matplotlib.figure import Figure
 from mrnea.report import pngs
 from mrnea.report.drawing import new_figure, png_bytes
 
-FORKS = pngs._can_fork()
+LINUX = sys.platform.startswith("linux")
+
+
+def _forks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """draw_pngs forks whatever the machine's load and whatever threads an earlier test in
+    this worker left running (the children of the tests below draw no figure: they take no
+    lock another thread could hold)."""
+    monkeypatch.setattr(pngs, "_idle_cpu", lambda: True)
+    monkeypatch.setattr(pngs, "_can_fork", lambda: True)
 
 
 def _figures() -> list[tuple[Figure, float]]:
@@ -40,31 +49,31 @@ def test_same_bytes_as_one_process(idle: bool, monkeypatch: pytest.MonkeyPatch) 
     assert want[0][:8] == b"\x89PNG\r\n\x1a\n" and len(set(want)) == len(want)
 
 
-@pytest.mark.skipif(not FORKS, reason="no fork here: not Linux, or threads running")
+@pytest.mark.skipif(not LINUX, reason="no fork here: not Linux")
 def test_child_draws_its_share(monkeypatch: pytest.MonkeyPatch) -> None:
     """Each figure is drawn by one of two processes, this one among them."""
-    monkeypatch.setattr(pngs, "_idle_cpu", lambda: True)
+    _forks(monkeypatch)
     monkeypatch.setattr(pngs, "png_bytes", lambda fig, dpi: str(os.getpid()).encode())
     got = pngs.draw_pngs(_figures())
     assert len(got) == 5 and len(set(got)) == 2 and str(os.getpid()).encode() in got
 
 
-@pytest.mark.skipif(not FORKS, reason="no fork here: not Linux, or threads running")
+@pytest.mark.skipif(not LINUX, reason="no fork here: not Linux")
 def test_failed_child_drawn_here(monkeypatch: pytest.MonkeyPatch) -> None:
     """A child that dies without answering: its share is drawn here, same bytes."""
-    monkeypatch.setattr(pngs, "_idle_cpu", lambda: True)
+    _forks(monkeypatch)
     jobs = _figures()
     want = [png_bytes(fig, dpi) for fig, dpi in jobs]
     monkeypatch.setattr(pngs, "_child", lambda fd, jobs: os._exit(3))
     assert pngs.draw_pngs(jobs) == want
 
 
-@pytest.mark.skipif(not FORKS, reason="no fork here: not Linux, or threads running")
+@pytest.mark.skipif(not LINUX, reason="no fork here: not Linux")
 def test_hung_child_killed(monkeypatch: pytest.MonkeyPatch) -> None:
     """A child that never answers is killed after the patience: no hang, same bytes."""
     import time
 
-    monkeypatch.setattr(pngs, "_idle_cpu", lambda: True)
+    _forks(monkeypatch)
     jobs = _figures()
     want = [png_bytes(fig, dpi) for fig, dpi in jobs]
     monkeypatch.setattr(pngs, "PATIENCE", 0.5)
