@@ -37,11 +37,16 @@ def warn(message: str, stacklevel: int) -> None:
 
 
 def frozen_array(a: ArrayLike, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
-    """A read-only float64 copy of ``a`` with the given shape, all entries finite."""
+    """A read-only float64 copy of ``a`` with the given shape, all entries finite real numbers
+    (never text, bytes or bools, as :func:`real_number`: NumPy would read ``"1.0"`` as 1)."""
     try:
         if np.iscomplexobj(a):
             raise TypeError("complex numbers, expected real ones")
-        arr = np.array(a, dtype=np.float64)
+        raw = np.asarray(a)
+        if raw.dtype.kind in "USb" or (raw.dtype.kind == "O" and any(
+                isinstance(v, (str, bytes, bool, np.bool_)) for v in raw.flat)):
+            raise TypeError(f"expected real numbers, got {quote(a)}")
+        arr = np.array(raw, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ModelError(f"{what}: not a numeric array ({exc})") from None
     if arr.shape != shape:

@@ -88,15 +88,17 @@ def callable_or_none(fn: object, name: str) -> None:
 
 def numeric(x: ArrayLike, name: str) -> NDArray[np.float64]:
     """``x`` as a C-contiguous, writable float64 array of any shape: real numbers only (not
-    strings, objects, complex numbers, None or a ragged nesting); finiteness and shape are the
-    caller's."""
+    booleans, strings, objects, complex numbers, None or a ragged nesting, as :func:`real`);
+    finiteness and shape are the caller's."""
     if x is None:
         raise StateError(f"{name}: expected an array of real numbers, got None")
     try:
         a = np.asarray(x)
     except (TypeError, ValueError):
         raise StateError(f"{name}: not a numeric array: {x!r}") from None
-    if a.dtype.kind not in "biuf":
+    if a.dtype.kind == "b":
+        raise StateError(f"{name}: expected real numbers, got True/False: {quote(x)}")
+    if a.dtype.kind not in "iuf":
         raise StateError(f"{name}: expected real numbers, got an array of {a.dtype}")
     return np.require(a, dtype=np.float64, requirements=["C", "W"])
 

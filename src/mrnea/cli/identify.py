@@ -99,6 +99,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
     from mrnea.identify import identify as run_identify
     from mrnea.identify import read_log
     from mrnea.identify.html import identify_html
+    from mrnea.identify.log import sample_rate
     from mrnea.identify.output import drives_toml, identify_summary
 
     if not holdout < 1:  # here, before the progress label, so that the error is stderr's one line
@@ -106,6 +107,12 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
     prior = load_robot_arg(robot, robot_options)
     data = read_log(log, prior, torque_constant)
     check = None if validation is None else read_log(validation, prior, torque_constant)
+    for path, d in ((log, data), (validation, check)):  # before the label, as --holdout
+        if d is not None and (d.qd is None or d.qdd is None):
+            try:
+                sample_rate(d.time, cutoff)
+            except MrneaError as exc:
+                raise type(exc)(f"{path}: {_flags(str(exc))}") from None
     with own_folder(Path(out) if out else fresh_dir("mrnea-identify")) as folder:
         check_new([folder / f for f in FILES], force)
         checkpoint()
@@ -119,7 +126,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
                                    prior_weight=prior_weight)
             except MrneaError as exc:  # logs that cannot identify the robot: name the files
                 raise type(exc)(f"{log}{'' if validation is None else ' or ' + validation}: "
-                                f"{exc}") from None
+                                f"{_flags(str(exc))}") from None
         checkpoint()
         summary = identify_summary(res, prior, data, str(log), validation, torque_constant)
         res.robot.to_toml(folder / FILES[0], overwrite=force)
@@ -133,6 +140,18 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
         for line in _lines(summary):
             click.echo(line)
         click.echo(f"Wrote {folder}: " + ", ".join(FILES))
+
+
+# the library's keywords in its messages, as this command's options
+_FLAGS = {"cutoff_hz": "--cutoff", "min_speed": "--min-speed", "prior_weight": "--prior-weight"}
+
+
+def _flags(message: str) -> str:
+    """``message`` of :func:`mrnea.identify.identify` with its keywords named as this command's
+    options (a command line speaks its own words)."""
+    for keyword, flag in _FLAGS.items():
+        message = message.replace(keyword, flag)
+    return message
 
 
 def _lines(s: dict[str, Any]) -> list[str]:

@@ -90,19 +90,26 @@ class Log:
         return Log(self.time[sl], self.q[sl], self.tau[sl], cut(self.qd), cut(self.qdd))
 
 
+def sample_rate(time: NDArray, cutoff_hz: object) -> tuple[float, float]:
+    """The log's sample rate [Hz] (the median time step's inverse) and ``cutoff_hz`` [Hz],
+    checked: from MIN_CUTOFF_RATIO of the rate to below half of it (Nyquist)."""
+    cutoff_hz = validate.real(cutoff_hz, "cutoff_hz")
+    with np.errstate(divide="ignore", over="ignore"):
+        fs = 1.0 / float(np.median(np.diff(time)))
+    if not MIN_CUTOFF_RATIO * fs <= cutoff_hz < fs / 2:
+        raise StateError(f"cutoff_hz: the filter's cut-off {cutoff_hz} Hz must be in "
+                         f"[{MIN_CUTOFF_RATIO * fs:g}, {fs / 2:g}) Hz, from {MIN_CUTOFF_RATIO:g} "
+                         f"to half the log's sample rate {fs:g} Hz")
+    return fs, cutoff_hz
+
+
 def derivatives(time: ArrayLike, q: ArrayLike, cutoff_hz: float = CUTOFF_HZ
                 ) -> tuple[NDArray, NDArray, NDArray]:
     """Filtered q, qd, qdd (K, n) of positions q (K, n) sampled at ``time`` (K,) [s]
     (module docstring). The sample rate is the median of the time steps; ``cutoff_hz`` must be
     below half of it (Nyquist)."""
     t, q = validate.numeric(time, "time"), validate.numeric(q, "q")
-    cutoff_hz = validate.real(cutoff_hz, "cutoff_hz")
-    with np.errstate(divide="ignore", over="ignore"):
-        fs = 1.0 / float(np.median(np.diff(t)))
-    if not MIN_CUTOFF_RATIO * fs <= cutoff_hz < fs / 2:
-        raise StateError(f"cutoff: the filter's cut-off {cutoff_hz} Hz must be in "
-                         f"[{MIN_CUTOFF_RATIO * fs:g}, {fs / 2:g}) Hz, from {MIN_CUTOFF_RATIO:g} "
-                         f"to half the log's sample rate {fs:g} Hz")
+    fs, cutoff_hz = sample_rate(t, cutoff_hz)
     import scipy.signal  # here: scipy.signal (and scipy.stats) would add ~0.5 s to every command
 
     sos = scipy.signal.butter(FILTER_ORDER, cutoff_hz, fs=fs, output="sos")
