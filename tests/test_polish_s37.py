@@ -4,6 +4,8 @@ words of the call that was made (the library's keyword, the command's option).""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import mrnea_cli, one_error_line
@@ -85,3 +87,20 @@ def test_the_cutoff_error_names_the_commands_option(tmp_path) -> None:
     res = mrnea_cli("identify", "puma560", log, "--cutoff", "60", "--out", tmp_path / "o")
     one_error_line(res, "--cutoff", "50) Hz")
     assert "cutoff_hz" not in res.stderr
+
+
+def test_holding_a_joint_that_does_not_carry_the_tool_changes_nothing() -> None:
+    """docs/cartesian.md: the left arm's joints do not carry the right hand, so holding them
+    gives the path solved without the hold, bit for bit; the right hand reaches the target
+    (its pose from the forward kinematics at a known q)."""
+    from mrnea.ik import solve_path
+
+    robot = mrnea.load_urdf(Path(__file__).parents[1] / "examples" / "waist_two_arms.urdf")
+    q0 = np.zeros(robot.n)
+    q_goal = np.array([0.1, 0, 0, 0, 0, 0.3, -0.2, 0.4, 0.1])
+    target = mrnea.forward_kinematics(robot, q_goal)[robot.link_names.index("hand_r") + 1]
+    free = solve_path(robot, target, q0, tool="hand_r")
+    held = solve_path(robot, target, q0, tool="hand_r",
+                      hold=["shoulder_pitch_l", "shoulder_roll_l", "elbow_l", "wrist_l"])
+    assert np.array_equal(free.q, held.q)
+    assert free.position_error.max() < 1e-9
