@@ -168,7 +168,8 @@ def jerk_profile(pc: PathCoefficients, q_sss: NDArray, rows: tuple[NDArray, NDAr
         if res.status != 0:  # x = 0 is feasible: only limits too small for HiGHS's tolerances
             raise JerkLimitError(
                 f"too small to plan this path with (the smallest planning limit "
-                f"{jmax.min():.3g} [rad/s^3 | m/s^3]; the linear program of the jerk-limited "
+                f"{jmax.min():.3g} [rad/s^3 | m/s^3], the jerk limits times the planning "
+                f"margin; the linear program of the jerk-limited "
                 f"path speed has no solution at HiGHS's tolerances: {res.message}); give "
                 f"larger jerk limits")
         new = np.sqrt(np.maximum(res.x, 0.0))
