@@ -233,16 +233,16 @@ class RetimeResult:
         if program_keys is not None and not isinstance(program_keys, Mapping):
             raise StateError(f"program_keys: expected a mapping of [program] keys, got "
                              f"{type(program_keys).__name__}")
-        points = self.f_ext_point
-        if not isinstance(points, Mapping):
-            points = {None: points}
+        def by_link(x):  # a wrench (or point) by link; one of the last link's keyed by None
+            return x if isinstance(x, Mapping) else {None: x}
+
+        points = by_link(self.f_ext_point)
         if any(p is not None and np.ndim(p) == 2 for p in points.values()):
             raise StateError("f_ext_point: a program file holds one point, not one per cycle")
         program = {"name": name, "robot": robot, "dt": self.dt, "mode": self.mode,
                    **(program_keys or {})}
-        loads = self.f_ext if isinstance(self.f_ext, Mapping) else {None: self.f_ext}
         tables = []
-        for link, f in loads.items():  # one [wrench] table, or a [[wrench]] table per link
+        for link, f in by_link(self.f_ext).items():  # a [wrench], or a [[wrench]] per link
             if f is None or not np.any(f):
                 continue
             k = _breakpoints(f)
