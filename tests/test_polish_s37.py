@@ -104,3 +104,13 @@ def test_holding_a_joint_that_does_not_carry_the_tool_changes_nothing() -> None:
                       hold=["shoulder_pitch_l", "shoulder_roll_l", "elbow_l", "wrist_l"])
     assert np.array_equal(free.q, held.q)
     assert free.position_error.max() < 1e-9
+
+
+def test_no_commands_summary_stops_at_an_abbreviation() -> None:
+    """`mrnea --help` lists each command with its docstring's first sentence, which click cuts at
+    the first full stop: "Reproduce the paper's Fig." was fig3's line."""
+    from mrnea.cli import main
+
+    for name, cmd in main.commands.items():
+        line = cmd.get_short_help_str(limit=200)
+        assert not line.endswith(("Fig.", "e.g.", "i.e.", "vs.", "Eq.", "approx.")), (name, line)

@@ -11,7 +11,7 @@ from mrnea.cli.options import force_opt
 from mrnea.io.writer import check_new
 
 
-@main.command()
+@main.command(short_help="Reproduce the paper's Fig. 3 on the SDT (RNEA vs mRNEA torques).")
 @click.option("--out", default="fig3.png", show_default=True,
               help="The file to write; its suffix names the format (.png, .pdf, .svg...; "
                    "none: .png is appended).")
