@@ -71,6 +71,25 @@ def test_a_retime_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) 
     assert "simulate_cycles" in compiled and "controllable_sets" in compiled  # it did compile
 
 
+@pytest.mark.slow
+def test_an_excite_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) -> None:
+    """``mrnea excite`` starts it before its search (no reactions wanted, no report): its
+    verifying simulation then loads every kernel the second process compiled."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
+    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", "-1,0,1,2,3,4", "0", "0"],
+                   env=env, check=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "excite", "puma560", "--out",
+                          str(tmp_path / "excite"), "--quiet"], env=env, capture_output=True,
+                         text=True, timeout=900)
+    assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
+    compiled = {name for name, _ in compiled_kernels(out.stdout)}
+    ahead_names = {k.py_func.__qualname__
+                   for k, _ in ahead.signatures((-1, 0, 1, 2, 3, 4), False, False)}
+    assert len(ahead_names) == 6
+    assert not compiled & ahead_names, compiled & ahead_names
+    assert "simulate_cycles" in compiled and "regressor_batch" in compiled  # it did compile
+
+
 def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> None:
     started = []
 

@@ -27,6 +27,11 @@ command for a core: at load 5-6 it took 74-90 s of wall with it against 62 s wit
 ``MRNEA_AHEAD=1`` on whatever the load (on a cold cache; benchmarks/first_run.py ``--no-ahead``,
 ``--ahead``). The second process is ended when the command exits
 (:func:`start` registers it), whatever it has left; its output is discarded.
+
+``mrnea excite`` starts it before its search for the trajectory (which compiles the regressor
+and runs for seconds), so that the verifying simulation at its end finds its later kernels
+compiled (a first ``excite`` of the Puma 560: 29.3-29.7 s of wall against 31.7-33.1 s;
+docs/performance.md section 7).
 """
 
 from __future__ import annotations

@@ -23,6 +23,7 @@ from typing import Any
 
 import click
 
+from mrnea.cli import ahead
 from mrnea.cli.base import (
     EXIT_ACHIEVABLE,
     EXIT_NOT_ACHIEVABLE,
@@ -150,6 +151,8 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
         paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY)}
         check_new([*paths.values(), *([folder / "payload.toml"] if options.payload else [])],
                   force)
+        # the verifying simulation's later kernels, compiled while the search runs
+        ahead.start(rob.parents, False, False)  # cold cache only (cli/ahead.py)
         with compile_notice(quiet):
             try:
                 exc = excitation(rob, base_frequency=base_frequency, harmonics=harmonics,
