@@ -17,6 +17,7 @@ import pytest
 from conftest import CLI_COMPILES, COMPILE_LISTENER, COMPILE_REPORT, compiled_kernels
 
 from mrnea.cli import ahead
+from mrnea.compiled import cold_cache
 
 AHEAD_MAIN = r"""
 event.register("numba:compile", Record())
@@ -102,7 +103,7 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
 
     monkeypatch.setattr(ahead.subprocess, "Popen", Popen)
     monkeypatch.delenv("MRNEA_AHEAD", raising=False)
-    monkeypatch.setattr(ahead, "_cold", lambda: True)
+    monkeypatch.setattr(ahead, "cold_cache", lambda: True)
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))
     assert ahead.start((-1, 0, 1, 2), False, True) is not None
@@ -119,7 +120,7 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0})  # one CPU
     assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
-    monkeypatch.setattr(ahead, "_cold", lambda: False)  # a warm cache
+    monkeypatch.setattr(ahead, "cold_cache", lambda: False)  # a warm cache
     assert ahead.start((-1, 0, 1, 2), False, True) is None
     assert len(started) == 2
 
@@ -127,7 +128,7 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
 def test_cold_reads_the_simulation_loops_cache_index(tmp_path) -> None:
     """A cache index of simulate_cycles means warm; its absence, cold (a fresh process on an
     empty cache folder)."""
-    code = "from mrnea.cli.ahead import _cold; print(_cold())"
+    code = "from mrnea.compiled import cold_cache; print(cold_cache())"
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty")}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          timeout=300, check=True)
@@ -136,4 +137,16 @@ def test_cold_reads_the_simulation_loops_cache_index(tmp_path) -> None:
 
     index = simulate_cycles._cache._cache_file._index_path
     if os.path.exists(index):  # this process's cache, filled by the suite
-        assert not ahead._cold()
+        assert not cold_cache()
+
+
+def test_a_sweep_warms_one_worker_first_on_a_cold_cache(monkeypatch) -> None:
+    """sweep/engine.py: on a cold cache one worker compiles and the others then load (none
+    compiles what another does); on a warm cache all at once."""
+    from mrnea.sweep import engine
+
+    workers = ["tcp://a:1", "tcp://b:2", "tcp://c:3"]
+    monkeypatch.setattr(engine, "cold_cache", lambda: True)
+    assert engine._warm_order(workers) == (workers[:1], workers[1:])
+    monkeypatch.setattr(engine, "cold_cache", lambda: False)
+    assert engine._warm_order(workers) == (workers, [])

@@ -96,3 +96,22 @@ class _CompileNotice(event.Listener):
 
 
 event.register("numba:compile", _CompileNotice())
+
+
+def cold_cache() -> bool:
+    """True when the simulation loop has no entry in Numba's disk cache yet (a first run on
+    this cache: no cache index of ``simulate_cycles``): the compile-ahead process of the
+    commands (mrnea/cli/ahead.py) and a sweep's order of warming its workers
+    (mrnea/sweep/engine.py) ask. False with the JIT off, or where Numba's cache layout is not
+    the one known (do not guess)."""
+    from numba.core.config import DISABLE_JIT
+
+    from mrnea.kernels.simulate import simulate_cycles
+
+    if DISABLE_JIT:
+        return False
+    try:
+        index = simulate_cycles._cache._cache_file._index_path  # Numba's cache layout
+    except AttributeError:  # another Numba version
+        return False
+    return not os.path.exists(index)

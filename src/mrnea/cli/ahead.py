@@ -31,7 +31,10 @@ command for a core: at load 5-6 it took 74-90 s of wall with it against 62 s wit
 ``mrnea excite`` starts it before its search for the trajectory (which compiles the regressor
 and runs for seconds), so that the verifying simulation at its end finds its later kernels
 compiled (a first ``excite`` of the Puma 560: 29.3-29.7 s of wall against 31.7-33.1 s;
-docs/performance.md section 7).
+docs/performance.md section 7). ``mrnea sweep`` starts it for a sweep on this machine's
+workers, of which one compiles on a cold cache (mrnea/sweep/engine.py ``_warm_order``) while
+this process compiles the later kernels: a fresh sweep of the Puma payload grid 16 s against
+22 s.
 """
 
 from __future__ import annotations
@@ -41,6 +44,8 @@ import os
 import subprocess
 import sys
 from collections.abc import Sequence
+
+from mrnea.compiled import cold_cache
 
 
 def _spare_core() -> bool:
@@ -57,21 +62,6 @@ def _spare_core() -> bool:
     return cpus >= 2 and load < cpus
 
 
-def _cold() -> bool:
-    """True when the simulation loop has no cache index yet (a first run on this cache)."""
-    from numba.core.config import DISABLE_JIT
-
-    from mrnea.kernels.simulate import simulate_cycles
-
-    if DISABLE_JIT:
-        return False
-    try:
-        index = simulate_cycles._cache._cache_file._index_path  # Numba's cache layout
-    except AttributeError:  # another Numba version: do not guess
-        return False
-    return not os.path.exists(index)
-
-
 def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
           ) -> subprocess.Popen | None:
     """Start the second process on a cold cache (module docstring) for a simulation of a robot
@@ -81,7 +71,7 @@ def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = F
     None where it would not gain. None of the kernels it compiles depends on the engine
     (``--fd``)."""
     wanted = os.environ.get("MRNEA_AHEAD")
-    if wanted == "0" or not (wanted == "1" or _spare_core()) or not _cold():
+    if wanted == "0" or not (wanted == "1" or _spare_core()) or not cold_cache():
         return None
     try:
         proc = subprocess.Popen(

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
+from mrnea.cli import ahead
 from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, main
 from mrnea.cli.options import force_opt, load_program_arg, quiet_opt, robot_options
 from mrnea.errors import SweepError, quote
@@ -194,6 +195,8 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
             bars[0].update(done - bars[0].pos)
             checkpoint()  # raised here, the sweep keeps the rows done
 
+        if scheduler is None:  # this machine's workers: one compiles (cold cache), this helps
+            ahead.start(robot.parents, False, False, retime)
         try:
             df = run_sweep(robot, programs, spec.grid, client=scheduler, retime=retime,
                            progress=progress, zip=spec.zip, workers=workers)

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 from mrnea import validate
 from mrnea.cartesian import solve
+from mrnea.compiled import cold_cache
 from mrnea.errors import MrneaError, SweepError, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
@@ -296,8 +297,12 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
     info["threads"] = threads = sum(nthreads.values())
     if bar is not None:
         bar.say(f"mrnea sweep: loading the compiled kernels on {len(nthreads)} worker(s)...")
+    first, rest = _warm_order(list(nthreads))
     try:
-        answers = c.run(warm, robot, os.getpid(), retime)
+        answers = {}
+        for group in (first, rest):  # on a cold cache: one compiles, the others load
+            if group:
+                answers.update(c.run(warm, robot, os.getpid(), retime, workers=group))
     except Exception as exc:  # a worker without mrnea, or one that cannot unpickle the robot
         raise SweepError(f"the workers cannot run mrnea's sweep ({type(exc).__name__}: "
                          f"{quote(str(exc), 200)}); give every worker the same mrnea") from None
@@ -321,6 +326,18 @@ def _run(c: Any, robot: Robot, scaled: Mapping[tuple[int, float], Program],
         raise
     finally:
         clock["run"] = time.perf_counter() - t
+
+
+def _warm_order(addresses: list[str]) -> tuple[list[str], list[str]]:
+    """The workers to warm first, then the rest. On a cold Numba cache (no compiled simulation
+    loop yet: :func:`mrnea.compiled.cold_cache`) one worker compiles the kernels and writes the
+    cache, then the others load them: warmed at once, every worker would compile the same
+    kernels, and the command's compile-ahead process (mrnea/cli/ahead.py) would compete with
+    all of them for the cores (a fresh `mrnea sweep` of the Puma payload grid on 2 cores: 16 s
+    against 22 s, docs/performance.md section 7). On a warm cache all at once. A cluster
+    elsewhere shares no cache with this machine: there the check says nothing, and warming one
+    worker first costs about a second."""
+    return (addresses[:1], addresses[1:]) if cold_cache() else (addresses, [])
 
 
 def _warm_up(c: Any, addresses: Sequence[str], job: tuple[int, Any, Any], robot: Any,
