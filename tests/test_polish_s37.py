@@ -114,3 +114,15 @@ def test_no_commands_summary_stops_at_an_abbreviation() -> None:
     for name, cmd in main.commands.items():
         line = cmd.get_short_help_str(limit=200)
         assert not line.endswith(("Fig.", "e.g.", "i.e.", "vs.", "Eq.", "approx.")), (name, line)
+
+
+def test_a_library_keyword_reads_as_the_commands_option_wherever_it_is_named() -> None:
+    from mrnea.cli.base import as_option
+    options = {"min_speed": "--min-speed", "dt": "--dt", "starts": "--starts",
+               "candidates": "--candidates"}
+    assert as_option("starts: at most candidates (3), got 5", options) == \
+        "--starts: at most --candidates (3), got 5"
+    assert as_option("log: joint 1 moves faster than min_speed in 1 samples", options) == \
+        "log: joint 1 moves faster than --min-speed in 1 samples"
+    # part of a longer word (dtype, min_speeds) or already an option: left as it is
+    assert as_option("dtype min_speeds --dt", options) == "dtype min_speeds --dt"

@@ -35,7 +35,7 @@ import signal
 import sys
 import threading
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -100,6 +100,17 @@ def one_line(text: str) -> str:
     if len(text) > MAX_LINE:
         text = f"{text[:MAX_LINE // 2]} ... {text[-MAX_LINE // 3:]}"
     return text
+
+
+def as_option(message: str, options: Mapping[str, str]) -> str:
+    """A library error's ``message`` in the command's words: each argument name of ``options``
+    (the library's keyword: the command's option) that the message mentions as a word
+    (``cutoff_hz: ...``, ``faster than min_speed``) becomes the option (``--cutoff``,
+    ``--min-speed``)."""
+    if not options:
+        return message
+    words = "|".join(sorted(map(re.escape, options), key=len, reverse=True))
+    return re.sub(rf"(?<![\w-])({words})(?![\w-])", lambda m: options[m[1]], message)
 
 
 def fail(message: str) -> NoReturn:

@@ -27,6 +27,7 @@ from mrnea.cli import ahead
 from mrnea.cli.base import (
     EXIT_ACHIEVABLE,
     EXIT_NOT_ACHIEVABLE,
+    as_option,
     checkpoint,
     compile_notice,
     fresh_dir,
@@ -160,8 +161,7 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
                                  candidates=candidates, starts=min(starts, candidates),
                                  seed=seed, checkpoint=checkpoint, **limits)
             except StateError as err:  # an argument: say it as the command line spells it
-                name, _, rest = str(err).partition(":")
-                raise StateError(f"{OPTION.get(name, name)}:{rest}") from None
+                raise StateError(as_option(str(err), OPTION)) from None
         checkpoint()  # a stop request during the simulation: nothing written
         exc.save_csv(paths[CSV], force)
         exc.save_program(paths[PROGRAM], spec, CSV,

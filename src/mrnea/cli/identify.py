@@ -27,7 +27,7 @@ from typing import Any
 import click
 import numpy as np
 
-from mrnea.cli.base import checkpoint, compile_notice, fresh_dir, main, one_line
+from mrnea.cli.base import as_option, checkpoint, compile_notice, fresh_dir, main, one_line
 from mrnea.cli.options import (
     NON_NEGATIVE,
     POSITIVE,
@@ -40,6 +40,10 @@ from mrnea.errors import MrneaError, quote
 from mrnea.io import RobotOptions
 from mrnea.io.source import parse_number
 from mrnea.io.writer import check_new, create, own_folder
+
+#: the library's argument names as the command line spells them
+OPTION = {"cutoff_hz": "--cutoff", "min_speed": "--min-speed", "prior_weight": "--prior-weight",
+          "holdout": "--holdout"}
 
 FILES = ("identified_robot.toml", "identified_drives.toml", "summary.json", "identify.html")
 
@@ -112,7 +116,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
             try:
                 sample_rate(d.time, cutoff)
             except MrneaError as exc:
-                raise type(exc)(f"{path}: {_flags(str(exc))}") from None
+                raise type(exc)(f"{path}: {as_option(str(exc), OPTION)}") from None
     with own_folder(Path(out) if out else fresh_dir("mrnea-identify")) as folder:
         check_new([folder / f for f in FILES], force)
         checkpoint()
@@ -126,7 +130,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
                                    prior_weight=prior_weight)
             except MrneaError as exc:  # logs that cannot identify the robot: name the files
                 raise type(exc)(f"{log}{'' if validation is None else ' or ' + validation}: "
-                                f"{_flags(str(exc))}") from None
+                                f"{as_option(str(exc), OPTION)}") from None
         checkpoint()
         summary = identify_summary(res, prior, data, str(log), validation, torque_constant)
         res.robot.to_toml(folder / FILES[0], overwrite=force)
@@ -140,18 +144,6 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
         for line in _lines(summary):
             click.echo(line)
         click.echo(f"Wrote {folder}: " + ", ".join(FILES))
-
-
-# the library's keywords in its messages, as this command's options
-_FLAGS = {"cutoff_hz": "--cutoff", "min_speed": "--min-speed", "prior_weight": "--prior-weight"}
-
-
-def _flags(message: str) -> str:
-    """``message`` of :func:`mrnea.identify.identify` with its keywords named as this command's
-    options (a command line speaks its own words)."""
-    for keyword, flag in _FLAGS.items():
-        message = message.replace(keyword, flag)
-    return message
 
 
 def _lines(s: dict[str, Any]) -> list[str]:
