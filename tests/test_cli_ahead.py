@@ -89,6 +89,8 @@ def test_an_excite_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path)
     assert len(ahead_names) == 6
     assert not compiled & ahead_names, compiled & ahead_names
     assert "simulate_cycles" in compiled and "regressor_batch" in compiled  # it did compile
+    # its effort checks one state at a time on the simulation's kernel, not the parallel batch
+    assert "actuator_terms" in compiled and "actuator_terms_batch" not in compiled
 
 
 def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> None:

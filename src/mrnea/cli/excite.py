@@ -136,6 +136,7 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
     summary.json into --out; exit 1 when mrnea's simulation finds it NOT ACHIEVABLE.
     """
     from mrnea.identify.excite import excitation
+    from mrnea.retime.path import one_state_at_a_time
 
     spec, options = robot, robot_options
     if is_program_file(robot):  # a program names the robot (and its options)
@@ -154,7 +155,8 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
                   force)
         # the verifying simulation's later kernels, compiled while the search runs
         ahead.start(rob.parents, False, False)  # cold cache only (cli/ahead.py)
-        with compile_notice(quiet):
+        # the effort checks on the single-state kernel the simulation compiles (issue 22)
+        with compile_notice(quiet), one_state_at_a_time():
             try:
                 exc = excitation(rob, base_frequency=base_frequency, harmonics=harmonics,
                                  duration=duration, dt=dt, effort_margin=effort_margin,

@@ -27,9 +27,18 @@ result is kept.
 times s <= 1: velocities and accelerations scale by s, positions move towards c) by the largest s
 for which every limit holds at every cycle ``t = k dt`` and between them: a sampled maximum plus
 ``dt^2 / 8`` times a bound on the next derivative (``sum_l (l w)^(d + 2) (|a_l| + |b_l|)``) stays
-within the limit; and the efforts by :func:`mrnea.actuators.actuator_efforts` within
-``effort_margin`` times :func:`mrnea.actuators.effort_limits_at` (bisection on s). The condition
-number reported is over those cycles; then mrnea simulates the program (the verdict).
+within the limit; and the efforts ``H_a qdd + u'_a`` (Eqs. 42-43, the values of
+:func:`mrnea.actuators.actuator_efforts`, from :func:`mrnea.retime.path.actuator_terms_along`: the
+command line's runs evaluate them one state at a time on the kernel its simulation compiles,
+:func:`mrnea.retime.path.one_state_at_a_time`) within ``effort_margin`` times
+:func:`mrnea.actuators.effort_limits_at` (bisection on s). The condition number reported is over
+those cycles; then mrnea simulates the program (the verdict).
+
+**BLAS on one thread.** The search's linear algebra is on small matrices (the stacked base
+regressor of the Puma 560 is 360 x 58): OpenBLAS's threads cost more there than they save (an SVD
+4.1 ms on two threads against 1.0 ms on one, on the 2-core machine), so the search runs with the
+BLAS libraries limited to one thread (``threadpoolctl``, for the call's duration, process-wide)
+and its result does not depend on the machine's core count (docs/performance.md section 7).
 """
 
 from __future__ import annotations
@@ -45,9 +54,10 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import threadpool_limits
 
 from mrnea import validate
-from mrnea.actuators import actuator_efforts, effort_limits_at
+from mrnea.actuators import effort_limits_at
 from mrnea.errors import StateError
 from mrnea.identify import criterion
 from mrnea.identify.base import base_parameters
@@ -57,6 +67,7 @@ from mrnea.identify.regressor import require_serial
 from mrnea.io.pathcsv import save_csv
 from mrnea.io.program import Program, save_program
 from mrnea.model import Robot
+from mrnea.retime.path import actuator_terms_along
 from mrnea.simulate import simulate
 
 UNLIMITED_SPAN = math.pi  # [rad | m] the position range +-span of a joint without limits
@@ -225,11 +236,14 @@ def _bounds_ok(limits: Limits, c: NDArray, a: NDArray, b: NDArray, f: float, dt:
 
 
 def _efforts_ok(robot: Robot, limits: Limits, q: NDArray, qd: NDArray, qdd: NDArray) -> bool:
-    """Whether every cycle's efforts (:func:`mrnea.actuators.actuator_efforts`) stay within the
-    effort margin of the limits at its speed (:func:`mrnea.actuators.effort_limits_at`)."""
+    """Whether every cycle's efforts ``H_a qdd + u'_a`` (the values of
+    :func:`mrnea.actuators.actuator_efforts`, by :func:`mrnea.retime.path.actuator_terms_along`)
+    stay within the effort margin of the limits at its speed
+    (:func:`mrnea.actuators.effort_limits_at`)."""
     margin = limits.effort / robot.effort_limit  # effort_margin, or nan where both are inf
     cap = np.where(np.isfinite(limits.effort), effort_limits_at(robot, qd) * margin, np.inf)
-    return bool(np.all(np.abs(actuator_efforts(robot, q, qd, qdd)) <= cap))
+    H, u = actuator_terms_along(robot, q, qd)
+    return bool(np.all(np.abs(np.einsum("kij,kj->ki", H, qdd) + u) <= cap))
 
 
 def into_limits(robot: Robot, limits: Limits, x: NDArray, harmonics: int, f: float, dt: float,
@@ -329,24 +343,25 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     problem = Problem(robot, base, limits, L, f, samples)
     rng = np.random.default_rng(seed)
     t_opt = np.arange(samples) / (samples * f)
-    pool: list[tuple[float, int, NDArray]] = []  # the best max(starts, 1): a max-heap of -value
-    for k in range(candidates):
-        c, a, b = coefficients(random_free(rng, limits, L), robot.n, L)
-        s = _bounds_ok(limits, c, a, b, f, 1.0 / (samples * f), t_opt)
-        x = _free(c, s * a, s * b)
-        heapq.heappush(pool, (-problem.value(x), -k, x))  # ties: the earlier candidate kept
-        if len(pool) > max(starts, 1):
-            heapq.heappop(pool)
-        stop()
-    pool = sorted(pool, reverse=True)
-    pool = [(-v, x) for v, _, x in pool]
     t = np.arange(cycles) * dt  # one period's cycles
-    results = [pool[0][1]] + [problem.solve(x, maxiter, stop) for _, x in pool[:starts]]
+    pool: list[tuple[float, int, NDArray]] = []  # the best max(starts, 1): a max-heap of -value
     scored = []
-    for x in filter(lambda x: np.all(np.isfinite(x)), results):
-        c, a, b = into_limits(robot, limits, x, L, f, dt, t)
-        W = criterion.stacked(robot, base, *evaluate(c, a, b, f, t))
-        scored.append((criterion.condition(W), c, a, b))
+    with threadpool_limits(limits=1, user_api="blas"):  # small matrices (module docstring)
+        for k in range(candidates):
+            c, a, b = coefficients(random_free(rng, limits, L), robot.n, L)
+            s = _bounds_ok(limits, c, a, b, f, 1.0 / (samples * f), t_opt)
+            x = _free(c, s * a, s * b)
+            heapq.heappush(pool, (-problem.value(x), -k, x))  # ties: the earlier one kept
+            if len(pool) > max(starts, 1):
+                heapq.heappop(pool)
+            stop()
+        pool = sorted(pool, reverse=True)
+        pool = [(-v, x) for v, _, x in pool]
+        results = [pool[0][1]] + [problem.solve(x, maxiter, stop) for _, x in pool[:starts]]
+        for x in filter(lambda x: np.all(np.isfinite(x)), results):
+            c, a, b = into_limits(robot, limits, x, L, f, dt, t)
+            W = criterion.stacked(robot, base, *evaluate(c, a, b, f, t))
+            scored.append((criterion.condition(W), c, a, b))
     best = min(scored, key=lambda s: s[0])
     if not math.isfinite(best[0]):
         raise StateError("velocity_limit: the limits leave no motion that excites every base "
