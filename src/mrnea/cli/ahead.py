@@ -33,8 +33,9 @@ and runs for seconds), so that the verifying simulation at its end finds its lat
 compiled. The second process runs at a lower priority (``nice`` 10): where the command
 needs both cores (excite's search runs the parallel regressor batch) it yields to it, and
 elsewhere it takes the idle core as before (a first ``excite`` of the Puma 560: 22.8-24.0 s of
-wall, against 29.3-29.7 s at the same priority and 31.7-33.1 s without it; the demo, retime,
-simulate and sweep unchanged; docs/performance.md section 7).
+wall, against 29.3-29.7 s at the same priority and 31.7-33.1 s without it, session 37; with the
+search's BLAS on one thread and its effort checks on ``actuator_terms``, 16.5-17.8 s; the demo,
+retime, simulate and sweep unchanged by the priority; docs/performance.md section 7).
 
 ``mrnea sweep`` starts it for a sweep on this machine's workers, of which one compiles on a
 cold cache (mrnea/sweep/engine.py ``_warm_order``) while this process compiles the later
