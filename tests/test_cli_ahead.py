@@ -93,6 +93,45 @@ def test_an_excite_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path)
     assert "actuator_terms" in compiled and "actuator_terms_batch" not in compiled
 
 
+@pytest.mark.slow
+def test_a_size_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) -> None:
+    """``mrnea size`` starts it (no reactions, no report): the verifying simulation of the sized
+    robot, and the program's requirement, load every kernel the second process compiled."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
+    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "0"],
+                   env=env, check=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "size", "sdt", "demo",
+                          "--catalogue", "examples/drives_catalogue.toml", "--joints", "cab_yaw",
+                          "--out", str(tmp_path / "size"), "--quiet"], env=env,
+                         capture_output=True, text=True, timeout=900,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
+    compiled = {name for name, _ in compiled_kernels(out.stdout)}
+    ahead_names = {k.py_func.__qualname__
+                   for k, _ in ahead.signatures((-1, 0, 1, 2), False, False)}
+    assert not compiled & ahead_names, compiled & ahead_names
+    assert "simulate_cycles" in compiled  # it did compile
+
+
+def test_size_starts_it_for_its_robot(monkeypatch, tmp_path) -> None:
+    from click.testing import CliRunner
+
+    from mrnea.cli import main
+
+    calls = []
+
+    def start(*args, **kw):  # records, then stops the command before it computes anything
+        calls.append(args)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(ahead, "start", start)
+    catalogue = Path(__file__).resolve().parents[1] / "examples" / "drives_catalogue.toml"
+    res = CliRunner().invoke(main, ["size", "sdt", "demo", "--catalogue", str(catalogue),
+                                    "--out", str(tmp_path / "s"), "--quiet"])
+    assert res.exit_code == 0, res.output
+    assert calls == [((-1, 0, 1, 2), False, False)]
+
+
 def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> None:
     started = []
 

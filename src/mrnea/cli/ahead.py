@@ -37,6 +37,10 @@ wall, against 29.3-29.7 s at the same priority and 31.7-33.1 s without it, sessi
 search's BLAS on one thread and its effort checks on ``actuator_terms``, 16.5-17.8 s; the demo,
 retime, simulate and sweep unchanged by the priority; docs/performance.md section 7).
 
+``mrnea size`` starts it before its sizing (whose programs' requirement it compiles itself
+first): the verifying simulation of the sized robot finds the drive solve, the reactions and
+the summary's kernels compiled (a first ``size sdt demo``: 14.6-14.8 s against 23.8 s).
+
 ``mrnea sweep`` starts it for a sweep on this machine's workers, of which one compiles on a
 cold cache (mrnea/sweep/engine.py ``_warm_order``) while this process compiles the later
 kernels: a fresh sweep of the Puma payload grid 16 s against 22 s.

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import click
 
+from mrnea import validate
+from mrnea.cli import ahead
 from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, compile_notice, fresh_dir, main
 from mrnea.cli.options import force_opt, load_robot_arg, quiet_opt, robot_options
 from mrnea.cli.sweep import _is_robot
@@ -89,6 +91,9 @@ def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: s
     wanted = None if joints is None else [j.strip() for j in joints.split(",")]
     with own_folder(Path(out) if out else fresh_dir("mrnea-size")) as folder:
         check_new([folder / f for f in FILES], force)
+        # the verifying simulation's kernels compiled while the requirement's are (cold cache)
+        ahead.start(robot.parents, validate.by_link(programs[0].f_ext, programs[0].f_ext_point),
+                    False)
         with compile_notice(quiet):
             res = size_drives(robot, programs, cat, joints=wanted, objective=objective,
                               dwell=dwell, drive_mass=not no_drive_mass, scheduler=scheduler)
