@@ -1,11 +1,16 @@
-"""Session 38's changes (issue 22: a first ``mrnea excite`` in seconds).
+"""Session 38's changes (issue 22: a first ``mrnea excite`` in seconds; hostile inputs).
 
 The excitation search runs its small SVDs with the BLAS libraries on one thread (threadpoolctl's
 own report, read inside the search through its checkpoint), and the limit ends with the call.
+An empty ``--out`` (a shell's unset ``"$DIR"``) is refused by every command, as a real process,
+and nothing is written where it ran (``retime`` wrote its files into the current folder,
+the others into a fresh default folder).
 """
 
 from __future__ import annotations
 
+import pytest
+from conftest import mrnea_cli, one_error_line
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import mrnea
@@ -27,3 +32,19 @@ def test_the_search_runs_blas_on_one_thread_and_gives_the_threads_back() -> None
         after = _blas_threads()
     assert seen and all(s == {1} for s in seen), seen
     assert after == {2}
+
+
+@pytest.mark.parametrize("args", [
+    ["demo"], ["simulate", "puma560", "PICK"], ["retime", "PICK"], ["excite", "puma560"],
+    ["identify", "puma560", "LOG"], ["sweep", "--grid", "GRID"],
+    ["size", "sdt", "demo", "--catalogue", "CATALOGUE"], ["fig3"]])
+def test_an_empty_out_is_refused_and_nothing_is_written(args, tmp_path) -> None:
+    from pathlib import Path
+
+    examples = Path(__file__).resolve().parents[1] / "examples"
+    files = {"PICK": "puma_pick.toml", "LOG": "puma_identify_log.csv",
+             "GRID": "puma_payload_grid.toml", "CATALOGUE": "drives_catalogue.toml"}
+    args = [str(examples / files[a]) if a in files else a for a in args]
+    res = mrnea_cli(*args, "--out", "", cwd=tmp_path)
+    one_error_line(res, "--out", "an empty path")
+    assert list(tmp_path.iterdir()) == []

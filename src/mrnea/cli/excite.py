@@ -34,6 +34,7 @@ from mrnea.cli.base import (
     main,
 )
 from mrnea.cli.options import (
+    FOLDER,
     FRACTION,
     POSITIVE,
     force_opt,
@@ -93,7 +94,7 @@ def _limit(value: tuple[float, ...] | None, option: str, n: int) -> Any:
 
 @main.command()
 @click.argument("robot", metavar="ROBOT")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", type=FOLDER, default=None,
               help="Output folder [default: a fresh ./mrnea-excite].")
 @click.option("--base-frequency", type=POSITIVE, default=0.1, show_default=True, metavar="HZ",
               help="Base frequency f of the Fourier series [Hz]; the period is 1/f.")

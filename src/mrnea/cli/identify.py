@@ -29,6 +29,7 @@ import numpy as np
 
 from mrnea.cli.base import as_option, checkpoint, compile_notice, fresh_dir, main, one_line
 from mrnea.cli.options import (
+    FOLDER,
     NON_NEGATIVE,
     POSITIVE,
     force_opt,
@@ -86,7 +87,7 @@ class _Constants(click.ParamType):
 @click.option("--prior-weight", "prior_weight", type=POSITIVE, default=1e-3, show_default=True,
               metavar="W", help="Weight of ROBOT's own values in the physically consistent "
                                 "fit (what the log cannot see stays there).")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", type=FOLDER, default=None,
               help="Output folder [default: a fresh ./mrnea-identify].")
 @robot_options
 @force_opt

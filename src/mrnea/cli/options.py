@@ -82,6 +82,24 @@ no_3d_opt = click.option("--no-3d", "no_3d", is_flag=True,
                               "has no script).")
 
 
+class _Folder(click.Path):
+    """``--out``: an output folder, never a file; an empty value is refused (a shell's unset
+    ``--out "$DIR"`` would otherwise write into the current folder or a default one)."""
+
+    def __init__(self) -> None:
+        super().__init__(file_okay=False)
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        if isinstance(value, str) and not value.strip():
+            self.fail("an empty path; give a folder (or leave the option out where it has a "
+                      "default)", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+FOLDER = _Folder()
+
+
 class _Payload(click.ParamType):
     """``KG[@X,Y,Z]``, ``KG@LINK[:X,Y,Z]`` or a payload file
     (:func:`mrnea.io.payload.parse_payload`)."""

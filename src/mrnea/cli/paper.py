@@ -26,6 +26,9 @@ def fig3(out: str, force: bool) -> None:
     from mrnea.report.drawing import figure_file, save_figure
     from mrnea.robots.sdt_profile import training_profile
 
+    if not out.strip():  # an unset "$FILE": not the current folder's name
+        raise click.BadParameter("an empty path; name the figure file to write",
+                                 param_hint="'--out'")
     path, _ = figure_file(out)
     check_new([path], force)  # before any work
     dt = 0.005

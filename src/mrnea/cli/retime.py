@@ -35,6 +35,7 @@ from mrnea import validate
 from mrnea.cli import ahead
 from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, checkpoint, compile_notice, main
 from mrnea.cli.options import (
+    FOLDER,
     FRACTION,
     POSITIVE,
     force_opt,
@@ -145,7 +146,7 @@ def _program_keys(options: RobotOptions, folder: Path, force: bool) -> dict[str,
 @main.command()
 @click.argument("robot", required=False, metavar="[ROBOT]")
 @click.argument("program", required=False, metavar="PROGRAM", type=click.Path(dir_okay=False))
-@click.option("--out", type=click.Path(file_okay=False), required=True,
+@click.option("--out", type=FOLDER, required=True,
               help="Output folder (created if missing).")
 @click.option("--method", type=click.Choice(["toppra", "scale"]), default="toppra",
               show_default=True,

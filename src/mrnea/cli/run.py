@@ -31,6 +31,7 @@ from mrnea.cli.base import (
     main,
 )
 from mrnea.cli.options import (
+    FOLDER,
     POSITIVE,
     fd_opt,
     force_opt,
@@ -135,7 +136,7 @@ def _cartesian_verdict(path, as_json: bool, quiet: bool) -> None:
 
 
 @main.command()
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", type=FOLDER, default=None,
               help="Output folder [default: a fresh ./mrnea-demo].")
 @click.option("--dt", type=POSITIVE, default=0.005, show_default=True, metavar="SECONDS",
               help="Cycle time [s].")
@@ -189,7 +190,7 @@ def _suggest(res, robot: str | None, program: str | None, options: RobotOptions,
 @main.command()
 @program_args
 @fd_opt
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", type=FOLDER, default=None,
               help="Output folder [default: a fresh ./mrnea-out].")
 @no_3d_opt
 @force_opt

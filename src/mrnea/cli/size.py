@@ -26,7 +26,7 @@ import click
 from mrnea import validate
 from mrnea.cli import ahead
 from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, compile_notice, fresh_dir, main
-from mrnea.cli.options import force_opt, load_robot_arg, quiet_opt, robot_options
+from mrnea.cli.options import FOLDER, force_opt, load_robot_arg, quiet_opt, robot_options
 from mrnea.cli.sweep import _is_robot
 from mrnea.errors import SizingError
 from mrnea.io import RobotOptions, load_program
@@ -53,7 +53,7 @@ FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json",
 @click.option("--scheduler", default=None, metavar="ADDR",
               help="A Dask scheduler, tcp://HOST:PORT, to judge the combinations on "
                    "[default: here].")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", type=FOLDER, default=None,
               help="Output folder [default: a fresh ./mrnea-size].")
 @robot_options
 @force_opt

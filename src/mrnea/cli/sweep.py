@@ -30,7 +30,7 @@ import numpy as np
 
 from mrnea.cli import ahead
 from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, main
-from mrnea.cli.options import force_opt, load_program_arg, quiet_opt, robot_options
+from mrnea.cli.options import FOLDER, force_opt, load_program_arg, quiet_opt, robot_options
 from mrnea.errors import SweepError, quote
 from mrnea.io import (
     BUILTIN_ROBOTS,
@@ -129,7 +129,7 @@ def _axes(value: str | None, option: str, keys: list[str], count: int) -> list[s
 @click.option("--grid", "grid_file", required=True, type=click.Path(dir_okay=False),
               metavar="GRID.toml", help="The grid file: parameters and their values "
                                          "(docs/sweeps.md).")
-@click.option("--out", type=click.Path(file_okay=False), default=None,
+@click.option("--out", type=FOLDER, default=None,
               help="Output folder [default: a fresh ./mrnea-sweep].")
 @click.option("--scheduler", default=None, metavar="ADDR",
               help="A Dask scheduler, tcp://HOST:PORT, checked first: where none answers, one "
