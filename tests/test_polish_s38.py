@@ -48,3 +48,11 @@ def test_an_empty_out_is_refused_and_nothing_is_written(args, tmp_path) -> None:
     res = mrnea_cli(*args, "--out", "", cwd=tmp_path)
     one_error_line(res, "--out", "an empty path")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_payload_name_too_long_for_the_system_names_the_option(tmp_path) -> None:
+    from pathlib import Path
+
+    pick = Path(__file__).resolve().parents[1] / "examples" / "puma_pick.toml"
+    res = mrnea_cli("check", "puma560", pick, "--payload", "a" * 5000, cwd=tmp_path)
+    one_error_line(res, "--payload", "neither a mass")

@@ -104,7 +104,11 @@ def parse_payload(spec: str, base_dir: str | Path | None = None,
     path = Path(spec).expanduser()
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
-    if path.suffix.lower() != ".toml" and not path.is_file():
+    try:
+        is_file = path.is_file()
+    except OSError:  # a name the system refuses (too long): not a file
+        is_file = False
+    if path.suffix.lower() != ".toml" and not is_file:
         raise error(f"payload {quote(spec)}: neither a mass with an optional point, KG[@X,Y,Z] "
                     f"(e.g. 2.5@0,0,0.1), nor a payload file (looked for {path})")
     return _read(path)
