@@ -56,3 +56,84 @@ def test_a_payload_name_too_long_for_the_system_names_the_option(tmp_path) -> No
     pick = Path(__file__).resolve().parents[1] / "examples" / "puma_pick.toml"
     res = mrnea_cli("check", "puma560", pick, "--payload", "a" * 5000, cwd=tmp_path)
     one_error_line(res, "--payload", "neither a mass")
+
+
+# a stop request (what SIGINT or SIGTERM sets, cli/base._request_stop) at three moments of
+# `mrnea check` / `mrnea simulate`, in process: lost, or "interrupted" after the verdict, before
+def _pick() -> str:
+    from pathlib import Path
+
+    return str(Path(__file__).resolve().parents[1] / "examples" / "puma_pick.toml")
+
+
+def _request(_args=None, **_kw) -> None:
+    from mrnea.cli import base
+
+    base._request_stop(15, None)
+
+
+def test_a_stop_in_the_last_chunk_is_not_lost(monkeypatch) -> None:
+    """The pick program is one chunk: the request landed in it, the run completed, and the
+    request was dropped (exit 0, the verdict printed). Now: no verdict, exit 130."""
+    import importlib
+
+    from click.testing import CliRunner
+
+    from mrnea.cli import main
+
+    sim = importlib.import_module("mrnea.simulate")  # the module (mrnea.simulate: the function)
+
+    real = sim.simulate
+
+    def simulate(*args, progress=None, **kw):
+        def late(done: int, total: int) -> None:
+            _request()  # during the chunk that ends the run
+            progress(done, total)
+        return real(*args, progress=late, **kw)
+
+    monkeypatch.setattr(sim, "simulate", simulate)
+    res = CliRunner().invoke(main, ["check", _pick()])
+    assert res.exit_code == 130, res.output
+    assert "ACHIEVABLE" not in res.stdout and "mrnea: interrupted" in res.output
+
+
+def test_a_stop_while_writing_gives_no_verdict(monkeypatch, tmp_path) -> None:
+    """After the files, before the verdict: exit 130 and no verdict (it printed ACHIEVABLE,
+    then exited 130). The files written are whole."""
+    import json
+
+    from click.testing import CliRunner
+
+    from mrnea.cli import main, run
+
+    real = run._write_outputs
+
+    def write(*args, **kw):
+        out = real(*args, **kw)
+        _request()
+        return out
+
+    monkeypatch.setattr(run, "_write_outputs", write)
+    res = CliRunner().invoke(main, ["simulate", _pick(), "--out", str(tmp_path / "o"),
+                                    "--no-3d"])
+    assert res.exit_code == 130, res.output
+    assert "ACHIEVABLE" not in res.stdout and "mrnea: interrupted" in res.output
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["completed"] is True
+
+
+def test_a_stop_after_the_verdict_keeps_its_code(monkeypatch) -> None:
+    """Once the verdict is printed the answer is given: its exit code, not 130."""
+    from click.testing import CliRunner
+
+    from mrnea.cli import main, run
+
+    real = run._print_result
+
+    def printed(*args, **kw):
+        real(*args, **kw)
+        _request()
+
+    monkeypatch.setattr(run, "_print_result", printed)
+    res = CliRunner().invoke(main, ["check", _pick()])
+    assert res.exit_code == 0, res.output
+    assert res.stdout.startswith("ACHIEVABLE") and "interrupted" not in res.output

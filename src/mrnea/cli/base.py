@@ -143,10 +143,11 @@ def exit_with_verdict(res: Any) -> NoReturn:
     """End a command that simulated a run (:class:`mrnea.simulate.SimulationResult`), its
     output written, by the one rule of every command: 0 achievable, 1 NOT ACHIEVABLE (a verdict,
     not an error), 130 interrupted (the partial result written); bad input never gets here
-    (exit 2, :func:`fail`)."""
+    (exit 2, :func:`fail`). The caller's last :func:`checkpoint` is before it prints the
+    verdict: a stop requested once the verdict is out is too late (the answer was given), so
+    the verdict's code stands; printing the verdict and then exiting 130 said both."""
     if not res.completed:
         exit_interrupted()
-    checkpoint()  # a request after the run's last checkpoint
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 

@@ -7,7 +7,11 @@ the figures and ``report.html``. All three exit by one rule
 (:func:`mrnea.cli.base.exit_with_verdict`): 0 achievable, 1 NOT ACHIEVABLE, once the files are
 written. An interrupted run (Ctrl-C, SIGTERM) writes the same files for the cycles done, says
 so, and exits 130; so does ``check``, which writes nothing. The run stops at the end of the
-chunk of cycles it is computing (:func:`mrnea.cli.base.checkpoint`).
+chunk of cycles it is computing (:func:`mrnea.cli.base.checkpoint`). A request that lands in
+the last chunk (the run then completes) or while the files are written stops the writing at the
+next file boundary: the files written are whole, the rest are not written, no verdict is
+printed, exit 130. The last checkpoint is just before the verdict is printed: a request after
+it is too late, and the command ends with the verdict's code.
 """
 
 from __future__ import annotations
@@ -70,7 +74,8 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
         def progress(done: int, total: int) -> None:
             bar.update(done - last[0])
             last[0] = done
-            checkpoint()  # raised here, simulate() keeps the cycles done
+            if done < total:  # raised here, simulate() keeps the cycles done; after the last
+                checkpoint()  # chunk the request stays for the next checkpoint (not lost)
 
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
@@ -166,6 +171,7 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
         with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)
+    checkpoint()  # the last: a request after the verdict is out is too late (exit_with_verdict)
     _print_result(res, report, as_json, quiet)
     exit_with_verdict(res)
 
@@ -215,11 +221,11 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
                    force, run.cartesian)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
+    checkpoint()  # the last (exit_with_verdict)
     _print_result(res, report, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)
     if res.completed and run.cartesian is not None and not run.cartesian.achievable:
-        checkpoint()
         sys.exit(EXIT_NOT_ACHIEVABLE)  # the tool path cannot be followed, whatever the dynamics
     exit_with_verdict(res)
 
@@ -244,6 +250,7 @@ def check(robot: str | None, program: str | None, dt: float | None,
         sys.exit(EXIT_NOT_ACHIEVABLE)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet,
                cartesian=run.cartesian)
+    checkpoint()  # the last (exit_with_verdict)
     _print_result(res, None, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)
