@@ -106,6 +106,9 @@ def _write_outputs(res, out: Path, force: bool, view3d: bool,
 
 
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
+    """The verdict (or the summary as JSON), after the command's last checkpoint: a stop
+    requested once it is out is too late (:func:`mrnea.cli.base.exit_with_verdict`)."""
+    checkpoint()
     if as_json:
         s = dict(res.summary())
         if report is not None:
@@ -171,7 +174,6 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
         with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
             figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
         report = _write_outputs(res, folder, force, not no_3d, figs)
-    checkpoint()  # the last: a request after the verdict is out is too late (exit_with_verdict)
     _print_result(res, report, as_json, quiet)
     exit_with_verdict(res)
 
@@ -221,7 +223,6 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
         res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
                    force, run.cartesian)
         report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
-    checkpoint()  # the last (exit_with_verdict)
     _print_result(res, report, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)
@@ -250,7 +251,6 @@ def check(robot: str | None, program: str | None, dt: float | None,
         sys.exit(EXIT_NOT_ACHIEVABLE)
     res = _run(rob, q_cmd, dt, prog_mode or mode, "mrnea", catch_up, f_ext, f_pt, quiet,
                cartesian=run.cartesian)
-    checkpoint()  # the last (exit_with_verdict)
     _print_result(res, None, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)
