@@ -8,6 +8,7 @@ spare) and when it does not.
 
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import sys
@@ -147,13 +148,15 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.setattr(ahead, "cold_cache", lambda: True)
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))
-    assert ahead.start((-1, 0, 1, 2), False, True) is not None
-    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1", "0"]
+    second = ahead.start((-1, 0, 1, 2), False, True)
+    assert second is not None and second.args == ([-1, 0, 1, 2], False, True, False)
+    assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1", "0"]
+    assert started[-1][-1] == second.claims and os.path.isdir(second.claims)  # its claims
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (2.1, 0.5, 0.5))  # saturated
     assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
     assert ahead.start((-1, 0, 1, 2), True, False, retime=True) is not None
-    assert started[-1][1:] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0", "1"]
+    assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0", "1"]
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
     monkeypatch.setenv("MRNEA_AHEAD", "0")  # off
     assert ahead.start((-1, 0, 1, 2), False, True) is None
@@ -191,3 +194,78 @@ def test_a_sweep_warms_one_worker_first_on_a_cold_cache(monkeypatch) -> None:
     assert engine._warm_order(workers) == (workers[:1], workers[1:])
     monkeypatch.setattr(engine, "cold_cache", lambda: False)
     assert engine._warm_order(workers) == (workers, [])
+
+
+class _Kernel:
+    """Stands for a Numba dispatcher in the claims' tests: records its compile."""
+
+    def __init__(self, name: str, compiled: list, then=None) -> None:
+        self.name, self.compiled, self.then = name, compiled, then
+
+    def compile(self, sig) -> None:
+        self.compiled.append(self.name)
+        if self.then is not None:
+            self.then()
+
+
+def test_the_command_takes_what_the_second_process_has_not_begun(monkeypatch, tmp_path) -> None:
+    """share(): the start check's kernel first, then the list's kernels the second process has
+    not claimed, in order, until it has compiled the drive solve; each claimed file marks it."""
+    from mrnea.kernels.drive_solve import solve_cycle
+
+    simulation = importlib.import_module("mrnea.simulate")  # the module, not mrnea.simulate()
+
+    claims = tmp_path / "claims"
+    claims.mkdir()
+    (claims / "0").touch()  # the second process: done with the first, compiling the solve
+    (claims / "0.done").touch()
+    (claims / "1").touch()
+    compiled, checked = [], []
+    kernels = [_Kernel("cholesky", compiled), solve_cycle,
+               _Kernel("reactions", compiled, then=(claims / "1.done").touch),  # solve done
+               _Kernel("requirement", compiled)]
+    monkeypatch.setattr(ahead, "signatures", lambda *args: [(k, ()) for k in kernels])
+    monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: checked.append(q0))
+    second = ahead.Ahead(None, str(claims), ((-1, 0), False, True, False))
+    ahead.share(second, "robot", "q0")
+    assert checked == ["q0"] and compiled == ["reactions"]
+    assert sorted(os.listdir(claims)) == ["0", "0.done", "1", "1.done", "2", "2.done"]
+    ahead.share(None, "robot", "q0")  # no second process: nothing here
+    assert checked == ["q0"] and compiled == ["reactions"]
+
+
+def test_the_second_process_skips_what_the_command_claimed(monkeypatch, tmp_path) -> None:
+    compiled = []
+    kernels = [_Kernel(name, compiled) for name in ("cholesky", "solve", "reactions")]
+    monkeypatch.setattr(ahead, "signatures", lambda *args: [(k, ()) for k in kernels])
+    monkeypatch.setattr(ahead.os, "nice", lambda inc: 0)  # not this test process's priority
+    claims = tmp_path / "claims"
+    claims.mkdir()
+    (claims / "2").touch()  # the command's
+    ahead.main(["-1,0,1", "0", "1", "0", str(claims)])
+    assert compiled == ["cholesky", "solve"]
+    assert sorted(os.listdir(claims)) == ["0", "0.done", "1", "1.done", "2"]
+    compiled.clear()
+    ahead.main(["-1,0,1", "0", "1"])  # no claims' folder: the whole list
+    assert compiled == ["cholesky", "solve", "reactions"]
+
+
+@pytest.mark.slow
+def test_a_fresh_demo_with_the_second_process_compiles_each_kernel_once(tmp_path) -> None:
+    """A fresh demo sharing the list with the second process (forced on, empty cache): the
+    command's start check compiles ``actuator_terms`` for the types its simulation calls it
+    with (one signature), and a second demo on the cache the two processes filled compiles
+    nothing."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "1"}
+    runs = []
+    for k in range(2):
+        out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "demo", "--out",
+                              str(tmp_path / f"demo{k}"), "--quiet"], env=env,
+                             capture_output=True, text=True, timeout=900)
+        assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
+        runs.append(compiled_kernels(out.stdout))
+    first, second = runs
+    assert [sig for name, sig in first if name == "actuator_terms"] != []
+    assert len([sig for name, sig in first if name == "actuator_terms"]) == 1, first
+    assert "simulate_cycles" in {name for name, _ in first}
+    assert second == [], second

@@ -372,7 +372,7 @@ def simulate(
                          f"got {type(cartesian).__name__}")
 
     m, _, _, act = compiled.of(robot)
-    _check_moves(robot, x0)
+    check_moves(robot, x0)
     res = SimulationResult(
         robot=robot, dt=dt, mode=mode, fd=fd, t=np.arange(K) * dt, q_cmd=Qc, qd_cmd=Vc,
         qdd_des=zeros(), q=zeros(), qd=zeros(), qdd=zeros(), tau=zeros(), tau_motor=zeros(),
@@ -446,7 +446,7 @@ def _require_memory(K: int, n: int) -> None:
                    "the parts one after another", StateError)
 
 
-def _check_moves(robot: Robot, q0: NDArray) -> None:
+def check_moves(robot: Robot, q0: NDArray) -> None:
     """Refuse, before the run, a robot whose actuated mass matrix H_a is singular at the start
     (a joint that moves no mass and no rotor inertia: the cycle's accelerations are undefined,
     and no verdict can be given): SingularMassMatrixError naming the joint and the links."""

@@ -28,6 +28,15 @@ command for a core: at load 5-6 it took 74-90 s of wall with it against 62 s wit
 ``--ahead``). The second process is ended when the command exits
 (:func:`start` registers it), whatever it has left; its output is discarded.
 
+The two processes share the list (:func:`share`, for ``demo``, ``simulate`` and ``check``):
+each claims a kernel before compiling it, with a file named by its index in a temporary folder
+created exclusively (the second process's argument; removed when the command exits), so that
+no kernel is compiled by both. The command, once it has compiled its start check's kernel,
+takes the kernels the second process has not begun for as long as that one is still on the
+drive solve (which the simulation loop needs next), instead of compiling the drive solve, the
+reactions and the summary's pass again when the second process was late: a fresh demo's
+processes used 28-33 s of CPU against 32-38 s (docs/performance.md section 7).
+
 ``mrnea excite`` starts it before its search for the trajectory (which compiles the regressor
 and runs for seconds), so that the verifying simulation at its end finds its later kernels
 compiled. The second process runs at a lower priority (``nice`` 10): where the command
@@ -49,12 +58,21 @@ kernels: a fresh sweep of the Puma payload grid 16 s against 22 s.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, NamedTuple
 
 from mrnea.compiled import cold_cache
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mrnea.model import Robot
 
 
 def _spare_core() -> bool:
@@ -71,35 +89,88 @@ def _spare_core() -> bool:
     return cpus >= 2 and load < cpus
 
 
+class Ahead(NamedTuple):
+    """The second process, the folder where both processes claim the kernels of its list
+    (one empty file per kernel, named by its index, created exclusively; ``INDEX.done`` once
+    compiled) and the arguments of :func:`signatures` both give that list by."""
+    proc: subprocess.Popen
+    claims: str
+    args: tuple
+
+
 def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
-          ) -> subprocess.Popen | None:
+          ) -> Ahead | None:
     """Start the second process on a cold cache (module docstring) for a simulation of a robot
     whose joints hang from ``parents`` (:attr:`mrnea.Robot.parents`) with reactions (the CLI's),
     its wrench given per link (``per_link``) or not, with a report (``report``: bearing
-    loads, 3D view), and for a retiming (``retime``: :func:`signatures`' order). Returns it, or
-    None where it would not gain. None of the kernels it compiles depends on the engine
-    (``--fd``)."""
+    loads, 3D view), and for a retiming (``retime``: :func:`signatures`' order). Returns it
+    (with the folder of the two processes' claims: :func:`share`), or None where it would not
+    gain. None of the kernels it compiles depends on the engine (``--fd``)."""
     wanted = os.environ.get("MRNEA_AHEAD")
     if wanted == "0" or not (wanted == "1" or _spare_core()) or not cold_cache():
         return None
+    claims = tempfile.mkdtemp(prefix="mrnea-ahead-")
+    args = [",".join(map(str, parents)), str(int(per_link)), str(int(report)), str(int(retime))]
     try:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "mrnea.cli.ahead", ",".join(map(str, parents)),
-             str(int(per_link)), str(int(report)), str(int(retime))],
-            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen([sys.executable, "-m", "mrnea.cli.ahead", *args, claims],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
     except OSError:  # no process to spare: the command compiles alone
+        shutil.rmtree(claims, ignore_errors=True)
         return None
-    atexit.register(_end, proc)
-    return proc
+    ahead = Ahead(proc, claims, (list(parents), per_link, report, retime))
+    atexit.register(_end, ahead)
+    return ahead
 
 
-def _end(proc: subprocess.Popen) -> None:
+def _claim(claims: str, i: int) -> bool:
+    """Kernel ``i`` of the list for the calling process, unless the other one has it."""
+    try:
+        os.close(os.open(os.path.join(claims, str(i)), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except OSError:  # claimed by the other process (or the folder gone: the command ended)
+        return False
+    return True
+
+
+def _compiled(claims: str, i: int) -> None:
+    """Kernel ``i`` compiled (in Numba's cache) by the calling process."""
+    with contextlib.suppress(OSError):
+        os.close(os.open(os.path.join(claims, f"{i}.done"), os.O_CREAT | os.O_WRONLY))
+
+
+def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
+    """The command's share of the compiling, before its simulation: the start check's kernel
+    (H_a and u'_a, :func:`mrnea.simulate.check_moves`), then, for as long as the second
+    process is still compiling the drive solve (which the simulation loop needs next), the
+    kernels of the list that it has not begun, in the order the command reaches them: each
+    compiled once, by one of the two processes, instead of by both when the second process
+    was late (docs/performance.md section 7). Without the second process (``ahead`` None) it
+    does nothing: the command compiles each kernel as it reaches it."""
+    if ahead is None:
+        return
+    from mrnea.kernels.drive_solve import solve_cycle
+    from mrnea.simulate import check_moves
+
+    check_moves(robot, q0)
+    kernels = signatures(*ahead.args)
+    solve = next(i for i, (k, _) in enumerate(kernels) if k is solve_cycle)
+    for i, (kernel, sig) in enumerate(kernels):
+        if os.path.exists(os.path.join(ahead.claims, f"{solve}.done")):
+            return
+        if _claim(ahead.claims, i):
+            kernel.compile(sig)
+            _compiled(ahead.claims, i)
+
+
+def _end(ahead: Ahead) -> None:
+    proc = ahead.proc
     if proc.poll() is None:
         proc.terminate()
         try:
             proc.wait(timeout=5)
         except subprocess.TimeoutExpired:
             proc.kill()
+    shutil.rmtree(ahead.claims, ignore_errors=True)
 
 
 def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
@@ -167,13 +238,18 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: boo
 
 def main(argv: list[str]) -> None:
     """Compile :func:`signatures` of ``argv`` = (the parents, comma-separated, per_link 0/1,
-    report 0/1[, retime 0/1, default 0])."""
+    report 0/1[, retime 0/1, default 0[, the claims' folder]]): each kernel the command has not
+    claimed (:func:`share`), or all of them without a folder."""
     parents = [int(p) for p in argv[0].split(",")]
     per_link, report, retime = argv[1] == "1", argv[2] == "1", argv[3:4] == ["1"]
+    claims = argv[4] if len(argv) > 4 else None
     if hasattr(os, "nice"):  # POSIX; the command first (module docstring: excite's search)
         os.nice(10)
-    for kernel, sig in signatures(parents, per_link, report, retime):
-        kernel.compile(sig)
+    for i, (kernel, sig) in enumerate(signatures(parents, per_link, report, retime)):
+        if claims is None or _claim(claims, i):
+            kernel.compile(sig)
+            if claims is not None:
+                _compiled(claims, i)
 
 
 if __name__ == "__main__":

@@ -64,7 +64,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
     from mrnea.simulate import simulate
 
     checkpoint()
-    ahead.start(robot.parents, validate.by_link(f_ext, f_ext_point), out is not None)  # cold cache
+    second = ahead.start(robot.parents, validate.by_link(f_ext, f_ext_point), out is not None)
     K = q_cmd.shape[0]
     show_bar = not quiet and K >= 20_000
     with compile_notice(quiet), click.progressbar(length=K, label="simulating", file=sys.stderr,
@@ -77,6 +77,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
             if done < total:  # raised here, simulate() keeps the cycles done; after the last
                 checkpoint()  # chunk the request stays for the next checkpoint (not lost)
 
+        ahead.share(second, robot, np.ascontiguousarray(q_cmd[0], dtype=float))
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
                        stream=None if out is None else out / TABLE, overwrite=force,
