@@ -1,5 +1,5 @@
-"""The retiming's H_a and u'_a one state at a time (mrnea.retime.path.actuator_terms_along within
-``one_state_at_a_time``, what the CLI runs), issue 22.
+"""H_a and u'_a one state at a time (mrnea.actuators.actuator_mass_matrix_and_bias within
+``one_state_at_a_time``, what the CLI runs for its retiming's and excitation's efforts), issue 22.
 
 Against Pinocchio (CRBA and RNEA, the wrench included) plus the actuator terms of Eqs. 42-43
 written out here (G^2 J_m on the diagonal, F_v qd, F+ / -F- by the sign of qd); against the
@@ -21,10 +21,9 @@ from conftest import CLI_COMPILES, PinChain, compiled_kernels, random_states, re
 from test_dynamics_pinocchio import get_case
 
 import mrnea
-from mrnea.actuators import actuator_mass_matrix_and_bias
+from mrnea.actuators import actuator_mass_matrix_and_bias, one_state_at_a_time
 from mrnea.cli.base import COMPILE_NOTICE
 from mrnea.errors import StateError
-from mrnea.retime.path import actuator_terms_along, one_state_at_a_time
 
 TOL = 1e-9  # test_dynamics_pinocchio's
 ROOT = Path(__file__).resolve().parents[1]
@@ -57,7 +56,7 @@ def test_one_state_at_a_time_against_pinocchio(name: str) -> None:
     s = random_states(rng, robot, 20)
     s["qd"][0] = 0.0  # at rest: no Coulomb term
     with one_state_at_a_time():
-        H, u = actuator_terms_along(robot, s["q"], s["qd"], s["f_ext"], s["f_ext_point"])
+        H, u = actuator_mass_matrix_and_bias(robot, s["q"], s["qd"], s["f_ext"], s["f_ext_point"])
     assert H.shape == (20, robot.n, robot.n) and u.shape == (20, robot.n)
     for b in range(20):
         Hr, ur = _reference(robot, pc, s["q"][b], s["qd"][b], s["f_ext"][b],
@@ -80,11 +79,33 @@ def test_one_state_at_a_time_equals_the_public_batch_to_the_bit() -> None:
                 ({links[2]: s["f_ext"], links[-1]: s["f_ext"][0]}, {links[2]: [0.0, 0.1, 0.0]})]
     for fe, pe in wrenches:
         with one_state_at_a_time():
-            H, u = actuator_terms_along(robot, s["q"], s["qd"], fe, pe)
-        H2, u2 = actuator_mass_matrix_and_bias(robot, s["q"], s["qd"], fe, pe)
+            H, u = actuator_mass_matrix_and_bias(robot, s["q"], s["qd"], fe, pe)
+        H2, u2 = actuator_mass_matrix_and_bias(robot, s["q"], s["qd"], fe, pe)  # the batch
         assert np.array_equal(H, H2) and np.array_equal(u, u2)
-        H3, u3 = actuator_terms_along(robot, s["q"], s["qd"], fe, pe)  # outside: the batch
-        assert np.array_equal(H3, H2) and np.array_equal(u3, u2)
+    with one_state_at_a_time():  # one state, not a batch
+        H1, u1 = actuator_mass_matrix_and_bias(robot, s["q"][4], s["qd"][4])
+    H2, u2 = actuator_mass_matrix_and_bias(robot, s["q"], s["qd"])
+    assert np.array_equal(H1, H2[4]) and np.array_equal(u1, u2[4])
+
+
+def test_every_actuator_effort_follows_it(monkeypatch) -> None:
+    """actuator_efforts (the excitation's effort checks) and the retiming's path take H_a and
+    u'_a from the one function, so within the block none reaches the batch kernel."""
+    import mrnea.actuators as actuators
+
+    robot = mrnea.robots.puma560()
+    s = random_states(np.random.default_rng(3), robot, 5)
+    want = actuators.actuator_efforts(robot, s["q"], s["qd"], s["qdd"])
+
+    def batch(*args):
+        raise AssertionError("the batch kernel")
+
+    monkeypatch.setattr(actuators, "actuator_terms_batch", batch)
+    with one_state_at_a_time():
+        got = actuators.actuator_efforts(robot, s["q"], s["qd"], s["qdd"])
+    assert np.array_equal(got, want)
+    with pytest.raises(AssertionError, match="the batch kernel"):  # outside the block
+        actuators.actuator_efforts(robot, s["q"], s["qd"], s["qdd"])
 
 
 def test_one_state_at_a_time_refuses_what_the_public_function_refuses() -> None:
@@ -93,9 +114,9 @@ def test_one_state_at_a_time_refuses_what_the_public_function_refuses() -> None:
     q[2, 1] = np.nan
     with one_state_at_a_time():
         with pytest.raises(StateError, match="q: contains NaN"):
-            actuator_terms_along(robot, q, np.zeros_like(q))
+            actuator_mass_matrix_and_bias(robot, q, np.zeros_like(q))
         with pytest.raises(StateError, match="batch sizes differ"):
-            actuator_terms_along(robot, np.zeros((4, robot.n)), np.zeros((3, robot.n)))
+            actuator_mass_matrix_and_bias(robot, np.zeros((4, robot.n)), np.zeros((3, robot.n)))
 
 
 @pytest.mark.slow

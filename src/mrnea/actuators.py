@@ -22,17 +22,53 @@ law itself, in compiled code: :mod:`mrnea.kernels.drive`; the functions here are
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.errors import StateError
-from mrnea.kernels.drive import actuator_terms_batch, effort_limits, limit_tangents, motor_torques
+from mrnea.kernels.drive import (
+    actuator_terms,
+    actuator_terms_batch,
+    effort_limits,
+    limit_tangents,
+    motor_torques,
+)
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import ACHIEVABLE, batch_scratch, entry_scratch
 from mrnea.kernels.simulate import program_requirement as requirement_kernel
 from mrnea.kernels.status import OK
 from mrnea.model import Robot
+
+# True within one_state_at_a_time (the CLI): one single-state kernel call a state
+_ONE_AT_A_TIME: ContextVar[bool] = ContextVar("mrnea_one_state_at_a_time", default=False)
+
+
+@contextmanager
+def one_state_at_a_time() -> Iterator[None]:
+    """Within the block (this thread or task), :func:`actuator_mass_matrix_and_bias` (and so
+    :func:`actuator_efforts`, and the retiming's and the excitation's efforts, which call it)
+    evaluates its states one at a time on the single-state kernel a simulation compiles,
+    instead of the parallel batch kernel: what a one-shot process, the CLI, wants.
+
+    Each state is one call, from Python, of ``kernels.drive.actuator_terms`` with exactly the
+    argument types :func:`mrnea.simulate`'s start check gives it (C-contiguous writable rows,
+    ``ENGINE_MRNEA``, an ``entry_scratch``), so that a command that also simulates (``retime``,
+    ``excite``) compiles the mRNEA's call tree once: the batch kernel cost a fresh ``mrnea
+    retime`` 3.5 s of its own compiling, and loading it from the cache starts Numba's threads
+    (issue 22, docs/performance.md section 7). The values are the batch's to the bit. The
+    trade-off: the loop's dispatch, about 3.4 us a state (the Puma 560), against about 0.9 us in
+    the batch: 2 ms more for 400 grid points, nothing against a process's start, but several per
+    cent of a warm retiming, which library users (a sweep) repeat."""
+    token = _ONE_AT_A_TIME.set(True)
+    try:
+        yield
+    finally:
+        _ONE_AT_A_TIME.reset(token)
 
 
 def actuator_mass_matrix_and_bias(
@@ -42,10 +78,11 @@ def actuator_mass_matrix_and_bias(
     f_ext: ArrayLike | None = None,
     f_ext_point: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """H_a = H + diag(G^2 J_m) and u'_a = u' + F_v qd + phi(qd) (Eqs. 42-43; phi: the module
-    docstring, 0 at rest).
+    """H_a = H + diag(G^2 J_m) [kg m^2 | kg] and u'_a = u' + F_v qd + phi(qd) [N m | N]
+    (Eqs. 42-43; phi: the module docstring, 0 at rest).
 
-    One state or a batch, as :func:`mrnea.mass_matrix_and_bias`.
+    One state or a batch, as :func:`mrnea.mass_matrix_and_bias`: a parallel batch kernel, or
+    within :func:`one_state_at_a_time` one single-state call a state.
     """
     args = {"q": q, "qd": qd}
     batched, (q, qd), fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)
@@ -55,7 +92,16 @@ def actuator_mass_matrix_and_bias(
     H = np.empty((Q.shape[0], n, n))
     u = np.empty((Q.shape[0], n))
     status = np.empty(Q.shape[0], dtype=np.int64)
-    actuator_terms_batch((m, act), Q, QD, FE, PE, ENGINE_MRNEA, H, u, status, batch_scratch(n))
+    if _ONE_AT_A_TIME.get():
+        Q, QD, FE, PE = (np.require(a, np.float64, "CW") for a in (Q, QD, FE, PE))
+        ws = entry_scratch(n)  # its own: the kernel runs without the GIL
+        for k in range(Q.shape[0]):
+            status[k] = actuator_terms(m, act, Q[k], QD[k], FE[k], PE[k], ENGINE_MRNEA, H[k],
+                                       u[k], ws)
+        u += coulomb_effort(robot, QD)  # as the batch kernel adds it
+    else:
+        actuator_terms_batch((m, act), Q, QD, FE, PE, ENGINE_MRNEA, H, u, status,
+                             batch_scratch(n))
     validate.check_status(robot, status if batched else int(status[0]),
                           {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
     return (H, u) if batched else (H[0], u[0])

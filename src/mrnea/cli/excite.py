@@ -136,8 +136,8 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
     Writes excitation.csv, excitation.toml (run it: mrnea check DIR/excitation.toml) and
     summary.json into --out; exit 1 when mrnea's simulation finds it NOT ACHIEVABLE.
     """
+    from mrnea.actuators import one_state_at_a_time
     from mrnea.identify.excite import excitation
-    from mrnea.retime.path import one_state_at_a_time
 
     spec, options = robot, robot_options
     if is_program_file(robot):  # a program names the robot (and its options)

@@ -201,7 +201,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                 retime=True)
     # toppra and SciPy take 1-4 s to import: before the run owns its folder (the stop bound)
     import mrnea.retime.toppra  # noqa: F401
-    from mrnea.retime import path as retime_path
+    from mrnea.actuators import one_state_at_a_time
     from mrnea.retime import retime as retime_program
 
     try:
@@ -211,8 +211,8 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
             check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
                       force)
             # one process, one retiming: the single-state kernels the simulation compiles anyway
-            # (mrnea.retime.path.one_state_at_a_time; issue 22)
-            with compile_notice(quiet), retime_path.one_state_at_a_time():
+            # (mrnea.actuators.one_state_at_a_time; issue 22)
+            with compile_notice(quiet), one_state_at_a_time():
                 try:
                     res = retime_program(run.robot, (t, run.q_cmd), dt=dt, method=method,
                                          margin=margin, f_ext=run.f_ext,
@@ -381,8 +381,8 @@ def suggestion(robot: Robot, robot_arg: str | None, program_arg: str | None,
     duration uniform time scaling would give by Hollerbach's closed-form estimate on the
     program's own requirement; or why no timing can help: a path that starts or goes outside a
     joint's position limits (:func:`outside_limits`), a requirement no speed can meet."""
+    from mrnea.actuators import one_state_at_a_time
     from mrnea.retime import scale_estimate
-    from mrnea.retime.path import one_state_at_a_time
 
     if (why := outside_limits(robot, q_cmd, dt)) is not None:
         return f"No timing can make it achievable: {why}"

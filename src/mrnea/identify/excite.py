@@ -27,10 +27,10 @@ result is kept.
 times s <= 1: velocities and accelerations scale by s, positions move towards c) by the largest s
 for which every limit holds at every cycle ``t = k dt`` and between them: a sampled maximum plus
 ``dt^2 / 8`` times a bound on the next derivative (``sum_l (l w)^(d + 2) (|a_l| + |b_l|)``) stays
-within the limit; and the efforts ``H_a qdd + u'_a`` (Eqs. 42-43, the values of
-:func:`mrnea.actuators.actuator_efforts`, from :func:`mrnea.retime.path.actuator_terms_along`: the
-command line's runs evaluate them one state at a time on the kernel its simulation compiles,
-:func:`mrnea.retime.path.one_state_at_a_time`) within ``effort_margin`` times
+within the limit; and the efforts ``H_a qdd + u'_a`` (Eqs. 42-43,
+:func:`mrnea.actuators.actuator_efforts`: the command line's runs evaluate them one state at a
+time on the kernel its simulation compiles, :func:`mrnea.actuators.one_state_at_a_time`) within
+``effort_margin`` times
 :func:`mrnea.actuators.effort_limits_at` (bisection on s). The condition number reported is over
 those cycles; then mrnea simulates the program (the verdict).
 
@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from threadpoolctl import threadpool_limits
 
 from mrnea import validate
-from mrnea.actuators import effort_limits_at
+from mrnea.actuators import actuator_efforts, effort_limits_at
 from mrnea.errors import StateError
 from mrnea.identify import criterion
 from mrnea.identify.base import base_parameters
@@ -67,7 +67,6 @@ from mrnea.identify.regressor import require_serial
 from mrnea.io.pathcsv import save_csv
 from mrnea.io.program import Program, save_program
 from mrnea.model import Robot
-from mrnea.retime.path import actuator_terms_along
 from mrnea.simulate import simulate
 
 UNLIMITED_SPAN = math.pi  # [rad | m] the position range +-span of a joint without limits
@@ -236,14 +235,11 @@ def _bounds_ok(limits: Limits, c: NDArray, a: NDArray, b: NDArray, f: float, dt:
 
 
 def _efforts_ok(robot: Robot, limits: Limits, q: NDArray, qd: NDArray, qdd: NDArray) -> bool:
-    """Whether every cycle's efforts ``H_a qdd + u'_a`` (the values of
-    :func:`mrnea.actuators.actuator_efforts`, by :func:`mrnea.retime.path.actuator_terms_along`)
-    stay within the effort margin of the limits at its speed
-    (:func:`mrnea.actuators.effort_limits_at`)."""
+    """Whether every cycle's efforts (:func:`mrnea.actuators.actuator_efforts`) stay within the
+    effort margin of the limits at its speed (:func:`mrnea.actuators.effort_limits_at`)."""
     margin = limits.effort / robot.effort_limit  # effort_margin, or nan where both are inf
     cap = np.where(np.isfinite(limits.effort), effort_limits_at(robot, qd) * margin, np.inf)
-    H, u = actuator_terms_along(robot, q, qd)
-    return bool(np.all(np.abs(np.einsum("kij,kj->ki", H, qdd) + u) <= cap))
+    return bool(np.all(np.abs(actuator_efforts(robot, q, qd, qdd)) <= cap))
 
 
 def into_limits(robot: Robot, limits: Limits, x: NDArray, harmonics: int, f: float, dt: float,

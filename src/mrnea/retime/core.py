@@ -15,10 +15,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import validate
+from mrnea.actuators import actuator_mass_matrix_and_bias
 from mrnea.errors import RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job
-from mrnea.retime.path import actuator_terms_along, grid_points, path_coefficients, piece_spline
+from mrnea.retime.path import grid_points, path_coefficients, piece_spline
 from mrnea.retime.result import PhasePiece, RetimeResult
 from mrnea.retime.rows import Limits, holding_need, static_check
 from mrnea.retime.scale import retime_scale
@@ -181,7 +182,7 @@ def _check_holds(job: Job, margin: float) -> None:
         return
     fe, pe = validate.wrench_rows(job.f_ext, rows), validate.wrench_rows(job.f_ext_point, rows)
     q = job.q[rows]
-    _, c = actuator_terms_along(job.robot, q, np.zeros_like(q), fe, pe)
+    _, c = actuator_mass_matrix_and_bias(job.robot, q, np.zeros_like(q), fe, pe)
     need = holding_need(job.robot, c, np.zeros_like(c), np.zeros(c.shape, dtype=bool))
     static_check(job.robot, need, job.clock[rows], margin)
 

@@ -17,26 +17,19 @@ speed ``sd = ds/dt = 1`` is the program's timing and ``sd = 1/f`` a uniform slow
 u'(q, q_s sd) - u'(q, 0) = sd^2 (u'(q, q_s) - u'(q, 0)); F_C the Coulomb friction against the
 direction of motion, F_v the viscous friction). :func:`path_coefficients` gets a, b, c at every
 grid point from H_a and u'_a of the 2 (N + 1) states (q, q_s) and (q, 0), ONE call of
-:func:`actuator_terms_along`.
+:func:`mrnea.actuators.actuator_mass_matrix_and_bias`.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from mrnea import compiled, validate
 from mrnea.actuators import actuator_mass_matrix_and_bias, coulomb_effort
-from mrnea.kernels.drive import actuator_terms
-from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import entry_scratch
 from mrnea.model import Robot
 from mrnea.validate import wrench_map
 
@@ -47,64 +40,6 @@ REST = 1e-12  # a joint slower than this fraction of the fastest one is at rest 
 SWING = 0.05  # a row where d2q/ds2 swings by this fraction of its largest value is a grid point
 VIA = 0.01  # a row is a via point (the program passes through rest) below this fraction of the
 #            program's fastest interval (grid_points)
-# True within one_state_at_a_time (the CLI): actuator_terms_along loops over single states
-_ONE_AT_A_TIME: ContextVar[bool] = ContextVar("mrnea_one_state_at_a_time", default=False)
-
-
-@contextmanager
-def one_state_at_a_time() -> Iterator[None]:
-    """Within the block (this thread or task), :func:`actuator_terms_along` evaluates its states
-    one at a time on the single-state kernel a simulation compiles, instead of the public
-    parallel batch kernel: what a one-shot process, the CLI, wants (the trade-off:
-    :func:`actuator_terms_along`)."""
-    token = _ONE_AT_A_TIME.set(True)
-    try:
-        yield
-    finally:
-        _ONE_AT_A_TIME.reset(token)
-
-
-def actuator_terms_along(robot: Robot, q: ArrayLike, qd: ArrayLike, f_ext: Any = None,
-                         f_ext_point: Any = None) -> tuple[NDArray, NDArray]:
-    """H_a (K, n, n) [kg m^2 | kg] and u'_a (K, n) [N m | N] (Eqs. 42-43, Coulomb friction of
-    the motion included) at K states q, qd (K, n) [rad | m, rad/s | m/s] with the wrench as
-    :func:`mrnea.actuators.actuator_mass_matrix_and_bias` takes it: its values to the bit.
-
-    By default that function itself, a parallel batch kernel (``actuator_terms_batch``). Within
-    :func:`one_state_at_a_time` (the CLI), each state is one call, from Python, of the
-    single-state kernel ``kernels.drive.actuator_terms`` with exactly the argument types
-    :func:`mrnea.simulate`'s start check gives it (C-contiguous writable rows, ``ENGINE_MRNEA``,
-    an ``entry_scratch``), so that a retiming, which simulates its result, compiles the mRNEA's
-    call tree once: the batch kernel cost a fresh ``mrnea retime`` 3.5 s of its own compiling,
-    and loading it from the cache starts Numba's threads (issue 22, docs/performance.md
-    section 7). The trade-off: the loop's dispatch, about 3.4 us a state (the Puma 560), against
-    about 0.9 us in the batch: 2 ms more for 400 grid points, nothing against a process's start,
-    but several per cent of a warm retiming, which library users (a sweep) repeat. The Coulomb
-    term is added as the batch kernel adds it, ``coulomb(qd)``
-    (:func:`mrnea.actuators.coulomb_effort`).
-
-    Raises
-    ------
-    StateError
-        As the public function: a shape, NaN or inf named, or values too large.
-    """
-    if not _ONE_AT_A_TIME.get():
-        return actuator_mass_matrix_and_bias(robot, q, qd, f_ext, f_ext_point)
-    args = {"q": q, "qd": qd}
-    batched, states, fe, pe = validate.inputs(robot, args, f_ext, f_ext_point)
-    if not batched:
-        states, fe, pe = [a[None] for a in states], fe[None], pe[None]
-    Q, QD, FE, PE = (np.require(a, np.float64, "CW") for a in (*states, fe, pe))
-    (m, _, _, act), n = compiled.of(robot), robot.n
-    K, ws = Q.shape[0], entry_scratch(n)  # its own: the kernel runs without the GIL
-    H, u = np.empty((K, n, n)), np.empty((K, n))
-    status = np.empty(K, dtype=np.int64)
-    for k in range(K):
-        status[k] = actuator_terms(m, act, Q[k], QD[k], FE[k], PE[k], ENGINE_MRNEA, H[k], u[k],
-                                   ws)
-    validate.check_status(robot, status, {**args, "f_ext": f_ext, "f_ext_point": f_ext_point})
-    u += coulomb_effort(robot, QD)
-    return H, u
 
 
 def pieces(q: NDArray) -> list[tuple[str, int, int]]:
@@ -286,7 +221,7 @@ class PathCoefficients:
 def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: Any,
                       f_ext_point: Any) -> PathCoefficients:
     """a, b, c at every grid point s from H_a and u'_a of the 2 (N + 1) states (q, q_s) and
-    (q, 0) (module docstring, :func:`actuator_terms_along`). ``f_ext`` (N + 1, 6) or None,
+    (q, 0) (module docstring). ``f_ext`` (N + 1, 6) or None,
     ``f_ext_point`` (3,), (N + 1, 3) or None: the wrench at each grid point; or both by link
     name (each link's arrays so)."""
     q, qs, qss = spline(s), spline(s, 1), spline(s, 2)
@@ -300,7 +235,7 @@ def path_coefficients(robot: Robot, spline: CubicSpline, s: NDArray, f_ext: Any,
     def twice(x: Any) -> Any:
         return wrench_map(x, lambda a: a if a.ndim == 1 else np.concatenate([a, a]))
 
-    H2, u2 = actuator_terms_along(robot, np.concatenate([q, q]),
+    H2, u2 = actuator_mass_matrix_and_bias(robot, np.concatenate([q, q]),
                                   np.concatenate([qs, np.zeros_like(qs)]), twice(f_ext),
                                   twice(f_ext_point))
     sgn = np.sign(qs)

@@ -36,18 +36,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea import validate
-from mrnea.actuators import coulomb_effort, effort_limits_at, program_requirement
+from mrnea.actuators import (
+    actuator_mass_matrix_and_bias,
+    coulomb_effort,
+    effort_limits_at,
+    program_requirement,
+)
 from mrnea.errors import NoTimingError, RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
-from mrnea.retime.path import actuator_terms_along, friction_pair, piece_rows, piece_spline
+from mrnea.retime.path import friction_pair, piece_rows, piece_spline
 from mrnea.retime.rows import holding_need, static_check
 from mrnea.trajectory import require_path_memory
 
 if TYPE_CHECKING:
     from scipy.interpolate import CubicSpline
 
-CHUNK = 20_000  # rows per call of actuator_terms_along (it holds H for CHUNK states)
+CHUNK = 20_000  # rows per call of actuator_mass_matrix_and_bias (it holds H for CHUNK states)
 TOL = 0.005  # the bisection's relative resolution of the factor
 STEP = 1.02  # bracketing steps from the estimate
 
@@ -78,14 +83,16 @@ def hollerbach(robot: Robot, q: NDArray, dt: float, f_ext: Any = None,
     (K, 3)), or both by link name (:func:`mrnea.validate.program_wrench`): A + B + C at y = 1
     is the program's own requirement (:func:`mrnea.actuators.program_requirement`, the
     simulation's ``program_effort``) with Coulomb friction apart; c from
-    :func:`mrnea.retime.path.actuator_terms_along` on (q, 0), :data:`CHUNK` rows at a time."""
+    :func:`mrnea.actuators.actuator_mass_matrix_and_bias` on (q, 0), :data:`CHUNK` rows at a
+    time."""
     h, _ = program_requirement(robot, q, dt, f_ext, f_ext_point, friction=False)
     K, n = q.shape
     c = np.empty((K, n))
     for k0 in range(0, K, CHUNK):
         r = slice(k0, min(K, k0 + CHUNK))
         fe, pe = validate.wrench_rows(f_ext, r), validate.wrench_rows(f_ext_point, r)
-        c[r] = actuator_terms_along(robot, q[r], np.zeros((r.stop - r.start, n)), fe, pe)[1]
+        c[r] = actuator_mass_matrix_and_bias(robot, q[r], np.zeros((r.stop - r.start, n)), fe,
+                                             pe)[1]
     qd = np.zeros_like(q)
     qd[1:] = np.diff(q, axis=0) / dt
     direction = np.zeros_like(q)
