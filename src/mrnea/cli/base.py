@@ -17,7 +17,8 @@ warnings are off during a command (the values that matter are checked).
 
 Interrupts: Ctrl-C (SIGINT) and SIGTERM are handled alike. The first one is a request that the
 command honours at its next :func:`checkpoint` (between two chunks of a simulation, between two
-output files, at the end), never in the middle of a library call: a KeyboardInterrupt raised
+output files, at the end: its :func:`last_checkpoint` just before it prints its answer, after
+which a request is too late), never in the middle of a library call: a KeyboardInterrupt raised
 asynchronously inside Numba's compiler or matplotlib can be swallowed (ctypes callbacks) or turn
 the exit code into a death by SIGINT (CPython marks a KeyboardInterrupt that escapes an ``eval``
 as unhandled). A simulation stopped this way keeps the cycles done and its command writes the
@@ -143,18 +144,20 @@ def exit_with_verdict(res: Any) -> NoReturn:
     """End a command that simulated a run (:class:`mrnea.simulate.SimulationResult`), its
     output written, by the one rule of every command: 0 achievable, 1 NOT ACHIEVABLE (a verdict,
     not an error), 130 interrupted (the partial result written); bad input never gets here
-    (exit 2, :func:`fail`). The caller's last :func:`checkpoint` is before it prints the
+    (exit 2, :func:`fail`). The caller's :func:`last_checkpoint` is before it prints the
     verdict: a stop requested once the verdict is out is too late (the answer was given), so
-    the verdict's code stands; printing the verdict and then exiting 130 said both."""
+    the verdict's code stands."""
     if not res.completed:
         exit_interrupted()
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 
 
 class _Stop:
-    """Whether SIGINT or SIGTERM asked the running command to stop (see the module docstring)."""
+    """Whether SIGINT or SIGTERM asked the running command to stop (see the module docstring),
+    and whether the command has passed its :func:`last_checkpoint`."""
 
     requested = False
+    answered = False
 
 
 def _request_stop(signum: int, frame: object) -> None:
@@ -171,20 +174,28 @@ def checkpoint() -> None:
         raise KeyboardInterrupt
 
 
+def last_checkpoint() -> None:
+    """The command's last :func:`checkpoint`: after its files, just before it prints its answer.
+    A stop requested from here on is too late (the answer is given) and leaves the command's
+    exit code as it is: printing the answer and then exiting 130 said both."""
+    checkpoint()
+    _Stop.answered = True
+
+
 @contextlib.contextmanager
 def _stop_requests() -> Iterator[None]:
     """SIGINT and SIGTERM become stop requests within the block (main thread only)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    _Stop.requested = False
+    _Stop.requested = _Stop.answered = False
     previous = {sig: signal.signal(sig, _request_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, signal.SIG_DFL if handler is None else handler)
-        _Stop.requested = False
+        _Stop.requested = _Stop.answered = False
 
 
 @contextlib.contextmanager
@@ -280,7 +291,8 @@ class _Group(click.Group):
         with _stop_requests(), _warnings_as_lines():
             try:
                 result = super().invoke(ctx)
-                checkpoint()  # a request after the command's last checkpoint
+                if not _Stop.answered:  # a request after the command's last checkpoint
+                    checkpoint()
                 return result
             except KeyboardInterrupt:
                 click.echo("mrnea: interrupted", err=True)

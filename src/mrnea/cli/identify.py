@@ -27,7 +27,15 @@ from typing import Any
 import click
 import numpy as np
 
-from mrnea.cli.base import as_option, checkpoint, compile_notice, fresh_dir, main, one_line
+from mrnea.cli.base import (
+    as_option,
+    checkpoint,
+    compile_notice,
+    fresh_dir,
+    last_checkpoint,
+    main,
+    one_line,
+)
 from mrnea.cli.options import (
     FOLDER,
     NON_NEGATIVE,
@@ -141,6 +149,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
             json.dump(summary, fh, indent=2, allow_nan=False)
             fh.write("\n")
         identify_html(res, summary, folder / FILES[3], overwrite=force)
+    last_checkpoint()
     if not quiet:
         for line in _lines(summary):
             click.echo(line)

@@ -7,7 +7,7 @@ import shutil
 
 import click
 
-from mrnea.cli.base import main
+from mrnea.cli.base import last_checkpoint, main
 from mrnea.cli.options import json_opt, load_robot_arg, robot_options
 from mrnea.describe import describe, robot_data
 from mrnea.io import BUILTIN_ROBOTS, RobotOptions, load_builtin
@@ -38,9 +38,11 @@ def info(robot: str | None, robot_options: RobotOptions, as_json: bool) -> None:
     --json prints strict JSON (unlimited values are null).
     """
     if robot is None:
+        last_checkpoint()
         _builtins(as_json)
         return
     rob = load_robot_arg(robot, robot_options)
+    last_checkpoint()
     if as_json:
         click.echo(json.dumps(robot_data(rob), indent=2, allow_nan=False))
     else:

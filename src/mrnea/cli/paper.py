@@ -6,7 +6,7 @@ import click
 import numpy as np
 
 from mrnea import robots
-from mrnea.cli.base import checkpoint, compile_notice, main
+from mrnea.cli.base import checkpoint, compile_notice, last_checkpoint, main
 from mrnea.cli.options import force_opt
 from mrnea.io.writer import check_new
 
@@ -38,4 +38,6 @@ def fig3(out: str, force: bool) -> None:
     with compile_notice():
         fig = make_fig3(robots.sdt(), t, q, qd, qdd)
     checkpoint()  # interrupted while computing: write nothing
-    click.echo(f"Fig. 3: {save_figure(fig, path, force, dpi=110)}")
+    written = save_figure(fig, path, force, dpi=110)
+    last_checkpoint()
+    click.echo(f"Fig. 3: {written}")

@@ -32,6 +32,7 @@ from mrnea.cli.base import (
     compile_notice,
     exit_with_verdict,
     fresh_dir,
+    last_checkpoint,
     main,
 )
 from mrnea.cli.options import (
@@ -109,7 +110,7 @@ def _write_outputs(res, out: Path, force: bool, view3d: bool,
 def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
     """The verdict (or the summary as JSON), after the command's last checkpoint: a stop
     requested once it is out is too late (:func:`mrnea.cli.base.exit_with_verdict`)."""
-    checkpoint()
+    last_checkpoint()
     if as_json:
         s = dict(res.summary())
         if report is not None:

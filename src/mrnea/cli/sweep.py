@@ -29,7 +29,7 @@ import click
 import numpy as np
 
 from mrnea.cli import ahead
-from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, main
+from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, last_checkpoint, main
 from mrnea.cli.options import FOLDER, force_opt, load_program_arg, quiet_opt, robot_options
 from mrnea.errors import SweepError, quote
 from mrnea.io import (
@@ -217,6 +217,8 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         checkpoint()
         write_sweep_html(df, folder / HTML, robot.name, keys, axes and tuple(axes),
                          curve and curve[0], overwrite=force)
+    if done:
+        last_checkpoint()
     if not quiet:
         ok, failed = int(df["achievable"].fillna(False).sum()), int(df["error"].notna().sum())
         click.echo(f"{'INTERRUPTED: ' if not done else ''}{len(df)} of {df.attrs['cases']} "
