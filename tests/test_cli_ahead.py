@@ -43,8 +43,8 @@ def test_a_demo_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) ->
                          text=True, timeout=900)
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
     compiled = {name for name, _ in compiled_kernels(out.stdout)}
-    ahead_names = {k.py_func.__qualname__
-                   for k, _ in ahead.signatures((-1, 0, 1, 2), False, True)}
+    ahead_names = {u.kernel.py_func.__qualname__
+                   for u in ahead.signatures((-1, 0, 1, 2), False, True)}
     assert len(ahead_names) == 8
     assert not compiled & ahead_names, compiled & ahead_names
     assert "simulate_cycles" in compiled and "actuator_terms" in compiled  # it did compile
@@ -65,9 +65,9 @@ def test_a_retime_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) 
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
     compiled = {name for name, _ in compiled_kernels(out.stdout)}
     kernels = ahead.signatures((-1, 0, 1, 2, 3, 4), False, True, retime=True)
-    ahead_names = {k.py_func.__qualname__ for k, _ in kernels}
+    ahead_names = {u.kernel.py_func.__qualname__ for u in kernels}
     assert len(ahead_names) == 8
-    assert [k.py_func.__qualname__ for k, _ in kernels][:2] == ["program_requirement",
+    assert [u.kernel.py_func.__qualname__ for u in kernels][:2] == ["program_requirement",
                                                               "solve_cycle"]
     assert not compiled & ahead_names, compiled & ahead_names
     assert "simulate_cycles" in compiled and "controllable_sets" in compiled  # it did compile
@@ -85,8 +85,8 @@ def test_an_excite_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path)
                          text=True, timeout=900)
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
     compiled = {name for name, _ in compiled_kernels(out.stdout)}
-    ahead_names = {k.py_func.__qualname__
-                   for k, _ in ahead.signatures((-1, 0, 1, 2, 3, 4), False, False)}
+    ahead_names = {u.kernel.py_func.__qualname__
+                   for u in ahead.signatures((-1, 0, 1, 2, 3, 4), False, False)}
     assert len(ahead_names) == 6
     assert not compiled & ahead_names, compiled & ahead_names
     assert "simulate_cycles" in compiled and "regressor_batch" in compiled  # it did compile
@@ -108,8 +108,8 @@ def test_a_size_on_the_cache_it_filled_compiles_none_of_its_kernels(tmp_path) ->
                          cwd=Path(__file__).resolve().parents[1])
     assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
     compiled = {name for name, _ in compiled_kernels(out.stdout)}
-    ahead_names = {k.py_func.__qualname__
-                   for k, _ in ahead.signatures((-1, 0, 1, 2), False, False)}
+    ahead_names = {u.kernel.py_func.__qualname__
+                   for u in ahead.signatures((-1, 0, 1, 2), False, False)}
     assert not compiled & ahead_names, compiled & ahead_names
     assert "simulate_cycles" in compiled  # it did compile
 
@@ -149,14 +149,14 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (1.2, 0.5, 0.5))
     second = ahead.start((-1, 0, 1, 2), False, True)
-    assert second is not None and second.args == ([-1, 0, 1, 2], False, True, False)
-    assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1", "0"]
+    assert second is not None and second.args == ([-1, 0, 1, 2], False, True, False, False)
+    assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1", "0", "0"]
     assert started[-1][-1] == second.claims and os.path.isdir(second.claims)  # its claims
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (2.1, 0.5, 0.5))  # saturated
     assert ahead.start((-1, 0, 1, 2), False, True) is None
     monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
     assert ahead.start((-1, 0, 1, 2), True, False, retime=True) is not None
-    assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0", "1"]
+    assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0", "1", "0"]
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (0.0, 0.0, 0.0))
     monkeypatch.setenv("MRNEA_AHEAD", "0")  # off
     assert ahead.start((-1, 0, 1, 2), False, True) is None
@@ -208,64 +208,126 @@ class _Kernel:
             self.then()
 
 
-def test_the_command_takes_what_the_second_process_has_not_begun(monkeypatch, tmp_path) -> None:
-    """share(): the start check's kernel first, then the list's kernels the second process has
-    not claimed, in order, until it has compiled the drive solve; each claimed file marks it."""
-    from mrnea.kernels.drive_solve import solve_cycle
+def _units(compiled: list, then: dict | None = None) -> list:
+    """A shared list as signatures() makes it: 0 the start check, 4 the step after 0 and the
+    drive solve 1, 5 the loop after the step and the reactions 3."""
+    then = then or {}
+    names = ["check", "solve", "cholesky", "reactions", "step", "loop", "requirement", "peaks"]
+    after = {4: (0, 1), 5: (4, 3)}
+    return [ahead.Unit(_Kernel(name, compiled, then.get(name)), (), after.get(i, ()))
+            for i, name in enumerate(names)]
 
+
+class _Proc:
+    def __init__(self, code=None) -> None:
+        self.code = code
+
+    def poll(self):
+        return self.code
+
+
+def _claims(tmp_path, name: str, *files: str):
+    folder = tmp_path / name
+    folder.mkdir()
+    for f in files:
+        (folder / f).touch()
+    return folder
+
+
+def test_the_command_takes_what_is_ready_until_its_loop_is_compiled(monkeypatch,
+                                                                      tmp_path) -> None:
+    """share(): the start check first (unit 0), then the units neither process has begun, each
+    once the units it calls are done, until the loop is; the rest stays with the second
+    process. A file marks each claim, another each compile."""
     simulation = importlib.import_module("mrnea.simulate")  # the module, not mrnea.simulate()
-
-    claims = tmp_path / "claims"
-    claims.mkdir()
-    (claims / "0").touch()  # the second process: done with the first, compiling the solve
-    (claims / "0.done").touch()
-    (claims / "1").touch()
     compiled, checked = [], []
-    kernels = [_Kernel("cholesky", compiled), solve_cycle,
-               _Kernel("reactions", compiled, then=(claims / "1.done").touch),  # solve done
-               _Kernel("requirement", compiled)]
-    monkeypatch.setattr(ahead, "signatures", lambda *args: [(k, ()) for k in kernels])
     monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: checked.append(q0))
-    second = ahead.Ahead(None, str(claims), ((-1, 0), False, True, False))
+    claims = _claims(tmp_path, "a", "1")  # the second process: on the drive solve
+    units = _units(compiled, {"reactions": (claims / "1.done").touch})  # done meanwhile
+    monkeypatch.setattr(ahead, "signatures", lambda *args: units)
+    second = ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True))
     ahead.share(second, "robot", "q0")
-    assert checked == ["q0"] and compiled == ["reactions"]
-    assert sorted(os.listdir(claims)) == ["0", "0.done", "1", "1.done", "2", "2.done"]
+    assert checked == ["q0"]
+    assert compiled == ["cholesky", "reactions", "step", "loop"]
+    assert {f for f in os.listdir(claims) if f[0] in "67"} == set()  # the second process's
     ahead.share(None, "robot", "q0")  # no second process: nothing here
-    assert checked == ["q0"] and compiled == ["reactions"]
+    ahead.share(second._replace(args=((-1, 0), False, True, False, False)), "robot", "q0")
+    assert checked == ["q0"]  # nor with one that does not share (another engine or mode)
 
 
-def test_the_second_process_skips_what_the_command_claimed(monkeypatch, tmp_path) -> None:
+def test_the_command_waits_for_what_the_second_process_is_compiling(monkeypatch,
+                                                                     tmp_path) -> None:
+    """With every other unit taken, the loop waiting for the step the second process is
+    compiling: the command waits for it (no second compile of it), and gives up when the
+    second process has ended."""
+    import threading
+
+    simulation = importlib.import_module("mrnea.simulate")
+    monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: None)
     compiled = []
-    kernels = [_Kernel(name, compiled) for name in ("cholesky", "solve", "reactions")]
-    monkeypatch.setattr(ahead, "signatures", lambda *args: [(k, ()) for k in kernels])
-    monkeypatch.setattr(ahead.os, "nice", lambda inc: 0)  # not this test process's priority
-    claims = tmp_path / "claims"
-    claims.mkdir()
-    (claims / "2").touch()  # the command's
-    ahead.main(["-1,0,1", "0", "1", "0", str(claims)])
-    assert compiled == ["cholesky", "solve"]
-    assert sorted(os.listdir(claims)) == ["0", "0.done", "1", "1.done", "2"]
+    monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled))
+    claims = _claims(tmp_path, "b", "1", "1.done", "4")  # the solve done, the step begun
+    timer = threading.Timer(0.3, (claims / "4.done").touch)
+    timer.start()
+    ahead.share(ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True)), "r",
+                "q0")
+    timer.join()
+    assert compiled == ["cholesky", "reactions", "requirement", "peaks", "loop"]
+    compiled.clear()
+    claims = _claims(tmp_path, "c", "1", "1.done", "4")  # the step never done: ended
+    ahead.share(ahead.Ahead(_Proc(0), str(claims), ((-1, 0), False, True, False, True)), "r",
+                "q0")
+    assert compiled == ["cholesky", "reactions", "requirement", "peaks"]  # the loop: simulate's
+
+
+def test_the_second_process_takes_what_the_command_has_not(monkeypatch, tmp_path) -> None:
+    """The second process never takes the start check, waits for what a unit calls (the
+    reactions the command is compiling), and, shared, keeps its priority (the command may
+    wait for it); without a claims' folder it compiles its whole list in order."""
+    import threading
+
+    compiled, niced = [], []
+    monkeypatch.setattr(ahead.os, "nice", niced.append)  # not this test process's priority
+    monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled))
+    claims = _claims(tmp_path, "d", "0", "0.done", "3")  # the command's check, its reactions
+    timer = threading.Timer(0.3, (claims / "3.done").touch)
+    timer.start()
+    ahead.main(["-1,0,1", "0", "1", "0", "1", str(claims)])
+    timer.join()
+    assert compiled == ["solve", "cholesky", "step", "requirement", "peaks", "loop"]
+    assert niced == []
     compiled.clear()
     ahead.main(["-1,0,1", "0", "1"])  # no claims' folder: the whole list
-    assert compiled == ["cholesky", "solve", "reactions"]
+    assert compiled == ["check", "solve", "cholesky", "reactions", "step", "loop",
+                        "requirement", "peaks"]
+    assert niced == [10]
 
 
 @pytest.mark.slow
-def test_a_fresh_demo_with_the_second_process_compiles_each_kernel_once(tmp_path) -> None:
-    """A fresh demo sharing the list with the second process (forced on, empty cache): the
-    command's start check compiles ``actuator_terms`` for the types its simulation calls it
-    with (one signature), and a second demo on the cache the two processes filled compiles
-    nothing."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "1"}
-    runs = []
-    for k in range(2):
-        out = subprocess.run([sys.executable, "-c", CLI_COMPILES, "demo", "--out",
-                              str(tmp_path / f"demo{k}"), "--quiet"], env=env,
-                             capture_output=True, text=True, timeout=900)
-        assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
-        runs.append(compiled_kernels(out.stdout))
-    first, second = runs
-    assert [sig for name, sig in first if name == "actuator_terms"] != []
-    assert len([sig for name, sig in first if name == "actuator_terms"]) == 1, first
-    assert "simulate_cycles" in {name for name, _ in first}
-    assert second == [], second
+@pytest.mark.parametrize("command", [("demo",), ("simulate", "examples/waist_left_swing.toml")])
+def test_a_shared_run_on_the_cache_its_list_filled_compiles_none_of_it(tmp_path,
+                                                                       command) -> None:
+    """The shared list (the start check, the loop's step and top, ...) has the argument types
+    the command's calls give, on a chain (the SDT demo) and a tree (the two-armed torso): on
+    the cache ``ahead.main`` filled with the whole list, the command compiles none of its
+    kernels (a drifted signature would make both processes compile a kernel on a fresh run)."""
+    import mrnea
+
+    root = Path(__file__).resolve().parents[1]
+    if command[0] == "demo":
+        parents = (-1, 0, 1, 2)
+    else:
+        parents = mrnea.load_program(root / command[1]).load_robot().parents
+    assert (parents != (-1, 0, 1, 2)) == (command[0] == "simulate")  # the tree: branches
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "MRNEA_AHEAD": "0"}
+    subprocess.run([sys.executable, "-m", "mrnea.cli.ahead", ",".join(map(str, parents)), "0",
+                    "1", "0", "1"], env=env, check=True, timeout=900)
+    out = subprocess.run([sys.executable, "-c", CLI_COMPILES, *command, "--out",
+                          str(tmp_path / "run"), "--quiet"], env=env, capture_output=True,
+                         text=True, timeout=900, cwd=root)
+    assert out.returncode in (0, 1), out.stderr[-2000:]  # a verdict
+    compiled = {name for name, _ in compiled_kernels(out.stdout)}
+    units = ahead.signatures(parents, False, True, shared=True)
+    names = {u.kernel.py_func.__qualname__ for u in units}
+    assert {"actuator_terms", "step", "simulate_cycles", "solve_cycle"} <= names
+    assert not compiled & names, compiled & names

@@ -28,18 +28,25 @@ command for a core: at load 5-6 it took 74-90 s of wall with it against 62 s wit
 ``--ahead``). The second process is ended when the command exits
 (:func:`start` registers it), whatever it has left; its output is discarded.
 
-The two processes share the list (:func:`share`, for ``demo``, ``simulate`` and ``check``):
-each claims a kernel before compiling it, with a file named by its index in a temporary folder
-created exclusively (the second process's argument; removed when the command exits), so that
-no kernel is compiled by both. The command, once it has compiled its start check's kernel,
-takes the kernels the second process has not begun for as long as that one is still on the
-drive solve (which the simulation loop needs next), instead of compiling the drive solve, the
-reactions and the summary's pass again when the second process was late: a fresh demo's
-processes used 28-33 s of CPU against 32-38 s (docs/performance.md section 7).
+``demo``, ``simulate`` and ``check`` (the paper's mRNEA, the hybrid mode) share the work with
+it (``shared``, :func:`share`): the list then also holds the command's start check (unit 0,
+the command's) and the simulation loop's two tops, the cycle's ``step`` and ``simulate_cycles``,
+each marked with the units whose kernels it calls. Both processes run the same loop
+(:func:`_work`): take the first unit in the list's order whose callees are compiled and which
+neither has begun, claimed with a file named by its index in a temporary folder (created
+exclusively; the second process's argument; removed when the command exits), compile it, mark
+it done with a second file; wait while what is left waits for the other. The command stops
+once the loop is compiled, by either, and runs. So no kernel is compiled by both, and the
+loop's tops, whose compiling optimises and emits everything they call once more (Numba links
+the callees' code into each caller), are compiled by whichever process is free first: a fresh
+demo 14.1-15.7 s of wall and 26-28 s of CPU for both processes, against 17.5-20.5 s and 32-38 s
+with the unshared list (docs/performance.md section 7). Shared, the second process keeps the
+command's priority (the command may wait for it); the command waits at most :data:`PATIENCE`
+seconds in all.
 
 ``mrnea excite`` starts it before its search for the trajectory (which compiles the regressor
 and runs for seconds), so that the verifying simulation at its end finds its later kernels
-compiled. The second process runs at a lower priority (``nice`` 10): where the command
+compiled. Unshared, the second process runs at a lower priority (``nice`` 10): where the command
 needs both cores (excite's search runs the parallel regressor batch) it yields to it, and
 elsewhere it takes the idle core as before (a first ``excite`` of the Puma 560: 22.8-24.0 s of
 wall, against 29.3-29.7 s at the same priority and 31.7-33.1 s without it, session 37; with the
@@ -64,8 +71,9 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, NamedTuple
+import time
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from mrnea.compiled import cold_cache
 
@@ -89,28 +97,50 @@ def _spare_core() -> bool:
     return cpus >= 2 and load < cpus
 
 
+PATIENCE = 60.0
+"""Seconds the command waits, in all, for units the second process is compiling (:func:`share`)
+before it goes on and compiles what it still needs itself (a second process stopped or
+starved: on a fresh demo it waits a few seconds)."""
+
+
+# the shared list's first units (signatures): the command's start check, then the drive solve,
+# the Cholesky solve, the reactions, the cycle's step, the simulation loop; then the later ones
+CHECK, SOLVE, CHOLESKY, REACTIONS, STEP, LOOP = range(6)
+
+
 class Ahead(NamedTuple):
-    """The second process, the folder where both processes claim the kernels of its list
-    (one empty file per kernel, named by its index, created exclusively; ``INDEX.done`` once
-    compiled) and the arguments of :func:`signatures` both give that list by."""
+    """The second process, the folder where both processes claim the units of its list (one
+    empty file per unit, named by its index, created exclusively; ``INDEX.done`` once compiled)
+    and the arguments of :func:`signatures` both give that list by."""
     proc: subprocess.Popen
     claims: str
     args: tuple
 
 
-def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
-          ) -> Ahead | None:
+class Unit(NamedTuple):
+    """A kernel of the list, the argument types to compile it for, and the units whose kernels
+    it calls and which must be compiled (in the cache) first, so that it compiles only its own
+    code (its ``after``)."""
+    kernel: Any
+    sig: tuple
+    after: tuple[int, ...] = ()
+
+
+def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False,
+          shared: bool = False) -> Ahead | None:
     """Start the second process on a cold cache (module docstring) for a simulation of a robot
     whose joints hang from ``parents`` (:attr:`mrnea.Robot.parents`) with reactions (the CLI's),
     its wrench given per link (``per_link``) or not, with a report (``report``: bearing
-    loads, 3D view), and for a retiming (``retime``: :func:`signatures`' order). Returns it
-    (with the folder of the two processes' claims: :func:`share`), or None where it would not
-    gain. None of the kernels it compiles depends on the engine (``--fd``)."""
+    loads, 3D view), for a retiming (``retime``: :func:`signatures`' order), and shared with the
+    command (``shared``: :func:`share`; a simulation by the paper's mRNEA). Returns it (with the
+    folder of the two processes' claims), or None where it would not gain. Unshared, none of
+    the kernels it compiles depends on the engine (``--fd``)."""
     wanted = os.environ.get("MRNEA_AHEAD")
     if wanted == "0" or not (wanted == "1" or _spare_core()) or not cold_cache():
         return None
     claims = tempfile.mkdtemp(prefix="mrnea-ahead-")
-    args = [",".join(map(str, parents)), str(int(per_link)), str(int(report)), str(int(retime))]
+    args = [",".join(map(str, parents)), *(str(int(x)) for x in (per_link, report, retime,
+                                                                     shared))]
     try:
         proc = subprocess.Popen([sys.executable, "-m", "mrnea.cli.ahead", *args, claims],
                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
@@ -118,13 +148,13 @@ def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = F
     except OSError:  # no process to spare: the command compiles alone
         shutil.rmtree(claims, ignore_errors=True)
         return None
-    ahead = Ahead(proc, claims, (list(parents), per_link, report, retime))
+    ahead = Ahead(proc, claims, (list(parents), per_link, report, retime, shared))
     atexit.register(_end, ahead)
     return ahead
 
 
 def _claim(claims: str, i: int) -> bool:
-    """Kernel ``i`` of the list for the calling process, unless the other one has it."""
+    """Unit ``i`` of the list for the calling process, unless the other one has it."""
     try:
         os.close(os.open(os.path.join(claims, str(i)), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
     except OSError:  # claimed by the other process (or the folder gone: the command ended)
@@ -133,33 +163,57 @@ def _claim(claims: str, i: int) -> bool:
 
 
 def _compiled(claims: str, i: int) -> None:
-    """Kernel ``i`` compiled (in Numba's cache) by the calling process."""
+    """Unit ``i`` compiled (in Numba's cache) by the calling process."""
     with contextlib.suppress(OSError):
         os.close(os.open(os.path.join(claims, f"{i}.done"), os.O_CREAT | os.O_WRONLY))
 
 
+def _done(claims: str, i: int) -> bool:
+    return os.path.exists(os.path.join(claims, f"{i}.done"))
+
+
+def _work(claims: str, units: Sequence[Unit], todo: list[int], goal: int | None,
+          alive: Callable[[], bool]) -> None:
+    """Compile, one after another, the units of ``todo`` this process claims first: each time
+    the first in the list's order whose ``after`` units are done; a unit the other process
+    claimed is its. With nothing to take now (what is left waits for a unit the other
+    process is compiling) it waits, while ``alive()``. Until ``todo`` is empty or unit
+    ``goal`` is done (by either process)."""
+    while todo and not (goal is not None and _done(claims, goal)):
+        ready = [i for i in todo if all(_done(claims, j) for j in units[i].after)]
+        if not ready:
+            if not alive():
+                return
+            time.sleep(0.02)
+            continue
+        i = ready[0]
+        todo.remove(i)
+        if _claim(claims, i):
+            units[i].kernel.compile(units[i].sig)
+            _compiled(claims, i)
+
+
 def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
-    """The command's share of the compiling, before its simulation: the start check's kernel
-    (H_a and u'_a, :func:`mrnea.simulate.check_moves`), then, for as long as the second
-    process is still compiling the drive solve (which the simulation loop needs next), the
-    kernels of the list that it has not begun, in the order the command reaches them: each
-    compiled once, by one of the two processes, instead of by both when the second process
-    was late (docs/performance.md section 7). Without the second process (``ahead`` None) it
-    does nothing: the command compiles each kernel as it reaches it."""
-    if ahead is None:
+    """The command's share of the compiling, before its simulation (a second process started
+    ``shared``): first the start check's kernel (H_a and u'_a, :func:`mrnea.simulate.check_moves`,
+    unit 0: the second process never takes it), then, as the second process does, the units
+    of the list neither has begun, each once the kernels it calls are compiled, until the
+    simulation loop (``simulate_cycles``) is compiled by either; where all that is left waits
+    for the second process, it waits. So no kernel is compiled by both, and neither process
+    idles while the other compiles what the loop needs (docs/performance.md section 7).
+    Without a shared second process it does nothing: the command compiles each kernel as it
+    reaches it."""
+    if ahead is None or not ahead.args[4]:
         return
-    from mrnea.kernels.drive_solve import solve_cycle
     from mrnea.simulate import check_moves
 
+    _claim(ahead.claims, CHECK)
     check_moves(robot, q0)
-    kernels = signatures(*ahead.args)
-    solve = next(i for i, (k, _) in enumerate(kernels) if k is solve_cycle)
-    for i, (kernel, sig) in enumerate(kernels):
-        if os.path.exists(os.path.join(ahead.claims, f"{solve}.done")):
-            return
-        if _claim(ahead.claims, i):
-            kernel.compile(sig)
-            _compiled(ahead.claims, i)
+    _compiled(ahead.claims, CHECK)
+    units = signatures(*ahead.args)
+    deadline = time.monotonic() + PATIENCE
+    _work(ahead.claims, units, list(range(CHECK + 1, len(units))), LOOP,
+          lambda: ahead.proc.poll() is None and time.monotonic() < deadline)
 
 
 def _end(ahead: Ahead) -> None:
@@ -173,12 +227,12 @@ def _end(ahead: Ahead) -> None:
     shutil.rmtree(ahead.claims, ignore_errors=True)
 
 
-def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False
-               ) -> list[tuple[object, tuple]]:
-    """The (kernel, argument types) the command will call, in the order it reaches them:
-    arrays of the dtypes, dimensions, layouts and read-only flags its callers pass
-    (mrnea.simulate, kernels/simulate.py, kernels/achievable.py, summary.py, cycles.py,
-    report/states.py).
+def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: bool = False,
+               shared: bool = False) -> list[Unit]:
+    """The units (kernel, argument types, the units it calls) the command will call, in the
+    order it reaches them: arrays of the dtypes, dimensions, layouts and read-only flags its
+    callers pass (mrnea.simulate, kernels/simulate.py, kernels/achievable.py, summary.py,
+    cycles.py, report/states.py).
 
     A retiming (``retime``) reaches the program's requirement before its simulation, in its
     cycle-resolution check (:func:`mrnea.retime.search.cycle_ratios`), as soon as its own
@@ -188,68 +242,95 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: boo
     ready at about 8 s), then the drive solve (5 s more). The retiming's own kernels
     (``kernels/topp.py``, the effort limits and their tangents: 2 s) are left to the command,
     which reaches them as ``actuator_terms`` ends: compiled here first, they would make the
-    requirement late (docs/performance.md section 7, "A fresh ``mrnea retime``")."""
+    requirement late (docs/performance.md section 7, "A fresh ``mrnea retime``").
+
+    Shared (``shared``, :func:`share`): unit 0 is the command's start check
+    (``actuator_terms``), and the simulation loop's two tops join the list, each after what it
+    calls: the cycle's ``step`` after the start check's kernel and the drive solve, and
+    ``simulate_cycles`` after ``step`` and the reactions (the indices :data:`CHECK` ...
+    :data:`LOOP`)."""
     import numba as nb
     import numpy as np
 
     from mrnea.kernels import bearing, peaks
+    from mrnea.kernels.achievable import step
     from mrnea.kernels.derived import derived
+    from mrnea.kernels.drive import actuator_terms
     from mrnea.kernels.drive_solve import HYBRID, solve_cycle
     from mrnea.kernels.drive_ways import solve_mode
+    from mrnea.kernels.engines import ENGINE_MRNEA
     from mrnea.kernels.kinematics import frames_ws
     from mrnea.kernels.layout import entry_scratch
     from mrnea.kernels.rnea import reactions_ws
-    from mrnea.kernels.simulate import program_requirement
+    from mrnea.kernels.simulate import program_requirement, simulate_cycles
     from mrnea.kernels.solve import cholesky_solve
 
     t = nb.typeof
     tree = any(p != i - 1 for i, p in enumerate(parents))
     ro2 = np.zeros((2, 2), order="F" if tree else "C")  # the model: a tree's is F order (layout.py)
     ro2.flags.writeable = False
+    act = np.zeros((2, 2))  # the actuators' table (compiled.compile_actuators): C order
+    act.flags.writeable = False
     f1, f2, f3 = t(np.zeros(1)), t(np.zeros((1, 1))), t(np.zeros((1, 1, 1)))
     b1, b2 = t(np.zeros(1, bool)), t(np.zeros((1, 1), bool))
     i1, i2 = t(np.zeros(1, np.int64)), t(np.zeros((1, 1), np.int64))
     a2 = t(np.zeros((2, 3))[:, :2])  # layout A: the drive solve's blocks
-    ws, model = t(entry_scratch(1)), t(ro2)
+    ws, model, act_t, both = t(entry_scratch(1)), t(ro2), t(act), t((ro2, act))
     fe = f2 if per_link else f1  # a cycle's wrench and point: (n, 6), (n, 3) per link, else
     FE = f3 if per_link else f2  # (6,), (3,); the program's, (K, ...)
     # its class is the way (the mode's value is not typed): by n, or a tree's own
     how = t(solve_mode(HYBRID, len(parents), parents=parents))
     boolean, f64, i64 = nb.types.boolean, nb.types.float64, nb.types.int64
     program = nb.types.Tuple((f2, f2, FE, FE))
-    cholesky = (cholesky_solve, (a2, f1, a2, f1))
-    solve = (solve_cycle, (f2, f1, f1, f1, f64, f1, f1, f1, f1, how, f1, f1, f1, f1, f1, b1, b1,
-                           ws))
-    reactions = (reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean))
-    requirement = (program_requirement, (nb.types.UniTuple(model, 2), program, f64, boolean,
-                                         i64, i64, nb.types.UniTuple(f2, 2), i1, ws))
-    kernels = ([requirement, solve, cholesky, reactions] if retime else
-               [cholesky, solve, reactions, requirement])
-    kernels += [
-        (derived, (model, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
-                   nb.types.Tuple((f2, f2, f2, b2, b2)), f1, i64, i64)),
-        (peaks.run_peaks, (nb.types.Tuple((f2, f2, f2, f2, b2, b2, f3)),
-                           nb.types.UniTuple(f2, 3), nb.types.Tuple((model, b1, f2)), i2, f2)),
+    cholesky = Unit(cholesky_solve, (a2, f1, a2, f1))
+    solve = Unit(solve_cycle, (f2, f1, f1, f1, f64, f1, f1, f1, f1, how, f1, f1, f1, f1, f1, b1,
+                               b1, ws))
+    reactions = Unit(reactions_ws, (model, f1, f1, f1, fe, fe, f2, ws, boolean))
+    requirement = Unit(program_requirement, (both, program, f64, boolean, i64, i64,
+                                             nb.types.UniTuple(f2, 2), i1, ws))
+    later = [  # these take the actuators' table (C order), not the model (a tree's: F)
+        Unit(derived, (act_t, nb.types.Tuple((f2, f2, f2, f2, f2, i2)),
+                       nb.types.Tuple((f2, f2, f2, b2, b2)), f1, i64, i64)),
+        Unit(peaks.run_peaks, (nb.types.Tuple((f2, f2, f2, f2, b2, b2, f3)),
+                               nb.types.UniTuple(f2, 3), nb.types.Tuple((act_t, b1, f2)), i2,
+                               f2)),
     ]
     if report:
-        kernels += [(bearing.bearing_loads, (f3, f2, f3)), (frames_ws, (model, f1, f3, ws))]
-    return kernels
+        later += [Unit(bearing.bearing_loads, (f3, f2, f3)),
+                  Unit(frames_ws, (model, f1, f3, ws))]
+    if retime:
+        return [requirement, solve, cholesky, reactions, *later]
+    if not shared:
+        return [cholesky, solve, reactions, requirement, *later]
+    mrnea_t = t(ENGINE_MRNEA)
+    check = Unit(actuator_terms, (model, act_t, f1, f1, f1, f1, mrnea_t, f2, f1, ws))
+    cycle = Unit(step, (model, act_t, f1, f1, f1, f1, f64, fe, fe, how, mrnea_t, f1, f1, f1, f1,
+                        f1, f1, b1, b1, f1, f1, i1, ws), after=(CHECK, SOLVE))
+    run = nb.types.Tuple((f2,) * 8 + (b2, b2, i2, f3))
+    loop = Unit(simulate_cycles, (both, program, f64, how, mrnea_t, f64, boolean, i64, i64, run,
+                                  ws), after=(STEP, REACTIONS))
+    units = [check, solve, cholesky, reactions, cycle, loop]  # CHECK ... LOOP
+    return [*units, requirement, *later]
 
 
 def main(argv: list[str]) -> None:
-    """Compile :func:`signatures` of ``argv`` = (the parents, comma-separated, per_link 0/1,
-    report 0/1[, retime 0/1, default 0[, the claims' folder]]): each kernel the command has not
-    claimed (:func:`share`), or all of them without a folder."""
+    """Compile the units of :func:`signatures` of ``argv`` = (the parents, comma-separated,
+    per_link 0/1, report 0/1[, retime 0/1, default 0[, shared 0/1, the claims' folder]]): each
+    unit the command has not claimed, once the units it calls are done (:func:`share`), or all
+    of them in order without a folder."""
     parents = [int(p) for p in argv[0].split(",")]
     per_link, report, retime = argv[1] == "1", argv[2] == "1", argv[3:4] == ["1"]
-    claims = argv[4] if len(argv) > 4 else None
-    if hasattr(os, "nice"):  # POSIX; the command first (module docstring: excite's search)
-        os.nice(10)
-    for i, (kernel, sig) in enumerate(signatures(parents, per_link, report, retime)):
-        if claims is None or _claim(claims, i):
-            kernel.compile(sig)
-            if claims is not None:
-                _compiled(claims, i)
+    shared, claims = argv[4:5] == ["1"], (argv[5] if len(argv) > 5 else None)
+    if hasattr(os, "nice") and not shared:  # POSIX; the command first (module docstring:
+        os.nice(10)  # excite's search); shared, the command may wait for this process
+    units = signatures(parents, per_link, report, retime, shared)
+    if claims is None:
+        for unit in units:
+            unit.kernel.compile(unit.sig)
+        return
+    parent = os.getppid()
+    _work(claims, units, list(range(CHECK + 1 if shared else 0, len(units))), None,
+          lambda: os.getppid() == parent and os.path.isdir(claims))
 
 
 if __name__ == "__main__":

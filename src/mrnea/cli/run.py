@@ -65,7 +65,8 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
     from mrnea.simulate import simulate
 
     checkpoint()
-    second = ahead.start(robot.parents, validate.by_link(f_ext, f_ext_point), out is not None)
+    second = ahead.start(robot.parents, validate.by_link(f_ext, f_ext_point), out is not None,
+                         shared=fd == "mrnea" and mode == "hybrid")  # a cold cache
     K = q_cmd.shape[0]
     show_bar = not quiet and K >= 20_000
     with compile_notice(quiet), click.progressbar(length=K, label="simulating", file=sys.stderr,
