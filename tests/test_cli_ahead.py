@@ -331,3 +331,22 @@ def test_a_shared_run_on_the_cache_its_list_filled_compiles_none_of_it(tmp_path,
     names = {u.kernel.py_func.__qualname__ for u in units}
     assert {"actuator_terms", "step", "simulate_cycles", "solve_cycle"} <= names
     assert not compiled & names, compiled & names
+
+
+def test_a_unit_that_no_longer_types_costs_time_never_the_command(monkeypatch,
+                                                                   tmp_path) -> None:
+    """A kernel of the list whose compile fails (its signature drifted): the command goes on,
+    the unit is marked done (its callers compile it), and the units after it do not wait."""
+    simulation = importlib.import_module("mrnea.simulate")
+    monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: None)
+    compiled = []
+
+    def drifted() -> None:
+        raise TypeError("no matching definition")
+
+    monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled, {"step": drifted}))
+    claims = _claims(tmp_path, "e", "1", "1.done")
+    ahead.share(ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True)), "r",
+                "q0")
+    assert compiled == ["cholesky", "reactions", "step", "loop"]
+    assert (claims / "4.done").exists()
