@@ -453,7 +453,10 @@ def check_moves(robot: Robot, q0: NDArray) -> None:
     n = robot.n
     m, _, _, act = compiled.of(robot)
     Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
-    actuator_terms(m, act, q0, zero, np.zeros(6), np.zeros(3), ENGINE_MRNEA, Ha, ua,
+    # q0 as a writable C row, the type the loop's step passes: a program's rows are read-only
+    # (io.program), which compiled the mRNEA's call tree a second time (issue 22)
+    actuator_terms(m, act, np.array(q0, dtype=np.float64), zero, np.zeros(6), np.zeros(3),
+                   ENGINE_MRNEA, Ha, ua,
                    entry_scratch(n))  # SOLVE's rows: a tree's mRNEA stashes columns in S[n:2n]
     # H_a and L as (n, n) views of wider buffers, typed layout A as the drive solve's blocks
     # are (kernels/drive_solve.py): one compiled cholesky_solve serves both (issue 22)

@@ -79,7 +79,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
             if done < total:  # raised here, simulate() keeps the cycles done; after the last
                 checkpoint()  # chunk the request stays for the next checkpoint (not lost)
 
-        ahead.share(second, robot, np.ascontiguousarray(q_cmd[0], dtype=float))
+        ahead.share(second, robot, q_cmd[0])
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
                        stream=None if out is None else out / TABLE, overwrite=force,
