@@ -353,3 +353,19 @@ def test_a_unit_that_no_longer_types_costs_time_never_the_command(monkeypatch,
                 "q0")
     assert compiled == ["cholesky", "reactions", "step", "loop"]
     assert (claims / "4.done").exists()
+
+
+def test_no_temporary_folder_means_no_second_process(monkeypatch) -> None:
+    """No temporary folder to be had (a full or read-only TMPDIR): the command compiles alone
+    instead of failing."""
+    started = []
+
+    def mkdtemp(**kw):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(ahead.subprocess, "Popen", lambda *a, **kw: started.append(a))
+    monkeypatch.setattr(ahead, "cold_cache", lambda: True)
+    monkeypatch.setenv("MRNEA_AHEAD", "1")
+    monkeypatch.setattr(ahead.tempfile, "mkdtemp", mkdtemp)
+    assert ahead.start((-1, 0, 1, 2), False, True, shared=True) is None
+    assert started == []

@@ -138,9 +138,12 @@ def start(parents: Sequence[int], per_link: bool, report: bool, retime: bool = F
     wanted = os.environ.get("MRNEA_AHEAD")
     if wanted == "0" or not (wanted == "1" or _spare_core()) or not cold_cache():
         return None
-    claims = tempfile.mkdtemp(prefix="mrnea-ahead-")
     args = [",".join(map(str, parents)), *(str(int(x)) for x in (per_link, report, retime,
                                                                      shared))]
+    try:
+        claims = tempfile.mkdtemp(prefix="mrnea-ahead-")
+    except OSError:  # no temporary folder (TMPDIR not writable): the command compiles alone
+        return None
     try:
         proc = subprocess.Popen([sys.executable, "-m", "mrnea.cli.ahead", *args, claims],
                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
