@@ -258,8 +258,8 @@ def test_the_command_takes_what_is_ready_until_its_loop_is_compiled(monkeypatch,
 def test_the_command_waits_for_what_the_second_process_is_compiling(monkeypatch,
                                                                      tmp_path) -> None:
     """With every other unit taken, the loop waiting for the step the second process is
-    compiling: the command waits for it (no second compile of it), and gives up when the
-    second process has ended."""
+    compiling: the command waits for it (no second compile of it); with the second process
+    ended it stops sharing."""
     import threading
 
     simulation = importlib.import_module("mrnea.simulate")
@@ -277,7 +277,7 @@ def test_the_command_waits_for_what_the_second_process_is_compiling(monkeypatch,
     claims = _claims(tmp_path, "c", "1", "1.done", "4")  # the step never done: ended
     ahead.share(ahead.Ahead(_Proc(0), str(claims), ((-1, 0), False, True, False, True)), "r",
                 "q0")
-    assert compiled == ["cholesky", "reactions", "requirement", "peaks"]  # the loop: simulate's
+    assert compiled == []  # the second process gone: simulate compiles each as it needs it
 
 
 def test_the_second_process_takes_what_the_command_has_not(monkeypatch, tmp_path) -> None:
@@ -369,3 +369,16 @@ def test_no_temporary_folder_means_no_second_process(monkeypatch) -> None:
     monkeypatch.setattr(ahead.tempfile, "mkdtemp", mkdtemp)
     assert ahead.start((-1, 0, 1, 2), False, True, shared=True) is None
     assert started == []
+
+
+def test_the_second_process_stops_when_its_command_is_gone(monkeypatch, tmp_path) -> None:
+    """The command ended (its claims' folder removed; or killed: another parent): the second
+    process stops after the kernel it is compiling instead of compiling the rest for no one."""
+    import shutil
+
+    compiled = []
+    claims = _claims(tmp_path, "f", "0", "0.done")
+    gone = {"solve": lambda: shutil.rmtree(claims)}
+    monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled, gone))
+    ahead.main(["-1,0,1", "0", "1", "0", "1", str(claims)])
+    assert compiled == ["solve"]

@@ -41,8 +41,8 @@ loop's tops, whose compiling optimises and emits everything they call once more 
 the callees' code into each caller), are compiled by whichever process is free first: a fresh
 demo 14.1-15.7 s of wall and 26-28 s of CPU for both processes, against 17.5-20.5 s and 32-38 s
 with the unshared list (docs/performance.md section 7). Shared, the second process keeps the
-command's priority (the command may wait for it); the command waits at most :data:`PATIENCE`
-seconds in all.
+command's priority (the command may wait for it); the command shares for at most
+:data:`PATIENCE` seconds.
 
 ``mrnea excite`` starts it before its search for the trajectory (which compiles the regressor
 and runs for seconds), so that the verifying simulation at its end finds its later kernels
@@ -98,9 +98,9 @@ def _spare_core() -> bool:
 
 
 PATIENCE = 60.0
-"""Seconds the command waits, in all, for units the second process is compiling (:func:`share`)
-before it goes on and compiles what it still needs itself (a second process stopped or
-starved: on a fresh demo it waits a few seconds)."""
+"""Seconds after which the command stops sharing (:func:`share`) and goes on, compiling what it
+still needs as it reaches it (a second process stopped or starved; a fresh demo shares for about
+10 s and waits for the other process a few seconds at most)."""
 
 
 # the shared list's first units (signatures): the command's start check, then the drive solve,
@@ -180,13 +180,12 @@ def _work(claims: str, units: Sequence[Unit], todo: list[int], goal: int | None,
     """Compile, one after another, the units of ``todo`` this process claims first: each time
     the first in the list's order whose ``after`` units are done; a unit the other process
     claimed is its. With nothing to take now (what is left waits for a unit the other
-    process is compiling) it waits, while ``alive()``. Until ``todo`` is empty or unit
-    ``goal`` is done (by either process)."""
-    while todo and not (goal is not None and _done(claims, goal)):
+    process is compiling) it waits. Until ``todo`` is empty, unit ``goal`` is done (by either
+    process) or ``alive()`` is no longer true (the other process gone: a second process whose
+    command was killed stops after its current kernel)."""
+    while todo and not (goal is not None and _done(claims, goal)) and alive():
         ready = [i for i in todo if all(_done(claims, j) for j in units[i].after)]
         if not ready:
-            if not alive():
-                return
             time.sleep(0.02)
             continue
         i = ready[0]
