@@ -498,3 +498,22 @@ def compiled_kernels(stdout: str) -> list[tuple[str, str]]:
     printed."""
     line = next(x for x in stdout.splitlines() if x.startswith("COMPILED "))
     return [tuple(k) for k in json.loads(line[len("COMPILED "):])]
+
+
+def stop_requested_at(monkeypatch, owner: object, name: str, before: bool = False) -> None:
+    """Replace ``owner.name`` by a wrapper that requests a stop (what SIGINT or SIGTERM sets:
+    ``mrnea.cli.base._request_stop``) just after the call returns, or just before it
+    (``before``): a stop request placed at that moment of a command, in process."""
+    from mrnea.cli import base
+
+    real = getattr(owner, name)
+
+    def wrapped(*args, **kw):
+        if before:
+            base._request_stop(15, None)
+        out = real(*args, **kw)
+        if not before:
+            base._request_stop(15, None)
+        return out
+
+    monkeypatch.setattr(owner, name, wrapped)

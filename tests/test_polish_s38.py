@@ -10,7 +10,7 @@ the others into a fresh default folder).
 from __future__ import annotations
 
 import pytest
-from conftest import mrnea_cli, one_error_line
+from conftest import mrnea_cli, one_error_line, stop_requested_at
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import mrnea
@@ -106,14 +106,7 @@ def test_a_stop_while_writing_gives_no_verdict(monkeypatch, tmp_path) -> None:
 
     from mrnea.cli import main, run
 
-    real = run._write_outputs
-
-    def write(*args, **kw):
-        out = real(*args, **kw)
-        _request()
-        return out
-
-    monkeypatch.setattr(run, "_write_outputs", write)
+    stop_requested_at(monkeypatch, run, "_write_outputs")
     res = CliRunner().invoke(main, ["simulate", _pick(), "--out", str(tmp_path / "o"),
                                     "--no-3d"])
     assert res.exit_code == 130, res.output
@@ -127,13 +120,7 @@ def test_a_stop_after_the_verdict_keeps_its_code(monkeypatch) -> None:
 
     from mrnea.cli import main, run
 
-    real = run._print_result
-
-    def printed(*args, **kw):
-        real(*args, **kw)
-        _request()
-
-    monkeypatch.setattr(run, "_print_result", printed)
+    stop_requested_at(monkeypatch, run, "_print_result")
     res = CliRunner().invoke(main, ["check", _pick()])
     assert res.exit_code == 0, res.output
     assert res.stdout.startswith("ACHIEVABLE") and "interrupted" not in res.output

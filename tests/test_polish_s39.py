@@ -5,8 +5,8 @@ verdicts of ``demo`` / ``simulate`` / ``check``) calls ``cli.base.last_checkpoin
 and just before its answer: a request until there exits 130 without the answer; one that lands
 while it prints is too late, and the answer's exit code stands (before, ``info`` printed the
 robot's table and then exited 130, ``fig3`` printed "Fig. 3: PATH" and exited 130). In process:
-the request is what SIGINT or SIGTERM sets (``cli.base._request_stop``), placed at a moment by
-wrapping the function the command calls there.
+the request is what SIGINT or SIGTERM sets, placed at a moment by wrapping the function the
+command calls there (``conftest.stop_requested_at``).
 """
 
 from __future__ import annotations
@@ -14,36 +14,23 @@ from __future__ import annotations
 from pathlib import Path
 
 from click.testing import CliRunner
+from conftest import stop_requested_at
 
-from mrnea.cli import base, main
+from mrnea.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-
-
-def _request() -> None:
-    base._request_stop(15, None)
 
 
 def test_info_answers_or_stops_never_both(monkeypatch) -> None:
     from mrnea.cli import info
 
-    real_load, real_describe = info.load_robot_arg, info.describe
-
-    def describe(*args, **kw):  # while it prints: too late, the table stands
-        _request()
-        return real_describe(*args, **kw)
-
-    monkeypatch.setattr(info, "describe", describe)
+    stop_requested_at(monkeypatch, info, "describe", before=True)  # while it prints: too late
     res = CliRunner().invoke(main, ["info", "puma560"])
     assert res.exit_code == 0, res.output
     assert "interrupted" not in res.output and res.stdout.startswith("puma560: 6 moving joints")
 
-    def load(*args, **kw):  # while it loads the robot: stopped, no table
-        _request()
-        return real_load(*args, **kw)
-
-    monkeypatch.setattr(info, "load_robot_arg", load)
-    monkeypatch.setattr(info, "describe", real_describe)
+    monkeypatch.undo()
+    stop_requested_at(monkeypatch, info, "load_robot_arg")  # as it loads the robot: no table
     res = CliRunner().invoke(main, ["info", "puma560"])
     assert res.exit_code == 130, res.output
     assert res.stdout == "" and "mrnea: interrupted" in res.output
@@ -55,28 +42,15 @@ def test_fig3_stopped_while_writing_says_no_file_name(monkeypatch, tmp_path) -> 
     from mrnea.cli import paper
     from mrnea.report import drawing
 
-    real_save = drawing.save_figure
-
-    def save(*args, **kw):
-        path = real_save(*args, **kw)
-        _request()
-        return path
-
-    monkeypatch.setattr(drawing, "save_figure", save)
+    stop_requested_at(monkeypatch, drawing, "save_figure")
     out = tmp_path / "fig3.png"
     res = CliRunner().invoke(main, ["fig3", "--out", str(out)])
     assert res.exit_code == 130, res.output
     assert "Fig. 3:" not in res.stdout and "mrnea: interrupted" in res.output
     assert out.read_bytes().startswith(b"\x89PNG")
 
-    real_checkpoint = paper.last_checkpoint
-
-    def answered() -> None:  # the request lands just after the last checkpoint
-        real_checkpoint()
-        _request()
-
-    monkeypatch.setattr(drawing, "save_figure", real_save)
-    monkeypatch.setattr(paper, "last_checkpoint", answered)
+    monkeypatch.undo()  # the request lands just after the last checkpoint
+    stop_requested_at(monkeypatch, paper, "last_checkpoint")
     res = CliRunner().invoke(main, ["fig3", "--out", str(tmp_path / "again.png")])
     assert res.exit_code == 0, res.output
     assert res.stdout.startswith("Fig. 3:") and "interrupted" not in res.output
@@ -86,13 +60,7 @@ def test_identify_prints_its_answer_once_it_is_past_the_last_checkpoint(monkeypa
                                                                        tmp_path) -> None:
     from mrnea.cli import identify
 
-    real_lines = identify._lines
-
-    def lines(summary):  # while it prints the summary: too late
-        _request()
-        return real_lines(summary)
-
-    monkeypatch.setattr(identify, "_lines", lines)
+    stop_requested_at(monkeypatch, identify, "_lines", before=True)  # as it prints: too late
     res = CliRunner().invoke(main, ["identify", "puma560",
                                     str(EXAMPLES / "puma_identify_log.csv"), "--out",
                                     str(tmp_path / "o")])

@@ -116,6 +116,11 @@ class Ahead(NamedTuple):
     claims: str
     args: tuple
 
+    @property
+    def shared(self) -> bool:
+        """Whether the command shares the list with it (:func:`share`)."""
+        return bool(self.args[4])
+
 
 class Unit(NamedTuple):
     """A kernel of the list, the argument types to compile it for, and the units whose kernels
@@ -209,12 +214,11 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
     idles while the other compiles what the loop needs (docs/performance.md section 7).
     Without a shared second process it does nothing: the command compiles each kernel as it
     reaches it."""
-    if ahead is None or not ahead.args[4]:
+    if ahead is None or not ahead.shared:
         return
     from mrnea.simulate import check_moves
 
-    _claim(ahead.claims, CHECK)
-    check_moves(robot, q0)
+    check_moves(robot, q0)  # unit CHECK: never the second process's, so not claimed
     _compiled(ahead.claims, CHECK)
     units = signatures(*ahead.args)
     deadline = time.monotonic() + PATIENCE
