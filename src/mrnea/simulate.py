@@ -337,7 +337,8 @@ def simulate(
         ``tool_orientation_error``), in the table and the summary.
 
     On KeyboardInterrupt the cycles done so far are returned with ``completed=False``, and a
-    streamed table holds exactly those cycles.
+    streamed table holds exactly those cycles; also when ``progress`` raises it after the last
+    chunk (all K cycles, still ``completed=False``: the stop request is never swallowed).
     """
     code = validate.choice("mode", mode, MODES)
     validate.require_robot(robot)
@@ -422,7 +423,8 @@ def simulate(
         except KeyboardInterrupt:
             if fh is not None:  # it may have landed inside a chunk's write: keep whole cycles
                 fh.truncate(kept)
-    return res if done == K else res._first(done)
+            return res._first(done)  # even after the last chunk (progress raised): not lost
+    return res
 
 
 def _tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> None:
