@@ -210,9 +210,11 @@ class _Kernel:
 
 def _units(compiled: list, then: dict | None = None) -> list:
     """A shared list as signatures() makes it: 0 the start check, 4 the step after 0 and the
-    drive solve 1, 5 the loop after the step and the reactions 3."""
+    drive solve 1, 5 the loop after the step and the reactions 3, 6 and 7 what the
+    simulation's chunks call (the command's share ends there), 8 the summary's peaks."""
     then = then or {}
-    names = ["check", "solve", "cholesky", "reactions", "step", "loop", "requirement", "peaks"]
+    names = ["check", "solve", "cholesky", "reactions", "step", "loop", "requirement",
+             "derived", "peaks"]
     after = {4: (0, 1), 5: (4, 3)}
     return [ahead.Unit(_Kernel(name, compiled, then.get(name)), (), after.get(i, ()))
             for i, name in enumerate(names)]
@@ -234,11 +236,11 @@ def _claims(tmp_path, name: str, *files: str):
     return folder
 
 
-def test_the_command_takes_what_is_ready_until_its_loop_is_compiled(monkeypatch,
-                                                                      tmp_path) -> None:
+def test_the_command_takes_what_is_ready_up_to_what_its_simulation_calls(monkeypatch,
+                                                                          tmp_path) -> None:
     """share(): the start check first (unit 0), then the units neither process has begun, each
-    once the units it calls are done, until the loop is; the rest stays with the second
-    process. A file marks each claim, another each compile."""
+    once the units it calls are done, up to what the simulation's chunks call; the rest stays
+    with the second process. A file marks each claim, another each compile."""
     simulation = importlib.import_module("mrnea.simulate")  # the module, not mrnea.simulate()
     compiled, checked = [], []
     monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: checked.append(q0))
@@ -248,8 +250,8 @@ def test_the_command_takes_what_is_ready_until_its_loop_is_compiled(monkeypatch,
     second = ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True))
     ahead.share(second, "robot", "q0")
     assert checked == ["q0"]
-    assert compiled == ["cholesky", "reactions", "step", "loop"]
-    assert {f for f in os.listdir(claims) if f[0] in "67"} == set()  # the second process's
+    assert compiled == ["cholesky", "reactions", "step", "loop", "requirement", "derived"]
+    assert {f for f in os.listdir(claims) if f[0] == "8"} == set()  # the second process's
     ahead.share(None, "robot", "q0")  # no second process: nothing here
     ahead.share(second._replace(args=((-1, 0), False, True, False, False)), "robot", "q0")
     assert checked == ["q0"]  # nor with one that does not share (another engine or mode)
@@ -272,12 +274,46 @@ def test_the_command_waits_for_what_the_second_process_is_compiling(monkeypatch,
     ahead.share(ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True)), "r",
                 "q0")
     timer.join()
-    assert compiled == ["cholesky", "reactions", "requirement", "peaks", "loop"]
+    assert compiled == ["cholesky", "reactions", "requirement", "derived", "loop"]
     compiled.clear()
     claims = _claims(tmp_path, "c", "1", "1.done", "4")  # the step never done: ended
     ahead.share(ahead.Ahead(_Proc(0), str(claims), ((-1, 0), False, True, False, True)), "r",
                 "q0")
     assert compiled == []  # the second process gone: simulate compiles each as it needs it
+
+
+def test_the_command_waits_for_what_its_simulation_and_summary_call(monkeypatch,
+                                                                     tmp_path) -> None:
+    """The second process compiling the requirement (6) as the command's share ends: share()
+    returns once it is compiled (the simulation's first chunk calls it); after the simulation
+    settle() waits for the peaks (8) it is compiling, which the summary calls: no kernel
+    compiled twice. Neither waits for the second process once it has ended, nor for a unit
+    it has not begun; unshared, settle() does nothing."""
+    import threading
+
+    simulation = importlib.import_module("mrnea.simulate")
+    monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: None)
+    compiled = []
+    monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled))
+    claims = _claims(tmp_path, "g", "1", "1.done", "4", "4.done", "5", "5.done", "6")
+    second = ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True))
+    timer = threading.Timer(0.4, (claims / "6.done").touch)
+    timer.start()
+    ahead.share(second, "r", "q0")
+    assert (claims / "6.done").exists()  # waited for it
+    timer.join()
+    assert compiled == ["cholesky", "reactions", "derived"]
+    (claims / "8").touch()  # the second process begins the peaks
+    timer = threading.Timer(0.4, (claims / "8.done").touch)
+    timer.start()
+    ahead.settle(second)
+    assert (claims / "8.done").exists()
+    timer.join()
+    assert compiled == ["cholesky", "reactions", "derived"]  # none compiled by the command
+    (claims / "9").touch()  # begun, never done: no wait without the second process
+    ahead.settle(second._replace(proc=_Proc(0)))
+    ahead.settle(second._replace(args=((-1, 0), False, True, False, False)))  # unshared
+    ahead.settle(None)
 
 
 def test_the_second_process_takes_what_the_command_has_not(monkeypatch, tmp_path) -> None:
@@ -294,12 +330,12 @@ def test_the_second_process_takes_what_the_command_has_not(monkeypatch, tmp_path
     timer.start()
     ahead.main(["-1,0,1", "0", "1", "0", "1", str(claims)])
     timer.join()
-    assert compiled == ["solve", "cholesky", "step", "requirement", "peaks", "loop"]
+    assert compiled == ["solve", "cholesky", "step", "requirement", "derived", "peaks", "loop"]
     assert niced == []
     compiled.clear()
     ahead.main(["-1,0,1", "0", "1"])  # no claims' folder: the whole list
     assert compiled == ["check", "solve", "cholesky", "reactions", "step", "loop",
-                        "requirement", "peaks"]
+                        "requirement", "derived", "peaks"]
     assert niced == [10]
 
 
@@ -351,7 +387,7 @@ def test_a_unit_that_no_longer_types_costs_time_never_the_command(monkeypatch,
     claims = _claims(tmp_path, "e", "1", "1.done")
     ahead.share(ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True)), "r",
                 "q0")
-    assert compiled == ["cholesky", "reactions", "step", "loop"]
+    assert compiled == ["cholesky", "reactions", "step", "loop", "requirement", "derived"]
     assert (claims / "4.done").exists()
 
 

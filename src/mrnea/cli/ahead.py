@@ -35,8 +35,11 @@ each marked with the units whose kernels it calls. Both processes run the same l
 (:func:`_work`): take the first unit in the list's order whose callees are compiled and which
 neither has begun, claimed with a file named by its index in a temporary folder (created
 exclusively; the second process's argument; removed when the command exits), compile it, mark
-it done with a second file; wait while what is left waits for the other. The command stops
-once the loop is compiled, by either, and runs. So no kernel is compiled by both, and the
+it done with a second file; wait while what is left waits for the other. The command's
+share ends at what its simulation's chunks call (the loop, the requirement, the derived
+arrays: it waits for those the other is compiling), and it runs; after the simulation it
+waits for a later unit the other is compiling (:func:`settle`: the summary's peaks) rather
+than compile it again. So no kernel is compiled by both, and the
 loop's tops, whose compiling optimises and emits everything they call once more (Numba links
 the callees' code into each caller), are compiled by whichever process is free first: a fresh
 demo 14.1-15.7 s of wall and 26-28 s of CPU for both processes, against 17.5-20.5 s and 32-38 s
@@ -104,8 +107,9 @@ still needs as it reaches it (a second process stopped or starved; a fresh demo 
 
 
 # the shared list's first units (signatures): the command's start check, then the drive solve,
-# the Cholesky solve, the reactions, the cycle's step, the simulation loop; then the later ones
-CHECK, SOLVE, CHOLESKY, REACTIONS, STEP, LOOP = range(6)
+# the Cholesky solve, the reactions, the cycle's step, the simulation loop, the per-chunk
+# requirement and derived arrays (the command's share ends there); then the later ones
+CHECK, SOLVE, CHOLESKY, REACTIONS, STEP, LOOP, REQUIREMENT, DERIVED = range(8)
 
 
 class Ahead(NamedTuple):
@@ -180,15 +184,15 @@ def _done(claims: str, i: int) -> bool:
     return os.path.exists(os.path.join(claims, f"{i}.done"))
 
 
-def _work(claims: str, units: Sequence[Unit], todo: list[int], goal: int | None,
+def _work(claims: str, units: Sequence[Unit], todo: list[int],
           alive: Callable[[], bool]) -> None:
     """Compile, one after another, the units of ``todo`` this process claims first: each time
     the first in the list's order whose ``after`` units are done; a unit the other process
     claimed is its. With nothing to take now (what is left waits for a unit the other
-    process is compiling) it waits. Until ``todo`` is empty, unit ``goal`` is done (by either
-    process) or ``alive()`` is no longer true (the other process gone: a second process whose
-    command was killed stops after its current kernel)."""
-    while todo and not (goal is not None and _done(claims, goal)) and alive():
+    process is compiling) it waits. Until ``todo`` is empty (each unit compiled by this
+    process or claimed by the other) or ``alive()`` is no longer true (the other process gone:
+    a second process whose command was killed stops after its current kernel)."""
+    while todo and alive():
         ready = [i for i in todo if all(_done(claims, j) for j in units[i].after)]
         if not ready:
             time.sleep(0.02)
@@ -208,12 +212,12 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
     """The command's share of the compiling, before its simulation (a second process started
     ``shared``): first the start check's kernel (H_a and u'_a, :func:`mrnea.simulate.check_moves`,
     unit 0: the second process never takes it), then, as the second process does, the units
-    of the list neither has begun, each once the kernels it calls are compiled, until the
-    simulation loop (``simulate_cycles``) is compiled by either; where all that is left waits
-    for the second process, it waits. So no kernel is compiled by both, and neither process
-    idles while the other compiles what the loop needs (docs/performance.md section 7).
-    Without a shared second process it does nothing: the command compiles each kernel as it
-    reaches it."""
+    of the list neither has begun, each once the kernels it calls are compiled, up to what the
+    simulation's chunks call (the loop, the requirement, the derived arrays: :data:`DERIVED`);
+    where all that is left of those waits for the second process, or is being compiled by
+    it, it waits. So no kernel is compiled by both, and neither process idles while the other
+    compiles what the simulation needs (docs/performance.md section 7). Without a shared
+    second process it does nothing: the command compiles each kernel as it reaches it."""
     if ahead is None or not ahead.shared:
         return
     from mrnea.simulate import check_moves
@@ -222,8 +226,35 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
     _compiled(ahead.claims, CHECK)
     units = signatures(*ahead.args)
     deadline = time.monotonic() + PATIENCE
-    _work(ahead.claims, units, list(range(CHECK + 1, len(units))), LOOP,
-          lambda: ahead.proc.poll() is None and time.monotonic() < deadline)
+
+    def alive() -> bool:
+        return ahead.proc.poll() is None and time.monotonic() < deadline
+
+    mine = range(CHECK + 1, DERIVED + 1)
+    _work(ahead.claims, units, list(mine), alive)
+    _settle(ahead.claims, mine, alive)
+
+
+def _settle(claims: str, indices: Sequence[int], alive: Callable[[], bool]) -> None:
+    """Wait while one of the units ``indices`` is claimed and not compiled yet (by the other
+    process: the calling one compiles its claims before it goes on) and ``alive()``: what is
+    left of the other's compile is never longer than compiling the kernel again."""
+    while alive() and any(os.path.exists(os.path.join(claims, str(i))) and not _done(claims, i)
+                          for i in indices):
+        time.sleep(0.02)
+
+
+def settle(ahead: Ahead | None) -> None:
+    """After the command's simulation (a second process started ``shared``): wait while the
+    second process is compiling a later unit of the list (the summary's peaks, the report's
+    kernels), which the command would otherwise compile a second time as it reaches it.
+    Bounded by :data:`PATIENCE` and the second process's life; without a shared one it does
+    nothing."""
+    if ahead is None or not ahead.shared:
+        return
+    deadline = time.monotonic() + PATIENCE
+    _settle(ahead.claims, range(DERIVED + 1, len(signatures(*ahead.args))),
+            lambda: ahead.proc.poll() is None and time.monotonic() < deadline)
 
 
 def _end(ahead: Ahead) -> None:
@@ -258,7 +289,8 @@ def signatures(parents: Sequence[int], per_link: bool, report: bool, retime: boo
     (``actuator_terms``), and the simulation loop's two tops join the list, each after what it
     calls: the cycle's ``step`` after the start check's kernel and the drive solve, and
     ``simulate_cycles`` after ``step`` and the reactions (the indices :data:`CHECK` ...
-    :data:`LOOP`)."""
+    :data:`LOOP`; then :data:`REQUIREMENT` and :data:`DERIVED`, the last of the command's
+    share)."""
     import numba as nb
     import numpy as np
 
@@ -339,7 +371,7 @@ def main(argv: list[str]) -> None:
             unit.kernel.compile(unit.sig)
         return
     parent = os.getppid()
-    _work(claims, units, list(range(CHECK + 1 if shared else 0, len(units))), None,
+    _work(claims, units, list(range(CHECK + 1 if shared else 0, len(units))),
           lambda: os.getppid() == parent and os.path.isdir(claims))
 
 

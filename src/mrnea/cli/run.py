@@ -84,6 +84,7 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
                        f_ext_point=f_ext_point, progress=progress,
                        stream=None if out is None else out / TABLE, overwrite=force,
                        cartesian=cartesian)
+        ahead.settle(second)  # the summary's kernels: the second process's, if it has begun
     if not res.completed:
         click.echo(f"mrnea: interrupted after {res.K} cycles; writing the partial result.",
                    err=True)
