@@ -287,8 +287,9 @@ def test_the_command_waits_for_what_its_simulation_and_summary_call(monkeypatch,
     """The second process compiling the requirement (6) as the command's share ends: share()
     returns once it is compiled (the simulation's first chunk calls it); after the simulation
     settle() waits for the peaks (8) it is compiling, which the summary calls: no kernel
-    compiled twice. Neither waits for the second process once it has ended, nor for a unit
-    it has not begun; unshared, settle() does nothing."""
+    compiled twice. While waiting, each does the command's own work (``meanwhile``: the
+    report's imports) once. Neither waits for the second process once it has ended, nor for
+    a unit it has not begun; unshared, settle() does nothing."""
     import threading
 
     simulation = importlib.import_module("mrnea.simulate")
@@ -299,15 +300,23 @@ def test_the_command_waits_for_what_its_simulation_and_summary_call(monkeypatch,
     second = ahead.Ahead(_Proc(), str(claims), ((-1, 0), False, True, False, True))
     timer = threading.Timer(0.4, (claims / "6.done").touch)
     timer.start()
-    ahead.share(second, "r", "q0")
-    assert (claims / "6.done").exists()  # waited for it
+    done = []
+
+    def broken() -> None:
+        raise ImportError("its error is its caller's, where the work is needed")
+
+    meanwhile = [lambda: done.append("import"), broken, lambda: done.append("more")]
+    ahead.share(second, "r", "q0", meanwhile)
+    assert (claims / "6.done").exists()  # waited for it, doing the command's own work first
     timer.join()
     assert compiled == ["cholesky", "reactions", "derived"]
+    assert done == ["import", "more"] and meanwhile == []  # each task once
     (claims / "8").touch()  # the second process begins the peaks
     timer = threading.Timer(0.4, (claims / "8.done").touch)
     timer.start()
-    ahead.settle(second)
-    assert (claims / "8.done").exists()
+    meanwhile = [lambda: done.append("after")]
+    ahead.settle(second, meanwhile)
+    assert (claims / "8.done").exists() and done[-1] == "after"
     timer.join()
     assert compiled == ["cholesky", "reactions", "derived"]  # none compiled by the command
     (claims / "9").touch()  # begun, never done: no wait without the second process

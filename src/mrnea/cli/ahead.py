@@ -184,18 +184,19 @@ def _done(claims: str, i: int) -> bool:
     return os.path.exists(os.path.join(claims, f"{i}.done"))
 
 
-def _work(claims: str, units: Sequence[Unit], todo: list[int],
-          alive: Callable[[], bool]) -> None:
+def _work(claims: str, units: Sequence[Unit], todo: list[int], alive: Callable[[], bool],
+          meanwhile: list[Callable[[], object]] | None = None) -> None:
     """Compile, one after another, the units of ``todo`` this process claims first: each time
     the first in the list's order whose ``after`` units are done; a unit the other process
     claimed is its. With nothing to take now (what is left waits for a unit the other
     process is compiling) it waits. Until ``todo`` is empty (each unit compiled by this
     process or claimed by the other) or ``alive()`` is no longer true (the other process gone:
-    a second process whose command was killed stops after its current kernel)."""
+    a second process whose command was killed stops after its current kernel). ``meanwhile``:
+    work to do instead of waiting (:func:`_wait`)."""
     while todo and alive():
         ready = [i for i in todo if all(_done(claims, j) for j in units[i].after)]
         if not ready:
-            time.sleep(0.02)
+            _wait(meanwhile)
             continue
         i = ready[0]
         todo.remove(i)
@@ -208,7 +209,8 @@ def _work(claims: str, units: Sequence[Unit], todo: list[int],
             _compiled(claims, i)
 
 
-def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
+def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray,
+          meanwhile: list[Callable[[], object]] | None = None) -> None:
     """The command's share of the compiling, before its simulation (a second process started
     ``shared``): first the start check's kernel (H_a and u'_a, :func:`mrnea.simulate.check_moves`,
     unit 0: the second process never takes it), then, as the second process does, the units
@@ -216,7 +218,9 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
     simulation's chunks call (the loop, the requirement, the derived arrays: :data:`DERIVED`);
     where all that is left of those waits for the second process, or is being compiled by
     it, it waits. So no kernel is compiled by both, and neither process idles while the other
-    compiles what the simulation needs (docs/performance.md section 7). Without a shared
+    compiles what the simulation needs (docs/performance.md section 7). ``meanwhile``: the
+    command's own work that needs no kernel (importing what its report draws with), done
+    where it would wait instead (each task once, taken from the list). Without a shared
     second process it does nothing: the command compiles each kernel as it reaches it."""
     if ahead is None or not ahead.shared:
         return
@@ -231,30 +235,42 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray) -> None:
         return ahead.proc.poll() is None and time.monotonic() < deadline
 
     mine = range(CHECK + 1, DERIVED + 1)
-    _work(ahead.claims, units, list(mine), alive)
-    _settle(ahead.claims, mine, alive)
+    _work(ahead.claims, units, list(mine), alive, meanwhile)
+    _settle(ahead.claims, mine, alive, meanwhile)
 
 
-def _settle(claims: str, indices: Sequence[int], alive: Callable[[], bool]) -> None:
+def _wait(meanwhile: list[Callable[[], object]] | None) -> None:
+    """A moment of waiting for the other process: the next of the command's ``meanwhile``
+    tasks (taken from the list: each done once; its errors are its caller's later, where
+    the task's work is needed), else 20 ms of sleep."""
+    if meanwhile:
+        with contextlib.suppress(Exception):
+            meanwhile.pop(0)()
+    else:
+        time.sleep(0.02)
+
+
+def _settle(claims: str, indices: Sequence[int], alive: Callable[[], bool],
+            meanwhile: list[Callable[[], object]] | None = None) -> None:
     """Wait while one of the units ``indices`` is claimed and not compiled yet (by the other
     process: the calling one compiles its claims before it goes on) and ``alive()``: what is
     left of the other's compile is never longer than compiling the kernel again."""
     while alive() and any(os.path.exists(os.path.join(claims, str(i))) and not _done(claims, i)
                           for i in indices):
-        time.sleep(0.02)
+        _wait(meanwhile)
 
 
-def settle(ahead: Ahead | None) -> None:
+def settle(ahead: Ahead | None, meanwhile: list[Callable[[], object]] | None = None) -> None:
     """After the command's simulation (a second process started ``shared``): wait while the
     second process is compiling a later unit of the list (the summary's peaks, the report's
-    kernels), which the command would otherwise compile a second time as it reaches it.
-    Bounded by :data:`PATIENCE` and the second process's life; without a shared one it does
-    nothing."""
+    kernels), which the command would otherwise compile a second time as it reaches it;
+    doing what is left of ``meanwhile`` (:func:`share`) first. Bounded by :data:`PATIENCE`
+    and the second process's life; without a shared one it does nothing."""
     if ahead is None or not ahead.shared:
         return
     deadline = time.monotonic() + PATIENCE
     _settle(ahead.claims, range(DERIVED + 1, len(signatures(*ahead.args))),
-            lambda: ahead.proc.poll() is None and time.monotonic() < deadline)
+            lambda: ahead.proc.poll() is None and time.monotonic() < deadline, meanwhile)
 
 
 def _end(ahead: Ahead) -> None:

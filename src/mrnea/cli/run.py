@@ -54,6 +54,13 @@ from mrnea.model import Robot
 TABLE, SUMMARY, REPORT = "cycles.csv", "summary.json", "report.html"
 
 
+def _import_report() -> None:
+    """The report's modules (matplotlib's figures: about 0.4 s), imported while the command
+    waits for the compile-ahead process (:func:`mrnea.cli.ahead.share`) instead of after its
+    simulation."""
+    import mrnea.report.html  # noqa: F401
+
+
 def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_up: float,
          f_ext: np.ndarray | None, f_ext_point: np.ndarray | None, quiet: bool,
          out: Path | None = None, force: bool = False, cartesian=None):
@@ -79,12 +86,13 @@ def _run(robot: Robot, q_cmd: np.ndarray, dt: float, mode: str, fd: str, catch_u
             if done < total:  # raised here, simulate() keeps the cycles done; after the last
                 checkpoint()  # chunk the request stays for the next checkpoint (not lost)
 
-        ahead.share(second, robot, q_cmd[0])
+        meanwhile = [] if out is None else [_import_report]  # while it waits for the other
+        ahead.share(second, robot, q_cmd[0], meanwhile)
         res = simulate(robot, q_cmd, dt, mode=mode, fd=fd, catch_up=catch_up, f_ext=f_ext,
                        f_ext_point=f_ext_point, progress=progress,
                        stream=None if out is None else out / TABLE, overwrite=force,
                        cartesian=cartesian)
-        ahead.settle(second)  # the summary's kernels: the second process's, if it has begun
+        ahead.settle(second, meanwhile)  # the summary's kernels: the other's, if it has begun
     if not res.completed:
         click.echo(f"mrnea: interrupted after {res.K} cycles; writing the partial result.",
                    err=True)
