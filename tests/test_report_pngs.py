@@ -97,6 +97,31 @@ def test_idle_cpu_reads_the_runnable_tasks(monkeypatch: pytest.MonkeyPatch) -> N
         assert pngs._idle_cpu() is idle, (running, cpus)
 
 
+def test_idle_cpu_is_not_fooled_by_a_moment_of_writeback(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    """One busy snapshot (a kernel thread writing back the files just written, seen after
+    every fresh demo's compiling) and then an idle one: a CPU is idle. Busy in every one of
+    the IDLE_READS snapshots: not idle, after reading each."""
+    import builtins
+    import io
+
+    cpus = len(os.sched_getaffinity(0))
+    real_open = builtins.open
+    for counts, idle in (([cpus, cpus - 1], True), ([cpus] * pngs.IDLE_READS, False)):
+        reads = iter(counts)
+        seen = []
+
+        def fake(p, *a, _reads=reads, _seen=seen, **k):
+            if p != "/proc/loadavg":
+                return real_open(p, *a, **k)
+            _seen.append(1)
+            return io.StringIO(f"0.5 0.4 0.3 {next(_reads)}/900 1234\n")
+
+        monkeypatch.setattr(builtins, "open", fake)
+        assert pngs._idle_cpu() is idle, counts
+        assert len(seen) == len(counts)
+
+
 def test_no_fork_with_threads() -> None:
     """Another Python thread running: everything is drawn here (no fork)."""
     stop = threading.Event()

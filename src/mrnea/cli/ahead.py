@@ -26,7 +26,9 @@ command for a core: at load 5-6 it took 74-90 s of wall with it against 62 s wit
 (docs/performance.md). ``MRNEA_AHEAD=0`` in the environment turns it off,
 ``MRNEA_AHEAD=1`` on whatever the load (on a cold cache; benchmarks/first_run.py ``--no-ahead``,
 ``--ahead``). The second process is ended when the command exits
-(:func:`start` registers it), whatever it has left; its output is discarded.
+(:func:`start` registers it), whatever it has left; its output is discarded. Its list done,
+it leaves at once (``os._exit``: no interpreter teardown), so that the core is idle when the
+command draws its figures (report/pngs.py forks a child for a share of them only then).
 
 ``demo``, ``simulate`` and ``check`` (the paper's mRNEA, the hybrid mode) share the work with
 it (``shared``, :func:`share`): the list then also holds the command's start check (unit 0,
@@ -393,3 +395,7 @@ def main(argv: list[str]) -> None:
 
 if __name__ == "__main__":
     main(sys.argv[1:])
+    # its list compiled (each cache file written whole, then renamed): no interpreter teardown,
+    # which kept a core busy for a second while the command drew its figures (report/pngs.py
+    # draws a share in a forked child only with a core idle)
+    os._exit(0)

@@ -47,17 +47,31 @@ def _can_fork() -> bool:
     return sys.platform.startswith("linux") and threading.active_count() == 1
 
 
+IDLE_READS = 5
+"""Snapshots of the runnable tasks (:func:`_idle_cpu`), 4 ms apart, of which one must show a
+CPU idle: a kernel thread runnable for a moment (writing back the files the command has just
+written: after a fresh run's compiling, every read of the first showed one) is not a busy
+core."""
+
+
 def _idle_cpu() -> bool:
     """A CPU idle now besides this process's: fewer runnable tasks (this one included) than
-    CPUs for this process (/proc/loadavg's fourth field, a snapshot). On a loaded machine, or
-    while the compile-ahead process (cli/ahead.py) still runs, a child would only compete for
-    the cores, and cost its own start (fonts, text caches: about 0.3 s of CPU)."""
-    try:
-        with open("/proc/loadavg") as fh:
-            running = int(fh.read().split()[3].split("/")[0])
-    except (OSError, ValueError, IndexError):  # not readable: do not guess
-        return False
-    return running < len(os.sched_getaffinity(0))
+    CPUs for this process (/proc/loadavg's fourth field, a snapshot) in one of
+    :data:`IDLE_READS` reads. On a loaded machine, or while the compile-ahead process
+    (cli/ahead.py) still runs, a child would only compete for the cores, and cost its own
+    start (fonts, text caches: about 0.3 s of CPU)."""
+    cpus = len(os.sched_getaffinity(0))
+    for k in range(IDLE_READS):
+        if k:
+            time.sleep(0.004)
+        try:
+            with open("/proc/loadavg") as fh:
+                running = int(fh.read().split()[3].split("/")[0])
+        except (OSError, ValueError, IndexError):  # not readable: do not guess
+            return False
+        if running < cpus:
+            return True
+    return False
 
 
 def _cost(job: tuple[Figure, float]) -> float:
