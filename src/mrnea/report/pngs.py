@@ -49,9 +49,9 @@ def _can_fork() -> bool:
 
 IDLE_READS = 5
 """Snapshots of the runnable tasks (:func:`_idle_cpu`), 4 ms apart, of which one must show a
-CPU idle: a kernel thread runnable for a moment (writing back the files the command has just
-written: after a fresh run's compiling, every read of the first showed one) is not a busy
-core."""
+CPU idle: a task runnable for a moment (after a fresh run's compiling, with the second process
+gone, the first snapshot showed one more every time: presumably the kernel writing back the
+files just written) is not a busy core."""
 
 
 def _idle_cpu() -> bool:
