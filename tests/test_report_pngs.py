@@ -97,11 +97,11 @@ def test_idle_cpu_reads_the_runnable_tasks(monkeypatch: pytest.MonkeyPatch) -> N
         assert pngs._idle_cpu() is idle, (running, cpus)
 
 
-def test_idle_cpu_is_not_fooled_by_a_moment_of_writeback(monkeypatch: pytest.MonkeyPatch
-                                                         ) -> None:
-    """One busy snapshot (a kernel thread writing back the files just written, seen after
-    every fresh demo's compiling) and then an idle one: a CPU is idle. Busy in every one of
-    the IDLE_READS snapshots: not idle, after reading each."""
+def test_idle_cpu_is_not_fooled_by_a_moment_s_busy_snapshot(monkeypatch: pytest.MonkeyPatch
+                                                             ) -> None:
+    """One busy snapshot (a task runnable for a moment, seen after every fresh demo's
+    compiling) and then an idle one: a CPU is idle. Busy in every one of the IDLE_READS
+    snapshots: not idle, after reading each."""
     import builtins
     import io
 
