@@ -186,6 +186,13 @@ def _done(claims: str, i: int) -> bool:
     return os.path.exists(os.path.join(claims, f"{i}.done"))
 
 
+def _alive(ahead: Ahead) -> Callable[[], bool]:
+    """Whether the command still shares: the second process running, and :data:`PATIENCE`
+    seconds from now not passed."""
+    deadline = time.monotonic() + PATIENCE
+    return lambda: ahead.proc.poll() is None and time.monotonic() < deadline
+
+
 def _work(claims: str, units: Sequence[Unit], todo: list[int], alive: Callable[[], bool],
           meanwhile: list[Callable[[], object]] | None = None) -> None:
     """Compile, one after another, the units of ``todo`` this process claims first: each time
@@ -230,14 +237,8 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray,
 
     check_moves(robot, q0)  # unit CHECK: never the second process's, so not claimed
     _compiled(ahead.claims, CHECK)
-    units = signatures(*ahead.args)
-    deadline = time.monotonic() + PATIENCE
-
-    def alive() -> bool:
-        return ahead.proc.poll() is None and time.monotonic() < deadline
-
-    mine = range(CHECK + 1, DERIVED + 1)
-    _work(ahead.claims, units, list(mine), alive, meanwhile)
+    alive, mine = _alive(ahead), range(CHECK + 1, DERIVED + 1)
+    _work(ahead.claims, signatures(*ahead.args), list(mine), alive, meanwhile)
     _settle(ahead.claims, mine, alive, meanwhile)
 
 
@@ -258,7 +259,7 @@ def _settle(claims: str, indices: Sequence[int], alive: Callable[[], bool],
     process: the calling one compiles its claims before it goes on) and ``alive()``: what is
     left of the other's compile is never longer than compiling the kernel again."""
     while alive() and any(os.path.exists(os.path.join(claims, str(i))) and not _done(claims, i)
-                          for i in indices):
+                          for i in indices):  # claimed (the file _claim creates), not done
         _wait(meanwhile)
 
 
@@ -270,9 +271,8 @@ def settle(ahead: Ahead | None, meanwhile: list[Callable[[], object]] | None = N
     and the second process's life; without a shared one it does nothing."""
     if ahead is None or not ahead.shared:
         return
-    deadline = time.monotonic() + PATIENCE
-    _settle(ahead.claims, range(DERIVED + 1, len(signatures(*ahead.args))),
-            lambda: ahead.proc.poll() is None and time.monotonic() < deadline, meanwhile)
+    _settle(ahead.claims, range(DERIVED + 1, len(signatures(*ahead.args))), _alive(ahead),
+            meanwhile)
 
 
 def _end(ahead: Ahead) -> None:
