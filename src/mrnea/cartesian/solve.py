@@ -203,7 +203,8 @@ def solve(program: Program, robot: Robot) -> Program:
                 _, qs = _JOINT_PROFILES[mv.profile](np.array([q, target]), dt, *limits)
                 qs = qs[1:]
                 Room(done, robot.n).check(len(qs))
-                Ts = forward_kinematics(robot, qs, tool=frame)[:, -1] if len(qs) else qs[:, :0]
+                Ts = (forward_kinematics(robot, qs, tool=frame)[:, -1] if len(qs)
+                      else np.empty((0, 4, 4)))  # a move to where it is: none
                 e = np.zeros((len(qs), 2))
                 own, cart = np.full(len(qs), mv.index, np.int64), False
             else:

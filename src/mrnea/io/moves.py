@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea.frozen import MAGNITUDES
 from mrnea.io.jointnames import number_table
 from mrnea.io.posecsv import POSE_INTERPOLATIONS, read_poses, resample_poses
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
@@ -171,6 +172,17 @@ def _orientation(check: TomlCheck, table: Mapping[str, Any], where: str) -> NDAr
     return None
 
 
+def _position(check: TomlCheck, table: Mapping[str, Any], key: str, where: str) -> NDArray:
+    """A move's point ``key`` (3,) [m], base frame: finite, and within the largest length mrnea
+    accepts (:data:`mrnea.frozen.MAGNITUDES`, as a tool's and a link's origin)."""
+    xyz = check.vector(check.require(table, key, where), where, key, 3)
+    big, bound = float(np.max(np.abs(xyz))), MAGNITUDES["length"]
+    if big > bound:
+        raise check.error(where, f"'{key}' {big:.3g} m is beyond {bound:g} m, the largest "
+                                 f"mrnea accepts; check its units")
+    return xyz
+
+
 def _poses(check: TomlCheck, index: int, table: Mapping[str, Any], where: str, dwell: float,
            dt: float, base_dir: Path) -> Move:
     p = Path(check.string(check.require(table, "csv", where), where, "csv")).expanduser()
@@ -229,13 +241,12 @@ def _move(check: TomlCheck, index: int, table: Any, n: int | None, dt: float, ba
                                      f"{profile!r}")
         return Move(index, kind, dwell, blend, target=target, profile=profile,
                     limits=tuple(limits), tool=own["tool"])
-    xyz = check.vector(check.require(table, "xyz", where), where, "xyz", 3)
+    xyz = _position(check, table, "xyz", where)
     R = _orientation(check, table, where)
     limits = tuple(_positive(check, table, k, where, k in ("speed", "acceleration"))
                    for k in ("speed", "acceleration", "jerk", "angular_speed",
                              "angular_acceleration", "angular_jerk"))
-    via = (check.vector(check.require(table, "via", where), where, "via", 3)
-           if kind == "circular" else None)
+    via = _position(check, table, "via", where) if kind == "circular" else None
     return Move(index, kind, dwell, blend, xyz=xyz, R=R, via=via, limits=limits, **own)
 
 

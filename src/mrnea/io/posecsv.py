@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import ProgramFileError, StateError, quote
+from mrnea.frozen import MAGNITUDES
 from mrnea.io.pathcsv import data_lines, read_table, resample
 from mrnea.io.writer import create
 
@@ -41,6 +42,10 @@ ROTATION_VECTOR = {"t": "s", "x": "m", "y": "m", "z": "m", "rx": "rad", "ry": "r
                    "rz": "rad"}
 POSE_INTERPOLATIONS = ("cubic", "linear")
 QUAT_NORM_TOL = 1e-6  # a quaternion's norm may differ from 1 by this (rounded decimals)
+#: The largest rotation vector's angle [rad] a pose CSV may give (1,600 turns: its rounding
+#: stays below 1e-12 rad; beyond, the angle modulo a turn loses its digits and, near 1e155, the
+#: rotation becomes NaN). Positions are bounded as a robot's lengths (``MAGNITUDES``).
+ROTVEC_BOUND = 1e4
 _NAME = re.compile(r"^\s*([A-Za-z]+)\s*(?:\[\s*([^\]]*?)\s*\])?\s*$")
 
 
@@ -64,6 +69,18 @@ def _columns(path: Path, header: list[str], line: int) -> dict[str, str]:
         f"got {', '.join(map(quote, header))}")
 
 
+def _bounded(path: Path, values: NDArray, bound: float, unit: str, lines: list[int]) -> None:
+    """ProgramFileError naming the first row whose ``values`` (R, m) go beyond ``bound``: the
+    positions x, y, z (one column named), or the rotation vector's norm (m = 1)."""
+    rows, cols = np.nonzero(np.abs(values) > bound)
+    if rows.size:
+        k, c = int(rows[0]), int(cols[0])
+        what = "rx, ry, rz: the rotation's angle" if values.shape[1] == 1 else "xyz"[c]
+        raise ProgramFileError(
+            f"{path}: line {lines[k + 1]}: {what} {abs(values[k, c]):.3g} {unit} is beyond "
+            f"{bound:g} {unit}, the largest mrnea accepts; check its units")
+
+
 def read_poses(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], list[int]]:
     """(time (R,) [s], poses (R, 4, 4) base frame [m], line numbers (R,)) of a pose CSV (module
     docstring). ProgramFileError: naming the file, the line and the column at fault."""
@@ -72,6 +89,7 @@ def read_poses(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], li
     header, rows = read_table(path, None)
     lines = data_lines(path)
     layout = _columns(path, list(header.names), lines[0])
+    _bounded(path, rows[:, 1:4], MAGNITUDES["length"], "m", lines)
     if layout is QUATERNION:
         quat = rows[:, 4:8]
         norm = np.linalg.norm(quat, axis=1)
@@ -83,6 +101,8 @@ def read_poses(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64], li
                 f"norm is {norm[k]:.9g}")
         rot = Rotation.from_quat(quat / norm[:, None], scalar_first=True)
     else:
+        angle = np.hypot(np.hypot(rows[:, 4], rows[:, 5]), rows[:, 6])  # no overflow
+        _bounded(path, angle[:, None], ROTVEC_BOUND, "rad", lines)
         rot = Rotation.from_rotvec(rows[:, 4:7])
     poses = np.zeros((rows.shape[0], 4, 4))
     poses[:, :3, :3], poses[:, :3, 3], poses[:, 3, 3] = rot.as_matrix(), rows[:, 1:4], 1.0

@@ -174,17 +174,28 @@ def _result(job: Job, Q: NDArray, FE: Any, PE: Any, sim: Any,
         margin_asked=margin_asked, jerk_limit=jerk)
 
 
+HOLD_ROWS = 20_000
+"""Rows of the dwells :func:`_check_holds` computes at a time: a stop request is taken between
+them, and the memory stays bounded (the mass matrices come with the bias: 20,000 x n^2
+values) however long the dwells are."""
+
+
 def _check_holds(job: Job, margin: float) -> None:
     """A dwell the robot cannot hold (beyond what static friction takes): RetimeError."""
     rows = np.concatenate([np.arange(k0, k1 + 1) for kind, k0, k1 in job.runs
                            if kind == "hold"] or [np.zeros(0, dtype=int)])
-    if rows.size == 0:
-        return
-    fe, pe = validate.wrench_rows(job.f_ext, rows), validate.wrench_rows(job.f_ext_point, rows)
-    q = job.q[rows]
-    _, c = actuator_mass_matrix_and_bias(job.robot, q, np.zeros_like(q), fe, pe)
-    need = holding_need(job.robot, c, np.zeros_like(c), np.zeros(c.shape, dtype=bool))
-    static_check(job.robot, need, job.clock[rows], margin)
+    need = np.empty((rows.size, job.robot.n))
+    for a in range(0, rows.size, HOLD_ROWS):
+        job.checkpoint()
+        part = rows[a:a + HOLD_ROWS]
+        fe = validate.wrench_rows(job.f_ext, part)
+        pe = validate.wrench_rows(job.f_ext_point, part)
+        q = job.q[part]
+        _, c = actuator_mass_matrix_and_bias(job.robot, q, np.zeros_like(q), fe, pe)
+        need[a:a + HOLD_ROWS] = holding_need(job.robot, c, np.zeros_like(c),
+                                             np.zeros(c.shape, dtype=bool))
+    if rows.size:
+        static_check(job.robot, need, job.clock[rows], margin)
 
 
 def _piece(job: Job, j: int, s: NDArray | None, grid: int | None, lo: int = GRID[0]) -> tuple:

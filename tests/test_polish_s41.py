@@ -1,0 +1,123 @@
+"""Session 41: what a hostile-input hunt found in Cartesian programs and retiming.
+
+* A joint move (MoveJ) to where the robot already is: no cycle of its own (its dwell, if any,
+  holds); it had stopped the program with an internal error (an empty pose array of the wrong
+  dimensions).
+* A pose CSV's positions and rotation vectors, and a move's ``xyz`` and ``via``, are bounded as a
+  robot's lengths are (1e4 m; a rotation vector's angle 1e4 rad): beyond, the tool path printed
+  "inf mm" and the simulation's summary failed, or scipy's rotation became NaN.
+* The retiming's check of the dwells computes them in blocks of ``HOLD_ROWS`` rows with a stop
+  request taken between blocks: a program with a 1000 s dwell at 1 ms took 8 s to answer Ctrl-C
+  (the guarantee is 1 s) and held 2e6 mass matrices at once.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mrnea
+from mrnea.cartesian import solve
+from mrnea.errors import ProgramFileError
+from mrnea.io.program import loads_program
+from mrnea.trajectory import quintic
+
+Q0 = [0.0, 0.785, -2.356, 0.0, -0.785, 0.0]
+HEAD = f'[program]\nrobot = "puma560"\ndt = 0.005\nq0 = {Q0}\n'
+
+
+def _solved(text: str, folder: Path | None = None):
+    if folder is not None:
+        (folder / "prog.toml").write_text(text)
+        return solve(mrnea.load_program(folder / "prog.toml"), mrnea.robots.puma560())
+    return solve(loads_program(text), mrnea.robots.puma560())
+
+
+def _joint_move(target, dwell: float | None = None) -> str:
+    extra = "" if dwell is None else f"dwell = {dwell}\n"
+    return (f'[[move]]\ntype = "joint"\ntarget = {list(target)}\nvelocity_limit = 1.0\n'
+            f"acceleration_limit = 1.0\n{extra}")
+
+
+def test_a_joint_move_to_where_the_robot_is_holds_its_dwell() -> None:
+    """Its dwell of 0.1 s at 5 ms: the start row and 20 cycles at q0; with a move after it,
+    that move's cycles follow the hold."""
+    prog = _solved(HEAD + _joint_move(Q0, dwell=0.1))
+    assert prog.q_cmd.shape == (21, 6)
+    assert np.array_equal(prog.q_cmd, np.tile(Q0, (21, 1)))
+    moved = list(Q0)
+    moved[0] = 0.2
+    prog = _solved(HEAD + _joint_move(Q0) + _joint_move(Q0, 0.1) + _joint_move(moved))
+    assert np.array_equal(prog.q_cmd[:21], np.tile(Q0, (21, 1)))
+    assert prog.q_cmd[-1, 0] == pytest.approx(0.2) and np.all(np.diff(prog.q_cmd[20:, 0]) > 0)
+    with pytest.raises(ProgramFileError, match="the moves take a single cycle"):
+        _solved(HEAD + _joint_move(Q0))  # nothing moves and nothing holds: one cycle
+
+
+def _pose_program(tmp_path: Path, rows: list[str]) -> str:
+    (tmp_path / "poses.csv").write_text("t,x,y,z,rx,ry,rz\n" + "\n".join(rows) + "\n")
+    return HEAD + '[[move]]\ntype = "poses"\ncsv = "poses.csv"\n'
+
+
+@pytest.mark.parametrize("row,match", [
+    ("2,1e160,-0.15,0.95,0,0,0", r"poses.csv: line 4: x 1e\+160 m is beyond 10000 m"),
+    ("2,0.7,-0.15,-2e4,0,0,0", r"poses.csv: line 4: z 2e\+04 m is beyond 10000 m"),
+    ("2,0.7,-0.15,0.95,0,1e155,0", r"poses.csv: line 4: rx, ry, rz: the rotation's angle "
+                                   r"1e\+155 rad is beyond 10000 rad"),
+    ("2,0.7,-0.15,0.95,8e3,8e3,0", r"line 4: rx, ry, rz: the rotation's angle 1.13e\+04 rad"),
+])
+def test_a_pose_csv_beyond_the_bounds_names_its_line(tmp_path: Path, row: str,
+                                                     match: str) -> None:
+    start = "0,0.737246111104231,-0.15005,0.9566491675329917,0,0,0"
+    text = _pose_program(tmp_path, [start, "1,0.73,-0.15,0.95,0,0,0", row])
+    with pytest.raises(ProgramFileError, match=match):
+        _solved(text, tmp_path)
+
+
+@pytest.mark.parametrize("key,value", [("xyz", "[1e160, -0.15, 0.9]"),
+                                       ("via", "[0.5, 2e4, 0.9]")])
+def test_a_moves_point_beyond_the_bound_is_named(key: str, value: str) -> None:
+    move = ('[[move]]\ntype = "circular"\nxyz = [0.5, -0.1, 0.9]\nvia = [0.55, -0.12, 0.9]\n'
+            "speed = 0.1\nacceleration = 1.0\n")
+    move = move.replace(f"{key} = [", f"{key} = {value}\nold_{key} = [", 1)
+    move = "\n".join(line for line in move.splitlines() if not line.startswith("old_"))
+    with pytest.raises(ProgramFileError,
+                       match=rf"\[\[move\]\] 1 \(circular\): '{key}' .* m is beyond 10000 m"):
+        _solved(HEAD + move + "\n")
+
+
+def test_the_dwells_are_checked_in_blocks_between_stop_requests(monkeypatch) -> None:
+    """HOLD_ROWS rows at a time, a checkpoint before each block: the retimed program is the one
+    the unblocked check gives, and a stop request during the check ends it at the next block."""
+    core = importlib.import_module("mrnea.retime.core")
+    robot = mrnea.robots.puma560()
+    q = quintic(np.array([[0.0] * 6, [0.5] * 6]), 0.01, np.full(6, 0.5), np.full(6, 1.0),
+                dwell=np.array([2.0, 1.0]))[1]
+    whole = mrnea.retime(robot, q, dt=0.01)
+    sizes = []
+    real = core.actuator_mass_matrix_and_bias
+
+    def counted(robot, q, *args):
+        sizes.append(q.shape[0])
+        return real(robot, q, *args)
+
+    monkeypatch.setattr(core, "actuator_mass_matrix_and_bias", counted)
+    monkeypatch.setattr(core, "HOLD_ROWS", 16)
+    blocked = mrnea.retime(robot, q, dt=0.01)
+    assert np.array_equal(blocked.q_cmd, whole.q_cmd)
+    assert max(sizes) == 16 and sum(sizes) >= 300  # the 3 s of dwells, 16 rows at a time
+    calls = []
+
+    def stop_on_the_third_block() -> None:
+        calls.append(len(sizes))
+        if len(calls) > 1 and len(sizes) - first >= 3:
+            raise KeyboardInterrupt
+
+    sizes.clear()
+    first = 0
+    with pytest.raises(KeyboardInterrupt):
+        mrnea.retime(robot, q, dt=0.01, checkpoint=stop_on_the_third_block)
+    assert len(sizes) == 3  # stopped before the fourth block
