@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import importlib
+import math
 from pathlib import Path
 
 import numpy as np
@@ -121,3 +122,91 @@ def test_the_dwells_are_checked_in_blocks_between_stop_requests(monkeypatch) -> 
     with pytest.raises(KeyboardInterrupt):
         mrnea.retime(robot, q, dt=0.01, checkpoint=stop_on_the_third_block)
     assert len(sizes) == 3  # stopped before the fourth block
+
+
+# --- the library and sweep hunt -------------------------------------------------------------
+
+PICK = Path(__file__).resolve().parents[1] / "examples" / "puma_pick.toml"
+
+
+def test_a_time_scale_that_skips_the_path_is_refused_with_one_that_keeps_it() -> None:
+    """0.001 left the pick program two rows (start and end are one pose): it was 'achievable'
+    without moving. The refusal's factor keeps the path: the rows then
+    meet every program row within 1e-3 rad (checked here by NumPy's interpolation)."""
+    prog = mrnea.load_program(PICK)
+    with pytest.raises(mrnea.MrneaError, match=r"factor: 0.001 makes program 'puma_pick' too "
+                                               r"fast .* a factor of ([0-9.]+) or more"
+                       ) as e:
+        mrnea.sweep.time_scaled(prog, 1e-3)
+    keep = float(str(e.value).split("a factor of ")[1].split(" ")[0])
+    scaled = mrnea.sweep.time_scaled(prog, keep)
+    s = np.minimum(np.arange(scaled.q_cmd.shape[0]) * prog.dt / keep, prog.t[-1])
+    for j in range(6):
+        assert np.abs(np.interp(prog.t, s, scaled.q_cmd[:, j]) - prog.q_cmd[:, j]).max() <= 1e-3
+    assert mrnea.sweep.time_scaled(prog, 0.5).q_cmd.shape[0] == math.ceil(0.5 * (980 - 1)) + 1
+
+
+def test_sweep_grid_refusals_before_any_work(tmp_path: Path) -> None:
+    """A time scale that skips the path and a payload point beyond 1e4 m name the grid file;
+    an unknown robot is named as such (not as a mismatch); no output folder is made."""
+    import shutil
+    import subprocess
+    import sys
+
+    shutil.copy(PICK, tmp_path / "pick.toml")
+    cases = {"time_scale = [1e-3]": r"g.toml: grid entry 'time_scale' value 1 \(0.001\): factor",
+             "payload = [1]\npayload_point = [[1e300, 0, 0]]":
+                 r"g.toml: grid entry 'payload_point' value 1 .* is beyond 10000 m"}
+    for grid, match in cases.items():
+        (tmp_path / "g.toml").write_text(f'[sweep]\nrobot = "puma560"\nprograms = '
+                                         f'["pick.toml"]\n[grid]\n{grid}\n')
+        out = subprocess.run([sys.executable, "-m", "mrnea", "sweep", "--grid", "g.toml", "--out",
+                              "o", "-q"], cwd=tmp_path, capture_output=True, text=True,
+                             timeout=120)
+        assert out.returncode == 2, out.stderr
+        lines = out.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("mrnea: error: ")
+        import re
+        assert re.search(match, lines[0]), lines[0]
+        assert not (tmp_path / "o").exists()
+    (tmp_path / "g.toml").write_text('[sweep]\nrobot = "nosuch"\nprograms = ["pick.toml"]\n'
+                                     "[grid]\npayload = [1]\n")
+    out = subprocess.run([sys.executable, "-m", "mrnea", "sweep", "--grid", "g.toml", "--out",
+                          "o", "-q"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "'nosuch' is neither a built-in robot" in out.stderr
+
+
+def test_more_local_workers_than_memory_holds_are_refused_before_any_starts() -> None:
+    robot = mrnea.robots.puma560()
+    prog = mrnea.load_program(PICK)
+    with pytest.raises(mrnea.errors.SweepError,
+                       match=r"a local cluster of 100000000000000000000 worker processes needs "
+                             r"about .* of memory"):
+        mrnea.sweep(robot, [prog], {"payload": [0.0, 1.0]}, workers=10**20)
+
+
+def test_jerk_limits_too_small_are_a_jerk_limit_error(recwarn) -> None:
+    """1e-12 rad/s^3: the jerk-limited solve's speed was 0 everywhere and the next weights
+    1/0 (scipy's ValueError escaped, after two RuntimeWarnings)."""
+    robot, z = mrnea.robots.puma560(), np.zeros(6)
+    q = quintic([z, z + 0.3], dt=0.01, velocity_limit=1.0, acceleration_limit=2.0)[1]
+    for jerk in (1e-12, 1e-300):
+        with pytest.raises(mrnea.errors.JerkLimitError, match="jerk_limit: too small to plan"):
+            mrnea.retime(robot, q, dt=0.01, jerk_limit=np.full(6, jerk))
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
+@pytest.mark.parametrize("call,match", [
+    (lambda r: mrnea.jacobian(r, np.zeros(6), link=["link6"]),
+     r"^link: expected a link's or frame's name \(str\), got list \['link6'\]$"),
+    (lambda r: r.with_actuators(effort_limit=np.ones((6, 2))),
+     r"^with_actuators: effort_limit must be .* got ndarray array\(\[\[1\., 1\.\], \[1\.,"),
+    (lambda r: mrnea.simulate(r, np.zeros((3, 6)), 1e300),
+     r"^dt: must be a finite time step > 0 s and at most 1000 s, got 1e\+300$"),
+])
+def test_api_refusals_are_one_line_errors(call, match: str) -> None:
+    with pytest.raises(mrnea.MrneaError) as e:
+        call(mrnea.robots.puma560())
+    assert "\n" not in str(e.value)
+    import re
+    assert re.search(match, str(e.value)), str(e.value)

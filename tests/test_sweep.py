@@ -224,7 +224,7 @@ class _NoWork:
     ({"payload": [1]}, 42, ["programs", "42"]),
     ({"payload": [1]}, "/nonexistent/prog.toml", ["/nonexistent/prog.toml"]),
     ({"payload": [1]}, ["demo", "demo"], ["the same program given twice"]),
-    ({"time_scale": [1e-15]}, "demo", ["'time_scale' value 1e-15", "less than two cycles"]),
+    ({"time_scale": [1e-15]}, "demo", ["'time_scale' value 1 (1e-15)", "less than two cycles"]),
 ])
 def test_bad_input_before_any_work(grid, programs, words):
     with pytest.raises(mrnea.MrneaError) as info:

@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.compiled import BY_ID
-from mrnea.errors import StateError
+from mrnea.errors import StateError, quote
 from mrnea.kernels.aba import aba, aba_batch
 from mrnea.kernels.engines import (
     ENGINE_CRBA,
@@ -421,6 +421,9 @@ def _link_jacobian(robot: Robot, q: ArrayLike, point: ArrayLike | None,
     (``link_jacobian_ws``); a frame's point is moved into its link's frame first."""
     validate.require_robot(robot)
     frames = {f.name: (t, f.origin) for t, lk in enumerate(robot.links) for f in lk.frames}
+    if not isinstance(link, str):
+        raise StateError(f"link: expected a link's or frame's name (str), got "
+                         f"{type(link).__name__} {quote(link)}")
     if link not in robot.link_names and link not in frames:
         raise StateError(f"link: {link!r} is neither a link of robot '{robot.name}' (its links: "
                          f"{', '.join(robot.link_names)}) nor a frame fixed to one"

@@ -26,7 +26,8 @@ _REPR.maxlevel, _REPR.maxstring, _REPR.maxother = 3, QUOTE_LIMIT, QUOTE_LIMIT
 
 
 def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
-    """``repr(value)`` shortened to at most ``limit`` characters, ``...`` marking a cut.
+    """``repr(value)`` on one line, shortened to at most ``limit`` characters, ``...`` marking a
+    cut.
 
     Strings and bytes are cut before ``repr`` runs and containers are summarised
     (:mod:`reprlib`), so quoting a value of any size costs little.
@@ -42,6 +43,7 @@ def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
             text = _REPR.repr(value)
         except Exception:  # a user object whose __repr__ fails
             text = f"<{type(value).__name__}>"
+        text = " ".join(text.split())  # one line: an array's repr spans several
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 

@@ -40,11 +40,18 @@ def real(x: object, name: str) -> float:
     return float(x)
 
 
+#: The longest cycle time mrnea takes [s]: a controller's interpolation cycle is milliseconds;
+#: beyond this a time step is a unit mistake (a duration in ms given as s, ...) and the times
+#: it makes stop being readable numbers.
+MAX_DT = 1e3
+
+
 def time_step(dt: object, name: str = "dt") -> float:
-    """dt [s] as a float: a real, finite number > 0 (:func:`real`)."""
+    """dt [s] as a float: a real, finite number > 0 and at most :data:`MAX_DT` (:func:`real`)."""
     dt = real(dt, name)
-    if not (math.isfinite(dt) and dt > 0):
-        raise StateError(f"{name}: must be a finite time step > 0 s, got {dt}")
+    if not (math.isfinite(dt) and 0 < dt <= MAX_DT):
+        raise StateError(f"{name}: must be a finite time step > 0 s and at most {MAX_DT:g} s, "
+                         f"got {dt}")
     return dt
 
 

@@ -94,6 +94,7 @@ def _robot(cli: str | None, grid_robot: str | None, programs: list[Program],
     if not named:
         raise SweepError("no robot: give ROBOT, or 'robot' in the grid file's [sweep]")
     first_what, first = named[0]
+    robot = load_robot_spec(first, options=options.over(programs[0].options))  # one at all
     for what, src in named[1:]:
         if not same_robot(src, first):
             raise SweepError(f"{first_what} is {quote(first)} but {what} is {quote(src)}; a "
@@ -103,7 +104,6 @@ def _robot(cli: str | None, grid_robot: str | None, programs: list[Program],
             raise SweepError(f"programs {quote(programs[0].name)} and {quote(p.name)} change "
                              "the robot differently (actuators, tip, payload or gravity); a "
                              "sweep runs one robot")
-    robot = load_robot_spec(first, options=options.over(programs[0].options))
     for p in programs:
         p.check_path(robot)
     return robot

@@ -158,6 +158,8 @@ def jerk_profile(pc: PathCoefficients, q_sss: NDArray, rows: tuple[NDArray, NDAr
     grow = GROW
     dt_bar = 2 * np.diff(s) / np.maximum(sd_bar[1:] + sd_bar[:-1], 1e-300)
     for _ in range(ROUNDS):
+        if not sd_bar.max() > 0.0:  # the last solve's speed 0 everywhere: no motion fits
+            raise _too_small(jmax, "its path speed is 0 everywhere")
         Jm = _jerk_matrix(pc, q_sss, sd_bar, dt_bar, jmax)
         # the duration sum ds / sd, linearised in x at sd_bar: weights ds / sd_bar^3
         w = ds / np.maximum(sd_bar, FLOOR * sd_bar.max()) ** 3
@@ -166,12 +168,7 @@ def jerk_profile(pc: PathCoefficients, q_sss: NDArray, rows: tuple[NDArray, NDAr
         res = linprog(-w / w.max(), A_ub=A_ub, b_ub=b_ub,
                       bounds=np.stack([np.zeros_like(hi), sd_bar ** 2], 1), method="highs")
         if res.status != 0:  # x = 0 is feasible: only limits too small for HiGHS's tolerances
-            raise JerkLimitError(
-                f"too small to plan this path with (the smallest planning limit "
-                f"{jmax.min():.3g} [rad/s^3 | m/s^3], the jerk limits times the planning "
-                f"margin; the linear program of the jerk-limited "
-                f"path speed has no solution at HiGHS's tolerances: {res.message}); give "
-                f"larger jerk limits")
+            raise _too_small(jmax, f"it has no solution at HiGHS's tolerances: {res.message}")
         new = np.sqrt(np.maximum(res.x, 0.0))
         try:
             T = float(np.sum(interval_times(s, new, _accelerations(s, new))))
@@ -192,6 +189,15 @@ def jerk_profile(pc: PathCoefficients, q_sss: NDArray, rows: tuple[NDArray, NDAr
     if not math.isfinite(best):
         raise RetimeError("the jerk-limited path speed stops between two grid points")
     return sd, _accelerations(s, sd)
+
+
+def _too_small(jmax: NDArray, why: str) -> JerkLimitError:
+    """The error for jerk limits too small to plan a path with (``why``: what the linear
+    program of the jerk-limited path speed gave)."""
+    return JerkLimitError(
+        f"too small to plan this path with (the smallest planning limit {jmax.min():.3g} "
+        f"[rad/s^3 | m/s^3], the jerk limits times the planning margin; the linear program of "
+        f"the jerk-limited path speed: {why}); give larger jerk limits")
 
 
 def _accelerations(s: NDArray, sd: NDArray) -> NDArray:

@@ -65,10 +65,12 @@ from numpy.typing import NDArray
 
 from mrnea import validate
 from mrnea.errors import MrneaError, StateError, SweepError, listing, quote
+from mrnea.frozen import MAGNITUDES
 from mrnea.io.program import Program
 from mrnea.io.tomlcheck import did_you_mean
 from mrnea.model import Robot
 from mrnea.resources import require_memory
+from mrnea.retime.job import PATH_TOL
 
 __all__ = ["JOINT_PARAMETERS", "PARAMETERS", "check_grid", "time_scaled", "units", "variant"]
 
@@ -176,6 +178,9 @@ def _payload_point(value: Any) -> NDArray:
             isinstance(x, (bool, np.bool_)) for x in value):
         raise SweepError(f"grid entry 'payload_point': expected [x, y, z], three finite "
                          f"numbers [m], got {quote(value)}")
+    if np.abs(p).max() > MAGNITUDES["length"]:
+        raise SweepError(f"grid entry 'payload_point': {quote(value)} is beyond "
+                         f"{MAGNITUDES['length']:g} m, the largest length mrnea accepts")
     return p
 
 
@@ -275,6 +280,14 @@ def time_scaled(program: Program, factor: float) -> Program:
     Program
         A copy with ``t``, ``q_cmd`` (M, n), M = ceil(factor (K - 1)) + 1, and ``f_ext``
         replaced (read-only arrays).
+
+    Raises
+    ------
+    StateError
+        A factor that leaves fewer than two cycles, or whose rows, joined by straight lines,
+        leave the program's path by more than :data:`mrnea.retime.job.PATH_TOL` at one of its
+        rows (a faster program at the same dt skips its path: the message gives a factor that
+        keeps it), or whose rows would not fit in memory.
     """
     if not isinstance(program, Program):
         raise StateError(f"program: expected a mrnea.io.Program, got {type(program).__name__}")
@@ -285,23 +298,13 @@ def time_scaled(program: Program, factor: float) -> Program:
         return program
     q, dt = np.asarray(program.q_cmd, dtype=float), program.dt
     K = q.shape[0]
-    T = (K - 1) * dt
     M = _require_scaled_memory(program, f, StateError)
     if M < 2:
         raise StateError(f"factor: {f} leaves program {quote(program.name)} ({K} cycles) "
                          "less than two cycles")
-    s = np.minimum(np.arange(M) * dt / f, T)  # program-clock instants of the new rows
-    w = np.diff(q, axis=0) / dt  # (K - 1, n): velocity at mid-cycle (k + 1/2) dt
-    x = np.concatenate(([0.0], (np.arange(K - 1) + 0.5) * dt, [T]))  # velocity knots
-    v = np.concatenate((w[:1], w, w[-1:]))
-    h = np.diff(x)
-    Q = q[0] + np.concatenate((np.zeros((1, q.shape[1])),
-                               np.cumsum(0.5 * (v[:-1] + v[1:]) * h[:, None], axis=0)))
-    seg = np.clip(np.searchsorted(x, s, side="right") - 1, 0, len(h) - 1)
-    u = (s - x[seg])[:, None]
-    q_new = Q[seg] + v[seg] * u + (v[seg + 1] - v[seg]) * u**2 / (2 * h[seg, None])
-    q_new[0], q_new[-1] = q[0], q[-1]
+    s, q_new = _scaled_rows(q, dt, f, M)
     tk = np.arange(K) * dt
+    _require_resolution(program, f, q, s, q_new)
 
     def moved(f: NDArray) -> NDArray:  # a wrench (K, 6) at the new rows
         out = np.stack([np.interp(s, tk, f[:, c]) for c in range(6)], axis=1)
@@ -338,11 +341,76 @@ def _values(values: Sequence[Any]) -> list[Any]:
     return [v.tolist() if isinstance(v, np.ndarray) else v for v in values]
 
 
+def _scaled_rows(q: NDArray, dt: float, f: float, M: int) -> tuple[NDArray, NDArray]:
+    """The M rows of the program ``q`` (K, n) run ``f`` times slower (:func:`time_scaled`) and
+    the program instants [s] they are taken at (M,)."""
+    K = q.shape[0]
+    T = (K - 1) * dt
+    s = np.minimum(np.arange(M) * dt / f, T)  # program-clock instants of the new rows
+    w = np.diff(q, axis=0) / dt  # (K - 1, n): velocity at mid-cycle (k + 1/2) dt
+    x = np.concatenate(([0.0], (np.arange(K - 1) + 0.5) * dt, [T]))  # velocity knots
+    v = np.concatenate((w[:1], w, w[-1:]))
+    h = np.diff(x)
+    Q = q[0] + np.concatenate((np.zeros((1, q.shape[1])),
+                               np.cumsum(0.5 * (v[:-1] + v[1:]) * h[:, None], axis=0)))
+    seg = np.clip(np.searchsorted(x, s, side="right") - 1, 0, len(h) - 1)
+    u = (s - x[seg])[:, None]
+    q_new = Q[seg] + v[seg] * u + (v[seg + 1] - v[seg]) * u**2 / (2 * h[seg, None])
+    q_new[0], q_new[-1] = q[0], q[-1]
+    return s, q_new
+
+
+def _deviation(q: NDArray, dt: float, s: NDArray, q_new: NDArray) -> NDArray:
+    """(K, n) how far the rows ``q_new`` (at the program instants ``s``), joined by straight
+    lines, pass from each program row of ``q`` [rad | m]."""
+    tk = np.arange(q.shape[0]) * dt
+    return np.abs(np.stack([np.interp(tk, s, q_new[:, j]) for j in range(q.shape[1])],
+                           axis=1) - q)
+
+
+def _require_resolution(program: Program, f: float, q: NDArray, s: NDArray,
+                        q_new: NDArray) -> None:
+    """Refuse a factor whose rows skip the program's path: the scaled rows ``q_new`` (at the
+    program instants ``s``), joined by straight lines as the simulation and a controller take
+    them, must pass within :data:`mrnea.retime.job.PATH_TOL` of every program row ``q``. A
+    faster program (f < 1) has fewer rows. The factor the message suggests is found by the
+    chord's law, its error growing as 1 / f^2 (f <- f sqrt(error / tol), a few steps, each
+    checked: far below it rows skip whole features and the law alone undershoots)."""
+    if f >= 1.0:  # as many rows or more: every row is met within dt^2 |a| / 8 (docstring)
+        return
+    dt = program.dt
+    dev = _deviation(q, dt, s, q_new)
+    k, j = np.unravel_index(int(np.argmax(dev)), dev.shape)
+    if dev[k, j] <= PATH_TOL:
+        return
+    keep, err = f, float(dev[k, j])
+    for _ in range(8):
+        keep = min(1.0, 1.01 * keep * math.sqrt(err / PATH_TOL))
+        if keep == 1.0:
+            break
+        err = float(_deviation(q, dt, *_scaled_rows(q, dt, keep, _rows(q.shape[0], keep))
+                               ).max())
+        if err <= PATH_TOL:
+            break
+    step = 10.0 ** (math.floor(math.log10(keep)) - 2)
+    keep = math.ceil(keep / step) * step  # three digits, rounded up: the one shown keeps it
+    raise StateError(
+        f"factor: {f:g} makes program {quote(program.name)} too fast for its cycle "
+        f"dt = {dt:g} s: the scaled rows, joined by straight lines, leave its path by "
+        f"{dev[k, j]:.3g} at joint {j + 1} (t = {k * dt:.4g} s of the program), more than "
+        f"{PATH_TOL:g} rad | m; a factor of {keep:.3g} or more keeps it")
+
+
+def _rows(K: int, factor: float) -> int:
+    """The rows of a program of K rows run ``factor`` times slower (:func:`time_scaled`)."""
+    return math.ceil(factor * (K - 1) - 1e-9) + 1
+
+
 def _require_scaled_memory(program: Program, factor: float, error: type[MrneaError]) -> int:
     """The rows M of ``time_scaled(program, factor)``, once the memory it allocates (about
     8 M (4 n + 8) bytes) is known to be there, else ``error``."""
     K, n = program.q_cmd.shape
-    M = math.ceil(factor * (K - 1) * program.dt / program.dt - 1e-9) + 1
+    M = _rows(K, factor)
     require_memory(8.0 * M * (4 * n + 8), f"time-scaling program {quote(program.name)} by "
                    f"{factor:g} ({M:.3g} cycles)", "use a smaller time_scale or a coarser dt",
                    error)
@@ -369,9 +437,9 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False,
     The grid's size is checked first (lengths only: a list of 10^7 values is refused by the
     memory its rows would take in about a second, before any value is looked at); then every
     value is tried alone on the robot (``variant(robot, **{key: value})``), so a value the
-    robot cannot take is reported with its grid entry and position; then the memory each
-    program needs at each ``time_scale``. Combinations that fail later become rows with an
-    error.
+    robot cannot take is reported with its grid entry and position; then each program at each
+    ``time_scale`` (:func:`time_scaled`: its memory, at least two cycles, its path kept at the
+    same dt). Combinations that fail later become rows with an error.
 
     Parameters
     ----------
@@ -381,8 +449,7 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False,
     zip : bool
         Take the lists in step (all of one length) instead of their product.
     programs : sequence of Program
-        The sweep's programs, for the memory each ``time_scale`` makes them take (none: not
-        checked).
+        The sweep's programs, each checked at each ``time_scale`` (none: not checked).
 
     Returns
     -------
@@ -431,9 +498,9 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False,
     _joint_values(robot, {key: lists[key][0] for key in keys})  # conflicting limit keys
     for k, value in enumerate(lists.get("time_scale", ())):  # each program at each scale
         for prog in programs:
-            try:
-                _require_scaled_memory(prog, float(value), SweepError)
-            except SweepError as exc:
+            try:  # its memory, its cycles, its path kept (time_scaled's own checks)
+                time_scaled(prog, float(value))
+            except MrneaError as exc:
                 raise SweepError(f"grid entry 'time_scale' value {k + 1} ({quote(value)}): "
                                  f"{exc}") from None
     combos = builtins.zip(*lists.values(), strict=True) if zip else itertools.product(
