@@ -131,9 +131,18 @@ def _positive(check: TomlCheck, table: Mapping[str, Any], key: str, where: str,
     return v
 
 
+def _as_q0(check: TomlCheck, value: Any, where: str, key: str, n: int | None) -> None:
+    """A move's array of one value per joint against ``[program] q0``'s n (the robot is not
+    known yet: either may be the wrong one, so the message names both)."""
+    if n is not None and isinstance(value, list) and value and len(value) != n:
+        raise check.error(where, f"'{key}' has {len(value)} values but [program] q0 has {n}; "
+                                 f"both give one per joint of the robot")
+
+
 def _per_joint(check: TomlCheck, value: Any, where: str, key: str, n: int | None
                ) -> NDArray | dict[str, float]:
     """A joint move's limit: an (n,) array, a table by joint name or one number (0-d)."""
+    _as_q0(check, value, where, key, n)
     if isinstance(value, dict):
         a = number_table(check, value, where, key, 1.0, allow_inf=True)
     else:
@@ -149,6 +158,7 @@ def _per_joint(check: TomlCheck, value: Any, where: str, key: str, n: int | None
 def _joints(check: TomlCheck, value: Any, where: str, key: str, n: int | None
             ) -> NDArray | dict[str, float]:
     """Joint positions: an array of n, or a table by joint name."""
+    _as_q0(check, value, where, key, n)
     if isinstance(value, dict):
         return number_table(check, value, where, key, 1.0)
     return check.vector(value, where, key, n)
