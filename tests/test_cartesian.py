@@ -291,7 +291,8 @@ def test_joint_limit_crossed_on_a_linear_move(tmp_path):
     ('[[move]]\ntype = "linear"\nxyz = [0.4, 0.1, 0.3]\nspeed = -1\nacceleration = 1.0\n',
      ["[[move]] 1 (linear)", "'speed' must be > 0"]),
     ('[[move]]\ntype = "joint"\ntarget = [0, 0, 0]\nvelocity_limit = 1\n'
-     'acceleration_limit = 1\n', ["[[move]] 1 (joint)", "'target' has 3 values but [program] q0 has 6"]),
+     'acceleration_limit = 1\n', ["[[move]] 1 (joint)",
+                                   "'target' has 3 values but [program] q0 has 6"]),
 ])
 def test_bad_moves_are_one_error_line(tmp_path, moves, words):
     path, _, _ = _ur5()
