@@ -15,6 +15,10 @@ from __future__ import annotations
 
 import importlib
 import math
+import re
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -149,10 +153,6 @@ def test_a_time_scale_that_skips_the_path_is_refused_with_one_that_keeps_it() ->
 def test_sweep_grid_refusals_before_any_work(tmp_path: Path) -> None:
     """A time scale that skips the path and a payload point beyond 1e4 m name the grid file;
     an unknown robot is named as such (not as a mismatch); no output folder is made."""
-    import shutil
-    import subprocess
-    import sys
-
     shutil.copy(PICK, tmp_path / "pick.toml")
     cases = {"time_scale = [1e-3]": r"g.toml: grid entry 'time_scale' value 1 \(0.001\): factor",
              "payload = [1]\npayload_point = [[1e300, 0, 0]]":
@@ -166,7 +166,6 @@ def test_sweep_grid_refusals_before_any_work(tmp_path: Path) -> None:
         assert out.returncode == 2, out.stderr
         lines = out.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("mrnea: error: ")
-        import re
         assert re.search(match, lines[0]), lines[0]
         assert not (tmp_path / "o").exists()
     (tmp_path / "g.toml").write_text('[sweep]\nrobot = "nosuch"\nprograms = ["pick.toml"]\n'
@@ -208,5 +207,76 @@ def test_api_refusals_are_one_line_errors(call, match: str) -> None:
     with pytest.raises(mrnea.MrneaError) as e:
         call(mrnea.robots.puma560())
     assert "\n" not in str(e.value)
-    import re
     assert re.search(match, str(e.value)), str(e.value)
+
+
+# --- the command's entry point ----------------------------------------------------------------
+
+def _launch(code: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_a_stop_while_python_imports_mrnea_is_a_stop_not_a_traceback() -> None:
+    """Ctrl-C in the half second the imports take (here raised by the import of mrnea.cli
+    itself): one line, exit 130, as any stop before the work."""
+    out = _launch("import builtins, sys\n"
+                  "real = builtins.__import__\n"
+                  "def imp(name, *a, **k):\n"
+                  "    if name == 'mrnea.cli':\n"
+                  "        raise KeyboardInterrupt\n"
+                  "    return real(name, *a, **k)\n"
+                  "builtins.__import__ = imp\n"
+                  "sys.argv = ['mrnea', 'info', 'puma560']\n"
+                  "import mrnea_launcher\n"
+                  "mrnea_launcher.main()\n")
+    assert out.returncode == 130 and out.stderr == "mrnea: interrupted\n" and out.stdout == ""
+
+
+def test_a_signal_after_the_answer_leaves_its_exit_code() -> None:
+    """SIGINT and SIGTERM sent once the command returned (here from an exit handler, in the
+    interpreter's teardown): the answer printed and its exit code 0 stand (it was 130)."""
+    for sig in ("SIGINT", "SIGTERM"):
+        out = _launch("import atexit, os, signal, sys\n"
+                      f"atexit.register(lambda: os.kill(os.getpid(), signal.{sig}))\n"
+                      "sys.argv = ['mrnea', 'info', 'puma560']\n"
+                      "import mrnea_launcher\n"
+                      "mrnea_launcher.main()\n")
+        assert out.returncode == 0, (sig, out.returncode, out.stderr)
+        assert "joint1" in out.stdout and out.stderr == ""
+
+
+@pytest.mark.parametrize("at", ["sizing", "writing"])
+def test_size_stopped_writes_nothing(monkeypatch, tmp_path: Path, at: str) -> None:
+    """A stop request during the sizing (taken when it ends) or while its files are written
+    (after summary.json's contents are made): exit 130, 'mrnea: interrupted', no file left,
+    nothing printed on stdout (it had exited 0 with every file written)."""
+    from click.testing import CliRunner
+    from test_sizing import CATALOGUE, arm
+
+    import mrnea.sizing
+    import mrnea.sizing.output
+    from mrnea.cli import base, main
+
+    arm().to_toml(tmp_path / "arm.toml")
+    (tmp_path / "swing.toml").write_text(
+        '[program]\nname = "swing"\nrobot = "arm.toml"\ndt = 0.01\n[path]\nprofile = '
+        '"trapezoidal"\nwaypoints = [[-0.3, 0.0], [0.6, 1.0], [-0.3, 0.0]]\n'
+        "velocity_limit = [1.5, 1.5]\nacceleration_limit = [5.0, 5.0]\n")
+    (tmp_path / "cat.toml").write_text(CATALOGUE)
+    module, name = ((mrnea.sizing, "size_drives") if at == "sizing"
+                    else (mrnea.sizing.output, "sizing_summary"))
+    real = getattr(module, name)
+
+    def then_stop(*args, **kw):
+        out = real(*args, **kw)
+        base._request_stop(15, None)
+        return out
+
+    monkeypatch.setattr(module, name, then_stop)
+    monkeypatch.chdir(tmp_path)
+    res = CliRunner().invoke(main, ["size", "arm.toml", "swing.toml", "--catalogue", "cat.toml",
+                                    "--out", "out"])
+    assert res.exit_code == 130, res.output
+    assert res.stdout == "" and "mrnea: interrupted" in res.stderr
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

@@ -1,5 +1,5 @@
-"""``python -m mrnea``: the same as the ``mrnea`` command."""
+"""``python -m mrnea``: the same as the ``mrnea`` command (its entry point, mrnea_launcher)."""
 
-from mrnea.cli import main
+from mrnea_launcher import main
 
 main()

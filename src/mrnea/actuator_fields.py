@@ -49,7 +49,7 @@ ACTUATOR_FIELDS = (
                   "(peak, corner_speed, no_load_speed), joint side: above the corner speed "
                   "the effort limit falls (None, '-' in tables: a constant limit)"),
     ActuatorField("efficiency", "eta", "-",
-                  "gear efficiency in (0, 1]: one value, or two (driving, back-driven); the "
+                  "gear efficiency in [0.01, 1]: one value, or two (driving, back-driven); the "
                   "limit is eta times the effort limit driving, 1 / eta times it back-driven"),
 )
 GEAR_RANGE = (1e-6, 1e6)  # motor turns per joint turn; beyond it tau / G and G^2 J_m overflow
@@ -68,16 +68,22 @@ def _coulomb(value: object, what: str) -> float | tuple[float, float]:
     return p if p == m else (p, m)
 
 
+#: The smallest gear efficiency mrnea takes: below 1 % a gear delivers next to nothing and the
+#: drive law's tau / eta runs out of every bound (1e-300 gave a 300-digit effort ratio).
+EFFICIENCY_MIN = 0.01
+
+
 def _efficiency(value: object, what: str) -> float | tuple[float, float]:
-    """Gear efficiency: a value in (0, 1], or two ``(driving, back-driven)``; an equal pair is
-    stored as one number."""
+    """Gear efficiency: a value in [:data:`EFFICIENCY_MIN`, 1], or two ``(driving,
+    back-driven)``; an equal pair is stored as one number."""
     pair = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value, value]
     if len(pair) != 2:
         raise ModelError(f"{what}: efficiency must be a number or two, [driving, back-driven], "
                          f"got {value!r}")
     d, b = (real_number(v, f"{what}: efficiency") for v in pair)
-    if not (0.0 < d <= 1.0 and 0.0 < b <= 1.0):
-        raise ModelError(f"{what}: efficiency must be in (0, 1], got {value!r}")
+    if not (EFFICIENCY_MIN <= d <= 1.0 and EFFICIENCY_MIN <= b <= 1.0):
+        raise ModelError(f"{what}: efficiency must be in [{EFFICIENCY_MIN:g}, 1], got "
+                         f"{quote(value)}")
     return d if d == b else (d, b)
 
 

@@ -26,7 +26,7 @@ Conventions (the same as URDF's, so URDF files map one to one):
   limit is ``peak`` up to the corner speed, then the smaller of constant power
   ``peak * corner / |qd|`` and the straight line from ``(corner, peak)`` down to zero at the
   no-load speed; zero beyond it. With a curve, ``effort_limit`` equals ``peak``.
-* ``efficiency`` η of the gear (one value in (0, 1], or two, ``(driving, back-driven)``).
+* ``efficiency`` η of the gear (one value in [0.01, 1], or two, ``(driving, back-driven)``).
   ``effort_limit`` and the curve are the ideal gear's, G times the motor's; the drive gives
   η times them while it delivers power (effort and speed of the same sign, or at rest) and
   1/η times them while the load drives it back (docs/achievable.md, kernels/drive.py).
@@ -377,7 +377,7 @@ class Robot(Frozen):
         ``rotor_inertia``, ``viscous_friction``, ``coulomb_friction``: each a scalar (all joints)
         or an ``(n,)`` sequence (per joint, root to tip); ``coulomb_friction`` also an ``(n, 2)``
         array, or a sequence of n entries each a number or a pair ``[positive direction,
-        negative direction]`` (asymmetric friction); ``efficiency`` likewise (one value in (0, 1]
+        negative direction]`` (asymmetric friction); ``efficiency`` likewise (one value in [0.01, 1]
         for all joints, n of them, or n entries each a number or a pair ``[driving,
         back-driven]``). ``effort_limit`` sets a constant limit
         at every speed and removes any torque-speed curve. ``torque_speed`` sets curves: one

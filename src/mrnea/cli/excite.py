@@ -99,7 +99,7 @@ def _limit(value: tuple[float, ...] | None, option: str, n: int) -> Any:
 @click.option("--base-frequency", type=POSITIVE, default=0.1, show_default=True, metavar="HZ",
               help="Base frequency f of the Fourier series [Hz]; the period is 1/f.")
 @click.option("--harmonics", type=click.IntRange(2), default=5, show_default=True, metavar="L",
-              help="Harmonics per joint (the highest at L f).")
+              help="Harmonics per joint (the highest at L f), at most 20.")
 @click.option("--duration", type=POSITIVE, default=None, metavar="SECONDS",
               help="Length [s], a whole number of periods [default: one period].")
 @click.option("--dt", type=POSITIVE, default=0.005, show_default=True, metavar="SECONDS",

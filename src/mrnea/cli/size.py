@@ -5,7 +5,9 @@ ROBOT is optional (a built-in name, a URDF or a ``.toml`` robot file); without i
 the first program names. PROGRAMs are program files (``demo``: the SDT demo's training
 profile); the duty cycle runs them in turn, then ``--dwell`` seconds at rest. Everything is
 read and checked before any work (the catalogue: one error naming the entry and the field); the
-output files are never replaced without ``--force``.
+output files are never replaced without ``--force``. A stop request (Ctrl-C, SIGTERM) during the
+sizing is taken when it ends, and between the files: the files written are removed again,
+nothing is printed, exit 130.
 
 Writes into DIR ``sizing.csv`` (one row per joint x combination), ``chosen_drives.toml`` (a
 sidecar actuator file), ``sized_robot.toml`` (the robot with the drives and their masses, a
@@ -25,7 +27,15 @@ import click
 
 from mrnea import validate
 from mrnea.cli import ahead
-from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, compile_notice, fresh_dir, main
+from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
+    checkpoint,
+    compile_notice,
+    fresh_dir,
+    last_checkpoint,
+    main,
+)
 from mrnea.cli.options import FOLDER, force_opt, load_robot_arg, quiet_opt, robot_options
 from mrnea.cli.sweep import _is_robot
 from mrnea.errors import SizingError
@@ -35,6 +45,37 @@ from mrnea.io.writer import check_new, create, own_folder
 from mrnea.robots.sdt_profile import training_program
 
 FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json", "sizing.html")
+
+
+def _write(res, folder: Path, force: bool) -> None:
+    """The sizing's files, a stop request taken before each: on a stop the files this run
+    wrote are removed (all of them or none), and the command exits 130."""
+    from mrnea.sizing.html import sizing_html
+    from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
+
+    def text(path: Path, make) -> None:
+        with create(path, force) as fh:
+            fh.write(make())
+
+    steps = [(folder / "sizing.csv", lambda p: text(p, lambda: sizing_table(res).to_csv(
+        index=False)))]
+    if res.sized is not None:
+        steps += [(folder / "chosen_drives.toml", lambda p: text(p, lambda: chosen_toml(res))),
+                  (folder / "sized_robot.toml", lambda p: res.sized.to_toml(p, overwrite=force))]
+    steps += [(folder / "summary.json", lambda p: text(p, lambda: json.dumps(
+                  sizing_summary(res), indent=2, allow_nan=False) + "\n")),
+              (folder / "sizing.html", lambda p: sizing_html(res, p, overwrite=force))]
+    written: list[Path] = []
+    try:
+        for path, write in steps:
+            checkpoint()
+            write(path)
+            written.append(path)
+        checkpoint()
+    except KeyboardInterrupt:
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
 
 
 @main.command()
@@ -69,8 +110,6 @@ def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: s
     the best by the objective is verified by simulating the sized robot.
     """
     from mrnea.sizing import load_catalogue, size_drives
-    from mrnea.sizing.html import sizing_html
-    from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
 
     robot_arg = args[0] if args and _is_robot(args[0]) else None
     names = list(args[1:] if robot_arg is not None else args)
@@ -97,16 +136,8 @@ def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: s
         with compile_notice(quiet):
             res = size_drives(robot, programs, cat, joints=wanted, objective=objective,
                               dwell=dwell, drive_mass=not no_drive_mass, scheduler=scheduler)
-        with create(folder / "sizing.csv", force) as fh:
-            sizing_table(res).to_csv(fh, index=False)
-        if res.sized is not None:
-            with create(folder / "chosen_drives.toml", force) as fh:
-                fh.write(chosen_toml(res))
-            res.sized.to_toml(folder / "sized_robot.toml", overwrite=force)
-        with create(folder / "summary.json", force) as fh:
-            json.dump(sizing_summary(res), fh, indent=2, allow_nan=False)
-            fh.write("\n")
-        sizing_html(res, folder / "sizing.html", overwrite=force)
+        _write(res, folder, force)
+    last_checkpoint()
     if not quiet:
         for line in res.lines():
             click.echo(line)

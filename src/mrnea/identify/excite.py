@@ -72,6 +72,11 @@ from mrnea.simulate import simulate
 UNLIMITED_SPAN = math.pi  # [rad | m] the position range +-span of a joint without limits
 BISECTIONS = 30  # steps of the bisection on the scale s for the efforts
 MAX_CYCLES = 10_000_000  # rows of a program, at most (about 0.5 GB for 6 joints)
+#: The most harmonics per joint: the search's SLSQP is dense in the n (2 L - 1) coefficients
+#: (its step costs their cube). A first `mrnea excite puma560` took 17 s at 10 harmonics and
+#: 109 s at 20 on the 2-core machine; at 100 one SLSQP iteration took minutes, and a stop
+#: request waited for it (session 41).
+MAX_HARMONICS = 20
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,7 +290,7 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     robot : a serial chain; its position limits (a joint without: +-pi rad or m about 0), its
         inertial and drive parameters (the criterion's regressor, the efforts) and effort limits.
     base_frequency : f [Hz] of the Fourier series; the period is 1 / f.
-    harmonics : L >= 2, the harmonics per joint (the highest at L f).
+    harmonics : 2 <= L <= :data:`MAX_HARMONICS`, the harmonics per joint (the highest at L f).
     duration : [s], a whole number of periods; None: one period.
     dt : the program's cycle time [s]; the period must be a whole number of cycles, at least
         10 L of them.
@@ -309,6 +314,9 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     if not (math.isfinite(f) and f > 0):
         raise StateError(f"base_frequency: must be a finite frequency > 0 Hz, got {f}")
     L = _count(harmonics, "harmonics", 2)
+    if L > MAX_HARMONICS:
+        raise StateError(f"harmonics: at most {MAX_HARMONICS} (the search's cost grows as the "
+                         f"cube of the coefficients, n (2 L - 1)), got {L}")
     dt = validate.time_step(dt)
     period = 1.0 / f
     duration = period if duration is None else validate.real(duration, "duration")

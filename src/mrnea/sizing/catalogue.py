@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mrnea.actuator_fields import GEAR_RANGE
+from mrnea.actuator_fields import EFFICIENCY_MIN, GEAR_RANGE
 from mrnea.errors import SizingError, quote
 from mrnea.frozen import MAGNITUDES
 from mrnea.io.tomlcheck import TomlCheck, read_text
@@ -208,9 +208,9 @@ def _efficiency(check: TomlCheck, e: Mapping[str, Any], where: str) -> tuple[flo
     v = e["efficiency"]
     pair = (check.vector(v, where, "efficiency", 2).tolist() if isinstance(v, list)
             else [check.number(v, where, "efficiency")] * 2)
-    if not all(0.0 < x <= 1.0 for x in pair):
-        raise check.error(where, f"'efficiency' must be in (0, 1] (one value, or [driving, "
-                                 f"back-driven]), got {quote(v)}")
+    if not all(EFFICIENCY_MIN <= x <= 1.0 for x in pair):
+        raise check.error(where, f"'efficiency' must be in [{EFFICIENCY_MIN:g}, 1] (one value, "
+                                 f"or [driving, back-driven]), got {quote(v)}")
     return (float(pair[0]), float(pair[1]))
 
 

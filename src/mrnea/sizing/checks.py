@@ -125,8 +125,16 @@ def judge(trains: list[Train], duty: Duty) -> Judged:
     return Judged(ratios, ratios.max(axis=1), tau, motor, rms, rms_speed)
 
 
+def times(ratio: float, check: str) -> str:
+    """A need against a check's rating in words: ``"1.3 x its RMS rating"``; an infinite ratio
+    (the rating is 0 where the need is not: above the motor's no-load speed) says so."""
+    if np.isfinite(ratio):
+        return f"{ratio:.3g} x {CHECKS[check]}"
+    return f"beyond {CHECKS[check]}, which gives nothing where it is needed"
+
+
 def reason(ratios: NDArray) -> str:
     """Why a train fails (every check over 1, worst first), or "" if it passes."""
     over = sorted(((r, k) for k, r in zip(CHECKS, ratios.tolist(), strict=True) if r > 1.0),
                   reverse=True)
-    return "; ".join(f"{r:.3g} x {CHECKS[k]}" for r, k in over)
+    return "; ".join(times(r, k) for r, k in over)

@@ -51,7 +51,7 @@ from mrnea.rigid import combine_inertials
 from mrnea.robots.sdt_profile import training_program
 from mrnea.simulate import SimulationResult, simulate
 from mrnea.sizing.catalogue import Catalogue, Train, load_catalogue
-from mrnea.sizing.checks import CHECKS, Duty, Judged, judge
+from mrnea.sizing.checks import CHECKS, Duty, Judged, judge, times
 from mrnea.sweep.cluster import client as cluster_client
 
 OBJECTIVES = ("mass", "price", "margin")
@@ -94,8 +94,7 @@ class JointSizing:
         k = int(np.argmax(r))
         what = list(CHECKS)[k]
         if self.chosen is None:
-            return (f"no motor fits {self.joint}: best {t.name} reaches {r[k]:.3g} x "
-                    f"{CHECKS[what]}")
+            return f"no motor fits {self.joint}: best {t.name} reaches {times(r[k], what)}"
         return (f"{self.joint}: {t.name} (worst ratio {r[k]:.3g}, {what}; "
                 f"margin {1 - r[k]:.1%})")
 
@@ -327,6 +326,10 @@ def size_drives(
         if nm not in robot.joint_names:
             raise SizingError(f"joints: no joint named {quote(nm)} in robot "
                               f"{quote(robot.name)}; its joints: {listing(robot.joint_names)}")
+    twice = sorted({nm for nm in names if names.count(nm) > 1}, key=names.index)
+    if twice:
+        raise SizingError(f"joints: {listing(map(quote, twice))} given twice; name each joint "
+                          "once")
     if not names:
         raise SizingError("joints: no joint to size")
     sized = [robot.joint_names.index(nm) for nm in names]

@@ -39,7 +39,8 @@ def sizing_table(result: SizingResult) -> pd.DataFrame:
     price, each check's ratio (``<check>_ratio``, need / rating), ``worst_ratio``, ``margin``
     (1 - worst), ``status`` (chosen, passes, rejected), ``rank`` (1 = chosen, among the passing
     ones by the objective; empty for the rejected) and ``reason`` (the failed checks, worst
-    first)."""
+    first). A ratio whose rating is 0 where it is needed (above a motor's no-load speed) is
+    empty, as its margin: the reason says why."""
     import pandas as pd
 
     rows = []
@@ -50,9 +51,10 @@ def sizing_table(result: SizingResult) -> pd.DataFrame:
             rows.append({"joint": js.joint, "drive": t.name, "motor": t.motor.name,
                          "gearbox": t.gearbox.name, "ratio": t.gearbox.ratio, "mass": t.mass,
                          "price": t.price,
-                         **{f"{k}_ratio": float(v) for k, v in zip(CHECKS, r, strict=True)},
-                         "worst_ratio": float(js.judged.worst[c]),
-                         "margin": 1.0 - float(js.judged.worst[c]),
+                         **{f"{k}_ratio": _none(float(v)) for k, v in zip(CHECKS, r,
+                                                                            strict=True)},
+                         "worst_ratio": _none(float(js.judged.worst[c])),
+                         "margin": _none(1.0 - float(js.judged.worst[c])),
                          "status": _status(js, c), "rank": rank.get(c), "reason": reason(r)})
     df = pd.DataFrame(rows)
     df["rank"] = df["rank"].astype("Int64")

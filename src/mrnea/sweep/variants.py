@@ -17,7 +17,7 @@ Parameters (a grid key is ``param`` for every joint or ``param.<joint>`` for one
 ``viscous_friction``   joint   F_v [N m s/rad | N s/m], joint side
 ``coulomb_friction``   joint   F_s [N m | N], joint side
 ``velocity_limit``     joint   the joint's speed limit [rad/s | m/s]
-``efficiency``         joint   the gear's efficiency eta in (0, 1], driving and back-driven
+``efficiency``         joint   the gear's efficiency eta in [0.01, 1], driving and back-driven
                                alike (a [driving, back-driven] pair: the robot's own file)
 ``time_scale``         program the program's duration x this factor (2: twice as slow)
 ====================== ======= ==========================================================

@@ -1,0 +1,27 @@
+"""The ``mrnea`` command's entry point ([project.scripts] in pyproject.toml; ``python -m mrnea``).
+
+A module of its own, outside the ``mrnea`` package: importing the package (NumPy, Numba, the
+kernels' modules) takes about half a second, and a Ctrl-C then would end the command with a
+traceback through the imports. Here it ends as a stop request before any work does:
+``mrnea: interrupted`` on stderr, exit 130, nothing written (mrnea.cli.base). Once the command
+has returned (its answer given, its exit code set), SIGINT and SIGTERM are ignored for the rest
+of the interpreter's teardown: a signal there had turned an answer already printed into exit
+130 (or 143).
+"""
+
+import signal
+import sys
+
+
+def main() -> None:
+    """Import the command (:data:`mrnea.cli.main`) and run it."""
+    try:
+        from mrnea.cli import main as command
+    except KeyboardInterrupt:
+        sys.stderr.write("mrnea: interrupted\n")
+        raise SystemExit(130) from None
+    try:
+        command()
+    finally:  # the command's exit code is set: nothing may change it now
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
