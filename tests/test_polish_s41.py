@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 import math
 import re
 import shutil
@@ -280,3 +281,51 @@ def test_size_stopped_writes_nothing(monkeypatch, tmp_path: Path, at: str) -> No
     assert res.exit_code == 130, res.output
     assert res.stdout == "" and "mrnea: interrupted" in res.stderr
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+# --- a robot that runs away is a verdict ------------------------------------------------------
+
+def test_a_robot_thrown_by_a_wrench_runs_away_as_a_verdict() -> None:
+    """A 1e6 N force on the Puma 560's flange, 4,800 times what joint 3 holds: the simulated
+    robot accelerates without bound (the run had ended with 'the state became non-finite',
+    exit 2). The run stops at the first cycle faster than RUNAWAY_SPEED: its cycles are those
+    before it, every number finite, the summary valid, the verdict NOT ACHIEVABLE saying when.
+    At 1e4 N the drives saturate and the robot sags, but it does not run away."""
+    from test_summary_schema import valid
+
+    from mrnea.simulate import RUNAWAY_SPEED
+
+    robot = mrnea.robots.puma560()
+    q = quintic(np.array([[0.0] * 6, [1.0] + [0.0] * 5]), 0.005, np.ones(6), np.ones(6))[1]
+    res = mrnea.simulate(robot, q, 0.005, f_ext=np.array([1e6, 0, 0, 0, 0, 0]))
+    assert res.completed and res.achievable is False and res.runaway_time is not None
+    assert 0 < res.K < q.shape[0] and res.runaway_time == pytest.approx(res.K * 0.005)
+    assert np.abs(res.qd).max() <= RUNAWAY_SPEED
+    for name in ("q", "qd", "qdd", "tau", "tau_required", "reaction", "program_effort"):
+        assert np.isfinite(getattr(res, name)).all(), name
+    s = valid(res.summary())
+    assert s["runaway_time"] == res.runaway_time and s["cycles"] == res.K
+    assert re.fullmatch(r"NOT ACHIEVABLE: joint3 needs .* at t = [0-9.]+ s \(first over the "
+                        r"limit at t = 0\.000 s\); the simulated robot ran away at t = "
+                        rf"{res.runaway_time:.3f} s \(its speed grew without bound: the drives "
+                        r"cannot hold it\) and the run stops there", res.verdict())
+    assert res.final_position_line() is None
+    sagged = mrnea.simulate(robot, q, 0.005, f_ext=np.array([1e4, 0, 0, 0, 0, 0]))
+    assert sagged.runaway_time is None and sagged.K == q.shape[0] and not sagged.achievable
+    assert valid(sagged.summary())["runaway_time"] is None
+
+
+def test_a_run_away_on_the_command_line_is_exit_1_with_whole_files(tmp_path: Path) -> None:
+    (tmp_path / "thrown.toml").write_text(
+        '[program]\nrobot = "puma560"\ndt = 0.005\n[path]\nprofile = "trapezoidal"\n'
+        "waypoints = [[0, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0, 0]]\nvelocity_limit = 1\n"
+        "acceleration_limit = 1\n[wrench]\ntimes = [0]\nvalues = [[1e6, 0, 0, 0, 0, 0]]\n")
+    out = subprocess.run([sys.executable, "-m", "mrnea", "simulate", "thrown.toml", "--out", "o",
+                          "--no-3d"], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 1, out.stderr
+    assert "the simulated robot ran away at t = " in out.stdout
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    rows = (tmp_path / "o" / "cycles.csv").read_text().splitlines()
+    assert len(rows) == 1 + summary["cycles"] and summary["runaway_time"] > 0
+    assert not re.search(r"(?i)\b(inf|nan)\b", "\n".join(rows[1:]))
+    assert "the robot ran away" in (tmp_path / "o" / "report.html").read_text()

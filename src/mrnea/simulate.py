@@ -39,7 +39,7 @@ from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
 from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.solve import cholesky_solve
-from mrnea.kernels.status import OK
+from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 from mrnea.model import Robot
 from mrnea.resources import require_memory
 from mrnea.summary import start_violations, summarize, verdict
@@ -53,6 +53,9 @@ if TYPE_CHECKING:
 TRACKING_RESOLUTION = 1e-12
 FD_ENGINES = {"mrnea": ENGINE_MRNEA, "walker_orin": ENGINE_WALKER_ORIN, "crba": ENGINE_CRBA}
 CHUNK = 2000  # cycles per compiled call: the progress callback runs between chunks
+#: A joint speed [rad/s | m/s] no machine comes near: a simulated robot beyond it has run away
+#: (:attr:`SimulationResult.runaway_time`), well before its numbers overflow.
+RUNAWAY_SPEED = 1e6
 
 
 @dataclass(frozen=True)
@@ -90,6 +93,11 @@ class SimulationResult:
         times ``max(1, max |q_cmd|)`` of its joint.
     completed : False if the run was interrupted; the arrays then hold the cycles done (K of
         them) and the run is never reported achievable (see :attr:`achievable`).
+    runaway_time : the time [s] at which the simulated robot ran away: a joint's speed passed
+        :data:`RUNAWAY_SPEED`, or its state overflowed (a wrench or a load far beyond what the
+        drives hold accelerates it without bound; the rigid-body motion itself diverges). The
+        run stops there: the arrays hold the K cycles before it, and the run is NOT ACHIEVABLE
+        (a verdict, not an error). None: it did not.
     tool_position_error, tool_orientation_error : (K,) for a Cartesian program
         (``simulate(..., cartesian=prog.cartesian)``): how far the real motion's tool frame is
         from the programmed pose, ``|p(q) - p*|`` [m] and the angle of ``R*^T R(q)`` [rad];
@@ -126,6 +134,7 @@ class SimulationResult:
     program_effort: NDArray
     program_limit: NDArray
     completed: bool = True
+    runaway_time: float | None = None
     fd: str = "mrnea"
     tool_position_error: NDArray | None = None
     tool_orientation_error: NDArray | None = None
@@ -144,8 +153,8 @@ class SimulationResult:
         saturated effort and no clamped command; False when the start is outside the limits or
         some cycle saturated or clamped; None when the run was interrupted before any did
         (unknown: the rest of the program was not simulated)."""
-        if (self.saturated.any() or self.position_clamped.any()
-                or self.velocity_clamped.any() or start_violations(self)):
+        if (self.saturated.any() or self.position_clamped.any() or self.velocity_clamped.any()
+                or self.runaway_time is not None or start_violations(self)):
             return False
         return True if self.completed else None
 
@@ -199,7 +208,8 @@ class SimulationResult:
         """None when the run completed and the robot ended where the program ends; else one
         line stating each joint's final position error q_cmd - q [rad | m] (0: within the
         resolution of :attr:`tracking_error`)."""
-        if not self.completed or not self.tracking_error[-1].any():
+        if not self.completed or self.runaway_time is not None \
+                or not self.tracking_error[-1].any():
             return None
         errors = ", ".join(f"{j.name} {e:.4g} {j.unit('q')}"
                            for j, e in zip(self.robot.joints, self.tracking_error[-1].tolist(),
@@ -397,6 +407,7 @@ def simulate(
            np.empty((0, n, 6)) if res.reaction is None else res.reaction)
     ws = entry_scratch(n, ACHIEVABLE)  # the loop's and the requirement's, in turn
     done = kept = 0  # cycles done, and the bytes of the streamed table that hold them
+    runaway = None  # the time the robot ran away [s]
     with contextlib.nullcontext() if stream is None else create(stream, overwrite,
                                                                  binary=True) as fh:
         try:
@@ -404,7 +415,12 @@ def simulate(
                 k1 = min(K, done + CHUNK)
                 k, status = simulate_cycles((m, act), program, dt, how, engine,
                                             catch_up, reactions, done, k1, run, ws)
-                if status != OK:
+                wild = np.flatnonzero(np.abs(res.qd[done + 1:k + 1]).max(axis=1, initial=0.0)
+                                      > RUNAWAY_SPEED)
+                if wild.size or status in (NONFINITE, OVERFLOW):  # ran away at cycle k1: the
+                    k1 = done + 1 + int(wild[0]) if wild.size else k  # cycles before stand
+                    runaway = k1 * dt
+                elif status != OK:
                     validate.check_cycle(robot, k, status, res.q[k], res.qd[k], dt)
                 program_requirement((m, act), program, dt, True, done, k1,
                                     (res.program_effort, res.program_limit), status_k, ws)
@@ -418,6 +434,9 @@ def simulate(
                     fh.write(cycles.csv_rows(res, rows, header=done == 0))  # keeps the cycles done
                     fh.flush()
                 done, kept = k1, (0 if fh is None else fh.tell())  # one step: no interrupt between
+                if runaway is not None:
+                    return dataclasses.replace(res._first(done), completed=True,
+                                               runaway_time=runaway)
                 if progress is not None:
                     progress(done, K)
         except KeyboardInterrupt:

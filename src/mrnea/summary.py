@@ -150,7 +150,8 @@ def summarize(r: SimulationResult) -> dict[str, Any]:
     """The summary of a run (:meth:`mrnea.simulate.SimulationResult.summary`)."""
     head = {"robot": r.robot.name, "achievable": r.achievable, "mode": r.mode, "fd": r.fd,
             "dt": r.dt, "cycles": r.K, "duration": float(r.K * r.dt), "completed": r.completed,
-            "interrupted_after_cycles": None if r.completed else r.K}
+            "interrupted_after_cycles": None if r.completed else r.K,
+            "runaway_time": r.runaway_time}
     if r.K == 0:  # interrupted before the first chunk ended
         return {**head, "first_infeasible": None, "start_infeasible": [],
                 "max_tracking_error": 0.0, "worst_joint": None, "worst_effort_ratio": None,
@@ -239,12 +240,25 @@ def _g(x: float) -> str:
 def verdict(r: SimulationResult) -> str:
     """One line (:meth:`mrnea.simulate.SimulationResult.verdict`): achievable with the headroom
     of the worst joint, or where and by how much not; an interrupted run says after how many
-    cycles, and is never called achievable."""
+    cycles, and is never called achievable; a run whose robot ran away says when."""
     s = r.summary()
     head = ("" if r.completed else
             f"INTERRUPTED (partial result): interrupted after {r.K} cycles; ")
+    if r.runaway_time is not None:
+        return f"{_answer(r, s, head)}; {_runaway(r)}"
+    return _answer(r, s, head)
+
+
+def _runaway(r: SimulationResult) -> str:
+    return (f"the simulated robot ran away at t = {r.runaway_time:.3f} s (its speed grew "
+            "without bound: the drives cannot hold it) and the run stops there")
+
+
+def _answer(r: SimulationResult, s: dict[str, Any], head: str) -> str:
+    """The verdict without a run-away's note (:func:`verdict`)."""
     if r.K == 0:
-        return f"{head}no cycle was completed."
+        return (f"{head}NOT ACHIEVABLE: no cycle was completed" if r.runaway_time is not None
+                else f"{head}no cycle was completed.")
     by_name = {jd["joint"]: jd for jd in s["joints"]}
     worst = by_name.get(s["worst_joint"]) if s["worst_joint"] else None
     if s["achievable"] is None:
@@ -288,6 +302,8 @@ def _shortfall(r: SimulationResult, s: dict[str, Any], worst: dict[str, Any] | N
             return (f"{jd['joint']} has no drive (effort limit 0) and the program needs "
                     f"{_g(jd['program_peak_effort'])} {u} at t = "
                     f"{jd['program_peak_time']:.3f} s")
+    if fi is None:  # no cycle over a limit before the robot ran away (its note follows)
+        return f"{r.robot.name} did not follow the program"
     prismatic = units[fi["joint"]]
     if fi["reason"].startswith("effort"):
         u = EFFORT_UNIT[prismatic]

@@ -310,7 +310,8 @@ def _params_html(result: SimulationResult, interpolation: str | None) -> str:
         ("duration", f"{s['duration']:.6g} s"),
         ("saturation mode", result.mode),
         ("forward-dynamics engine", result.fd),
-        ("run", "completed" if result.completed
+        ("run", f"stopped at t = {result.runaway_time:.6g} s: the robot ran away"
+         if result.runaway_time is not None else "completed" if result.completed
          else f"INTERRUPTED after {result.K:,} cycles: partial result"),
         ("mrnea version", __version__),
     ])
