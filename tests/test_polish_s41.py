@@ -329,3 +329,18 @@ def test_a_run_away_on_the_command_line_is_exit_1_with_whole_files(tmp_path: Pat
     assert len(rows) == 1 + summary["cycles"] and summary["runaway_time"] > 0
     assert not re.search(r"(?i)\b(inf|nan)\b", "\n".join(rows[1:]))
     assert "the robot ran away" in (tmp_path / "o" / "report.html").read_text()
+
+
+@pytest.mark.parametrize("extra,match", [
+    ("values = [[1e200, 0, 0, 0, 0, 0]]", r"\[wrench\]: 'values' row 1: 1e\+200 is beyond 1e\+10"),
+    ("values = [[1, 1, 1, 0, 0, 0]]\npoint = [1e300, 0, 0]",
+     r"\[wrench\]: 'point' 1e\+300 m is beyond 10000 m"),
+])
+def test_a_wrench_beyond_the_bounds_names_its_key(extra: str, match: str) -> None:
+    """1e200 N ended in the cycle solve's step bound ('please report'); a point at 1e300 m in
+    a non-finite state."""
+    text = ('[program]\nrobot = "puma560"\ndt = 0.005\n[path]\nprofile = "trapezoidal"\n'
+            "waypoints = [[0, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0, 0]]\nvelocity_limit = 1\n"
+            f"acceleration_limit = 1\n[wrench]\ntimes = [0]\n{extra}\n")
+    with pytest.raises(ProgramFileError, match=match):
+        loads_program(text)

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import ProgramFileError, quote
+from mrnea.frozen import MAGNITUDES
 from mrnea.io.dispatch import flange_of
 from mrnea.io.tomlcheck import TomlCheck
 from mrnea.model import Robot
@@ -25,6 +26,10 @@ __all__ = ["POINT_FRAMES", "WRENCH_KEYS", "LinkWrenches", "read_wrench", "read_w
            "wrench_at", "wrenches_on"]
 
 WRENCH_KEYS = ("times", "values", "point", "point_frame", "link")
+#: The largest force [N] or moment [N m] a program's wrench may give: the weight of the
+#: heaviest robot mrnea accepts (1e7 kg at 1e3 m/s^2, mrnea.frozen.MAGNITUDES). Beyond, the
+#: cycle's exact solve loses its digits (1e200 N ended in its step bound).
+WRENCH_BOUND = 1e10
 #: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
 #: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
 POINT_FRAMES = ("link", "flange")
@@ -137,9 +142,18 @@ def read_wrench(check: TomlCheck, table: Mapping[str, Any], robot: str | None,
                                  f"{times[k]} follows {times[k - 1]}")
     values = check.matrix(check.require(table, "values", where), where, "values", width=6,
                           rows=times.size)
+    if np.abs(values).max() > WRENCH_BOUND:
+        r = int(np.argmax(np.abs(values).max(axis=1)))
+        raise check.error(where, f"'values' row {r + 1}: {np.abs(values[r]).max():.3g} is beyond "
+                                 f"{WRENCH_BOUND:g} N (or N m), the largest wrench mrnea "
+                                 f"accepts; check its units")
     point = None
     if "point" in table:
         point = check.vector(table["point"], where, "point", 3)
+        if np.abs(point).max() > MAGNITUDES["length"]:
+            raise check.error(where, f"'point' {np.abs(point).max():.3g} m is beyond "
+                                     f"{MAGNITUDES['length']:g} m, the largest length mrnea "
+                                     f"accepts; check its units")
     frame = table.get("point_frame", "link")
     if frame not in POINT_FRAMES:
         raise check.error(where, f"'point_frame' must be one of "
