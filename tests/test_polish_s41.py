@@ -344,3 +344,22 @@ def test_a_wrench_beyond_the_bounds_names_its_key(extra: str, match: str) -> Non
             f"acceleration_limit = 1\n[wrench]\ntimes = [0]\n{extra}\n")
     with pytest.raises(ProgramFileError, match=match):
         loads_program(text)
+
+
+def test_a_log_in_other_units_is_refused_naming_the_column(tmp_path: Path) -> None:
+    """A log whose header says degrees (or milliseconds) was read as radians (seconds): the
+    identification ran and wrote a wrong robot. Now an error naming the column; mrnea's own
+    units in other spellings ([Nm], [rad/s^2] as [rad/s2]) are read."""
+    from mrnea.errors import LogFileError
+    from mrnea.identify.log import read_log
+
+    robot = mrnea.robots.puma560()
+    lines = (Path(__file__).resolve().parents[1] / "examples"
+             / "puma_identify_log.csv").read_text().splitlines()
+    for old, new, match in (("joint2 [rad]", "joint2 [deg]", "column 'joint2' is in 'deg'"),
+                            ("time [s]", "time [ms]", "column 'time' is in 'ms'")):
+        (tmp_path / "log.csv").write_text("\n".join([lines[0].replace(old, new), *lines[1:]]))
+        with pytest.raises(LogFileError, match=rf"log.csv: row 1: {re.escape(match)}; a log "):
+            read_log(tmp_path / "log.csv", robot)
+    (tmp_path / "log.csv").write_text("\n".join([lines[0].replace("[N m]", "[Nm]"), *lines[1:]]))
+    assert read_log(tmp_path / "log.csv", robot).q.shape[1] == 6

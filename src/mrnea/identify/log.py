@@ -130,7 +130,8 @@ def log_columns(robot: Robot, currents: bool = False) -> list[str]:
 
 def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None = None) -> Log:
     """A log from a CSV file with a header row (:func:`log_columns`; the unit in brackets is
-    optional, columns in any order, others ignored). Optional ``qd_<joint>`` and ``qdd_<joint>``
+    optional and, given, must be mrnea's (s, rad or m, N m or N, A; spaces, ``*`` and ``^``
+    aside), columns in any order, others ignored). Optional ``qd_<joint>`` and ``qdd_<joint>``
     columns (all joints) give velocities and accelerations.
 
     ``torque_constant``: one number or one per joint [N m/A, motor side]: the log has motor
@@ -160,6 +161,7 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         raise LogFileError(f"{path}: row 1: column {quote(twice)} appears twice (columns "
                            f"{first + 1} and {header.index(twice, first + 1) + 1})")
     cols = [header.index(c) for c in used]
+    _check_units(path, rows[0], cols, _units(robot, effort, has_rates))
     data = np.empty((len(rows) - 1, len(cols)))
     for r, row in enumerate(rows[1:]):
         try:
@@ -192,6 +194,34 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         return Log(data[:, 0], data[:, 1:1 + n], tau, *rates)
     except StateError as exc:
         raise LogFileError(f"{path}: {exc}") from None
+
+
+def _units(robot: Robot, effort: str, rates: bool) -> list[str]:
+    """The unit of each column :func:`read_log` uses, in its order."""
+    joints = robot.joints
+    out = ["s", *(j.unit("q") for j in joints),
+           *(("A",) * robot.n if effort == "i_" else (j.unit("tau") for j in joints))]
+    return out + ([*(j.unit("qd") for j in joints), *(j.unit("qdd") for j in joints)]
+                  if rates else [])
+
+
+def _spelled(unit: str) -> str:
+    """A unit as compared: no spaces, ``*``, ``·`` or ``^``, ``²`` as 2, lower case."""
+    return "".join(c for c in unit.replace("²", "2") if c not in " *·^").lower()
+
+
+def _check_units(path: str | Path, header: list[str], cols: list[int], units: list[str]
+                 ) -> None:
+    """A column whose header gives a unit (``name [unit]``) other than the one mrnea reads it
+    in is an error naming it: a log in degrees or milliseconds is never read as radians or
+    seconds."""
+    for c, unit in zip(cols, units, strict=True):
+        name, _, given = header[c].partition("[")
+        given = given.split("]")[0].strip()
+        if given and _spelled(given) != _spelled(unit):
+            raise LogFileError(f"{path}: row 1: column {quote(name.strip())} is in "
+                               f"{quote(given)}; a log gives it in {quote(unit)} (convert it, or "
+                               f"leave the unit out)")
 
 
 def _is_number(text: str) -> bool:
