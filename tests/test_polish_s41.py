@@ -363,3 +363,20 @@ def test_a_log_in_other_units_is_refused_naming_the_column(tmp_path: Path) -> No
             read_log(tmp_path / "log.csv", robot)
     (tmp_path / "log.csv").write_text("\n".join([lines[0].replace("[N m]", "[Nm]"), *lines[1:]]))
     assert read_log(tmp_path / "log.csv", robot).q.shape[1] == 6
+
+
+def test_a_log_value_beyond_the_bound_names_its_row_and_column(tmp_path: Path) -> None:
+    """It said 'tau of joint 3 ... at sample 499' (the docs promise the file's row and the
+    column's name)."""
+    from mrnea.errors import LogFileError
+    from mrnea.identify.log import read_log
+
+    lines = (Path(__file__).resolve().parents[1] / "examples"
+             / "puma_identify_log.csv").read_text().splitlines()
+    cells = lines[500].split(",")
+    cells[9] = "1e200"  # tau_joint3, on the file's row 501
+    lines[500] = ",".join(cells)
+    (tmp_path / "log.csv").write_text("\n".join(lines))
+    with pytest.raises(LogFileError, match=r"log.csv: row 501: column 'tau_joint3' is 1e\+200, "
+                                           r"beyond 1e\+12"):
+        read_log(tmp_path / "log.csv", mrnea.robots.puma560())

@@ -36,7 +36,14 @@ from mrnea.cli.base import (
     last_checkpoint,
     main,
 )
-from mrnea.cli.options import FOLDER, force_opt, load_robot_arg, quiet_opt, robot_options
+from mrnea.cli.options import (
+    FOLDER,
+    NON_NEGATIVE,
+    force_opt,
+    load_robot_arg,
+    quiet_opt,
+    robot_options,
+)
 from mrnea.cli.sweep import _is_robot
 from mrnea.errors import SizingError
 from mrnea.io import RobotOptions, load_program
@@ -87,7 +94,7 @@ def _write(res, folder: Path, force: bool) -> None:
               help="The joints to size, comma-separated [default: all].")
 @click.option("--objective", type=click.Choice(["mass", "price", "margin"]), default="mass",
               show_default=True, help="What the best drive minimises (margin: the worst ratio).")
-@click.option("--dwell", type=click.FloatRange(0.0), default=0.0, show_default=True,
+@click.option("--dwell", type=NON_NEGATIVE, default=0.0, show_default=True,
               metavar="SECONDS", help="Seconds at rest after the programs, in the duty cycle.")
 @click.option("--no-drive-mass", is_flag=True,
               help="Leave the drives' masses off the parent links.")

@@ -179,6 +179,11 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         if r and not data[r, 0] > data[r - 1, 0]:
             raise LogFileError(f"{path}: row {r + 2}: time {data[r, 0]:g} s does not increase "
                                f"(row {r + 1}: {data[r - 1, 0]:g} s)")
+    big = np.argwhere(np.abs(data) > LOG_BOUND)
+    if big.size:
+        r, c = big[0]
+        raise LogFileError(f"{path}: row {r + 2}: column {used[c]!r} is {data[r, c]:.3g}, beyond "
+                           f"{LOG_BOUND:g}, the largest mrnea accepts in a log (check its units)")
     n = robot.n
     tau = data[:, 1 + n:1 + 2 * n]
     if torque_constant is not None:

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from mrnea import validate
 from mrnea.actuators import program_requirement
 from mrnea.cartesian import solve
-from mrnea.errors import SizingError, listing, quote
+from mrnea.errors import ModelError, SizingError, listing, quote
 from mrnea.io.gridfile import DEMO_PROGRAM
 from mrnea.io.program import Program, load_program
 from mrnea.model import Link, Robot
@@ -201,7 +201,11 @@ def apply_trains(robot: Robot, trains: dict[str, Train], drive_mass: bool = True
             lk = links[p]
             mass, com, inertia = combine_inertials([(lk.mass, lk.com, lk.inertia),
                                                     (t.mass, j.origin[:3, 3], np.zeros((3, 3)))])
-            links[p] = Link(lk.name, mass, com, inertia, lk.visuals)
+            try:
+                links[p] = Link(lk.name, mass, com, inertia, lk.visuals)
+            except ModelError as exc:  # the drive's mass made the link one mrnea cannot take
+                raise SizingError(f"drive {quote(t.name)} of joint {quote(j.name)}: its mass "
+                                  f"{t.mass:g} kg on link {quote(lk.name)}: {exc}") from None
     return robot._replace(joints=joints, links=links)
 
 
