@@ -380,3 +380,17 @@ def test_a_log_value_beyond_the_bound_names_its_row_and_column(tmp_path: Path) -
     with pytest.raises(LogFileError, match=r"log.csv: row 501: column 'tau_joint3' is 1e\+200, "
                                            r"beyond 1e\+12"):
         read_log(tmp_path / "log.csv", mrnea.robots.puma560())
+
+
+def test_excitation_limits_name_what_was_given() -> None:
+    """More than 20 harmonics refused (100 ran SLSQP steps of minutes that a stop request waited
+    for); a base frequency whose one period is too many cycles blames the frequency (it blamed a
+    duration that was not given)."""
+    robot = mrnea.robots.puma560()
+    with pytest.raises(mrnea.MrneaError, match=r"^harmonics: at most 20 .* got 100$"):
+        mrnea.excitation(robot, harmonics=100)
+    with pytest.raises(mrnea.MrneaError, match=r"^base_frequency: one period, 1 / base_frequency "
+                                               r"= 1e\+300 s, at dt = 0.005 s is 2e\+302 cycles"):
+        mrnea.excitation(robot, base_frequency=1e-300)
+    with pytest.raises(mrnea.MrneaError, match=r"^duration: 1e\+07 s at dt"):
+        mrnea.excitation(robot, base_frequency=0.1, duration=1e7)

@@ -239,7 +239,8 @@ def solve(program: Program, robot: Robot) -> Program:
     t = np.arange(q_cmd.shape[0]) * dt
     if q_cmd.shape[0] < 2:
         raise ProgramFileError(f"{where}: the moves take a single cycle (every target is where "
-                               f"the robot is and no dwell); give a move that moves")
+                               f"the robot is, or a pose CSV shorter than a cycle of "
+                               f"{dt:g} s, and no dwell); give a move that moves")
     found = findings(robot, t, q_cmd, pose, move, cart, err, frames, joints, spec.moves)
     path = CartesianPath(tools=frames, joints=joints, pose=pose, move=move, cartesian=cart,
                          position_error=err[:, 0], orientation_error=err[:, 1],

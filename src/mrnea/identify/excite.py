@@ -325,9 +325,11 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     cycles = _whole(period / dt, f"dt: the period (1 / base_frequency = {period:g} s) must be "
                                  f"a whole number of cycles, got dt = {dt:g} s")
     if periods * cycles >= MAX_CYCLES:
-        raise StateError(f"duration: {duration:g} s at dt = {dt:g} s is "
-                         f"{float(periods * cycles):.3g} cycles; at most {MAX_CYCLES} (a shorter "
-                         f"duration or a coarser dt)")
+        what = (f"duration: {duration:g} s", "a shorter duration") if periods > 1 else (
+            f"base_frequency: one period, 1 / base_frequency = {period:g} s,",
+            "a higher base frequency")  # one period: the frequency's fault
+        raise StateError(f"{what[0]} at dt = {dt:g} s is {float(periods * cycles):.3g} cycles; "
+                         f"at most {MAX_CYCLES} ({what[1]} or a coarser dt)")
     if cycles < 10 * L:
         raise StateError(f"dt: {dt:g} s gives {cycles} cycles per period; {L} harmonics need at "
                          f"least {10 * L} (dt <= {period / (10 * L):g} s)")
