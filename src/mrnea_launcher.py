@@ -1,4 +1,4 @@
-"""The ``mrnea`` command's entry point ([project.scripts] in pyproject.toml; ``python -m mrnea``).
+"""The ``mrnea`` command's entry point ([project.scripts] in pyproject.toml).
 
 A module of its own, outside the ``mrnea`` package: importing the package (NumPy, Numba, the
 kernels' modules) takes about half a second, and a Ctrl-C then would end the command with a
@@ -6,7 +6,8 @@ traceback through the imports. Here it ends as a stop request before any work do
 ``mrnea: interrupted`` on stderr, exit 130, nothing written (mrnea.cli.base). Once the command
 has returned (its answer given, its exit code set), SIGINT and SIGTERM are ignored for the rest
 of the interpreter's teardown: a signal there had turned an answer already printed into exit
-130 (or 143).
+130 (or 143). ``python -m mrnea`` runs it too, but Python imports the package before that
+(``-m`` imports a module's package first): there only the teardown is covered.
 """
 
 import signal

@@ -394,3 +394,53 @@ def test_excitation_limits_name_what_was_given() -> None:
         mrnea.excitation(robot, base_frequency=1e-300)
     with pytest.raises(mrnea.MrneaError, match=r"^duration: 1e\+07 s at dt"):
         mrnea.excitation(robot, base_frequency=0.1, duration=1e7)
+
+
+def test_drive_and_sizing_bounds() -> None:
+    """Efficiency below 0.01 is refused (1e-300 gave a 300-digit effort ratio); a check whose
+    rating is 0 where it is needed says so in words, never 'inf x'; a joint named twice."""
+    from mrnea.sizing import size_drives
+    from mrnea.sizing.checks import CHECKS, reason, times
+
+    with pytest.raises(mrnea.MrneaError, match=r"efficiency must be in \[0.01, 1\], got 0.005"):
+        mrnea.robots.puma560().with_actuators(efficiency=0.005)
+    assert mrnea.robots.puma560().with_actuators(efficiency=0.01).joints[0].efficiency == 0.01
+    ratios = np.array([np.inf, 1.5] + [0.0] * (len(CHECKS) - 2))
+    assert reason(ratios) == ("beyond its peak torque (at speed), which gives nothing where it "
+                              "is needed; 1.5 x its RMS rating")
+    assert times(2.0, "rms") == "2 x its RMS rating"
+    with pytest.raises(mrnea.MrneaError, match="joints: 'cab_yaw' given twice"):
+        size_drives(mrnea.robots.sdt(), "demo", EXAMPLES_DIR / "drives_catalogue.toml",
+                    joints=["cab_yaw", "cab_yaw"])
+
+
+EXAMPLES_DIR = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_a_wrench_beyond_the_bound_through_the_api_and_a_runaway_row() -> None:
+    """The bound holds for the library's simulate too (1e21 N ended in the cycle solve's
+    'please report'); a sweep row carries the run's runaway_time [s]."""
+    from mrnea.sweep.rows import QUANTITY, TOP_COLUMNS
+
+    robot = mrnea.robots.puma560()
+    q = np.zeros((3, 6))
+    with pytest.raises(mrnea.MrneaError, match=r"^f_ext: 1e\+21 is beyond 1e\+10 N"):
+        mrnea.simulate(robot, q, 0.01, f_ext=np.array([1e21, 0, 0, 0, 0, 0]))
+    with pytest.raises(mrnea.MrneaError, match=r"^f_ext: 1e\+21 is beyond 1e\+10 N"):
+        mrnea.simulate(robot, q, 0.01, f_ext={"link6": np.array([1e21, 0, 0, 0, 0, 0])})
+    assert "runaway_time" in TOP_COLUMNS and QUANTITY["runaway_time"] == "time"
+
+
+def test_log_units_in_other_spellings(tmp_path: Path) -> None:
+    """[rad/sec] and [sec] are mrnea's units; [nm] is not N m (case matters)."""
+    from mrnea.errors import LogFileError
+    from mrnea.identify.log import read_log
+
+    robot = mrnea.robots.puma560()
+    lines = (EXAMPLES_DIR / "puma_identify_log.csv").read_text().splitlines()
+    (tmp_path / "a.csv").write_text("\n".join([lines[0].replace("time [s]", "time [sec]"),
+                                               *lines[1:]]))
+    assert read_log(tmp_path / "a.csv", robot).K == len(lines) - 1
+    (tmp_path / "b.csv").write_text("\n".join([lines[0].replace("[N m]", "[nm]"), *lines[1:]]))
+    with pytest.raises(LogFileError, match="column 'tau_joint1' is in 'nm'"):
+        read_log(tmp_path / "b.csv", robot)

@@ -43,7 +43,7 @@ def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
             text = _REPR.repr(value)
         except Exception:  # a user object whose __repr__ fails
             text = f"<{type(value).__name__}>"
-        text = " ".join(text.split())  # one line: an array's repr spans several
+        text = re.sub(r"\s*\n\s*", " ", text)  # one line: an array's repr spans several
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 

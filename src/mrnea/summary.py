@@ -245,7 +245,7 @@ def verdict(r: SimulationResult) -> str:
     head = ("" if r.completed else
             f"INTERRUPTED (partial result): interrupted after {r.K} cycles; ")
     if r.runaway_time is not None:
-        return f"{_answer(r, s, head)}; {_runaway(r)}"
+        return f"{_answer(r, s, head).rstrip('.')}; {_runaway(r)}"
     return _answer(r, s, head)
 
 

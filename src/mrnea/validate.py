@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea.errors import MrneaError, SingularMassMatrixError, StateError, quote
+from mrnea.frozen import MAGNITUDES
 from mrnea.kernels.status import CYCLE_LIMIT, NONFINITE, OK, OVERFLOW
 from mrnea.model import Robot
 
@@ -136,17 +137,31 @@ def per_joint(x: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
     return np.full(n, a[0]) if scalar else a
 
 
+#: The largest force [N] or moment [N m] a simulation takes in a wrench: the weight of the
+#: heaviest robot mrnea accepts (1e7 kg at 1e3 m/s^2, mrnea.frozen.MAGNITUDES). Beyond, the
+#: cycle's exact solve loses its digits (1e21 N ended in its step bound). Its point: the
+#: largest length, MAGNITUDES["length"].
+WRENCH_BOUND = 1e10
+
+
 def wrench_per_cycle(robot: Robot, f_ext: object, f_ext_point: object, K: int
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """A simulation's wrench, one per cycle: the last link's, (K, 6) and (K, 3)
     (:func:`per_cycle`), or by link name (mappings, :func:`link_wrenches`), (K, n, 6) and
-    (K, n, 3)."""
+    (K, n, 3); within :data:`WRENCH_BOUND` and, the point, the largest length."""
     if by_link(f_ext, f_ext_point):
         fe, pe = link_wrenches(robot, f_ext, f_ext_point, rows=K)
         if fe.ndim == 2:
             fe, pe = np.broadcast_to(fe, (K, *fe.shape)), np.broadcast_to(pe, (K, *pe.shape))
-        return np.ascontiguousarray(fe), np.ascontiguousarray(pe)
-    return per_cycle(f_ext, K, 6, "f_ext"), per_cycle(f_ext_point, K, 3, "f_ext_point")
+        fe, pe = np.ascontiguousarray(fe), np.ascontiguousarray(pe)
+    else:
+        fe, pe = per_cycle(f_ext, K, 6, "f_ext"), per_cycle(f_ext_point, K, 3, "f_ext_point")
+    for a, name, bound, unit in ((fe, "f_ext", WRENCH_BOUND, "N (or N m)"),
+                                 (pe, "f_ext_point", MAGNITUDES["length"], "m")):
+        if a.size and np.abs(a).max() > bound:
+            raise StateError(f"{name}: {np.abs(a).max():.3g} is beyond {bound:g} {unit}, the "
+                             f"largest mrnea simulates; check its units")
+    return fe, pe
 
 
 def program_wrench(robot: Robot, f_ext: object, f_ext_point: object, K: int

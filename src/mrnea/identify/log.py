@@ -211,8 +211,9 @@ def _units(robot: Robot, effort: str, rates: bool) -> list[str]:
 
 
 def _spelled(unit: str) -> str:
-    """A unit as compared: no spaces, ``*``, ``·`` or ``^``, ``²`` as 2, lower case."""
-    return "".join(c for c in unit.replace("²", "2") if c not in " *·^").lower()
+    """A unit as compared (case matters: nm is no N m): no spaces, ``*``, ``·`` or ``^``, ``²``
+    as 2, ``sec`` as s."""
+    return "".join(c for c in unit.replace("²", "2") if c not in " *·^").replace("sec", "s")
 
 
 def _check_units(path: str | Path, header: list[str], cols: list[int], units: list[str]

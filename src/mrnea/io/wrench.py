@@ -21,15 +21,12 @@ from mrnea.frozen import MAGNITUDES
 from mrnea.io.dispatch import flange_of
 from mrnea.io.tomlcheck import TomlCheck
 from mrnea.model import Robot
+from mrnea.validate import WRENCH_BOUND
 
 __all__ = ["POINT_FRAMES", "WRENCH_KEYS", "LinkWrenches", "read_wrench", "read_wrenches",
            "wrench_at", "wrenches_on"]
 
 WRENCH_KEYS = ("times", "values", "point", "point_frame", "link")
-#: The largest force [N] or moment [N m] a program's wrench may give: the weight of the
-#: heaviest robot mrnea accepts (1e7 kg at 1e3 m/s^2, mrnea.frozen.MAGNITUDES). Beyond, the
-#: cycle's exact solve loses its digits (1e200 N ended in its step bound).
-WRENCH_BOUND = 1e10
 #: The frames ``[wrench] point`` may be given in: the last link's frame (the default, what
 #: :func:`mrnea.simulate.simulate` takes) or, for a robot given by a DH table, DH frame n.
 POINT_FRAMES = ("link", "flange")

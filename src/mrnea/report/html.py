@@ -144,6 +144,9 @@ def _first_infeasible_html(result: SimulationResult, link: bool) -> str:
     if fi is None and not result.completed:
         return (f"<p>None in the {result.K:,} cycles done before the run was interrupted: "
                 "whether the rest of the program is achievable is unknown.</p>")
+    if fi is None and result.runaway_time is not None:
+        return (f"<p>None in the {result.K:,} cycles before the robot ran away at t = "
+                f"{result.runaway_time:.6g} s.</p>")
     if fi is None:
         return "<p>None: every cycle stays within the effort, position and velocity limits.</p>"
     k, i = fi["cycle"], result.robot.joint_names.index(fi["joint"])

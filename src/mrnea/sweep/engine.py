@@ -216,7 +216,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
         One row per (variant, program), index ``case`` = variant number x number of programs
         + program number. Columns: the parameters (named as the grid keys), ``program``,
         ``error`` (None, or why the variant failed), ``achievable``, ``worst_joint``,
-        ``worst_effort_ratio``, ``duration``, ``max_tracking_error``,
+        ``worst_effort_ratio``, ``duration``, ``max_tracking_error``, ``runaway_time``,
         ``first_infeasible_time`` / ``_joint`` / ``_reason``, and each joint's summary numbers
         as ``<entry>.<joint>`` (:mod:`mrnea.sweep.rows`); with ``retime`` also
         ``retimed_duration`` and ``retime_error``. A row equals, bit for bit,

@@ -40,7 +40,7 @@ __all__ = ["FIRST_COLUMNS", "QUANTITY", "RETIME_COLUMNS", "TOP_COLUMNS", "code_v
 
 #: Top-level summary entries copied into each row (those the summary has).
 TOP_COLUMNS = ("achievable", "worst_joint", "worst_effort_ratio", "duration",
-               "max_tracking_error")
+               "max_tracking_error", "runaway_time")
 #: The first infeasible instant's columns (NaN and None when there is none).
 FIRST_COLUMNS = ("first_infeasible_time", "first_infeasible_joint", "first_infeasible_reason")
 #: The columns of ``retime=True``: the retimed duration [s] and why retiming failed (or None).
@@ -50,6 +50,7 @@ RETIME_COLUMNS = ("retimed_duration", "retime_error")
 #: here has no unit in the files (tests/test_sweep_reliability.py checks every entry is).
 QUANTITY = {
     "duration": "time", "max_tracking_error": "position", "worst_effort_ratio": None,
+    "runaway_time": "time",
     "first_infeasible_time": "time", "retimed_duration": "time",
     "effort_limit": "effort", "program_peak_effort": "effort", "program_peak_time": "time",
     "program_rms_effort": "effort", "program_peak_motor_torque": "motor",

@@ -397,8 +397,8 @@ def _require_resolution(program: Program, f: float, q: NDArray, s: NDArray,
     raise StateError(
         f"factor: {f:g} makes program {quote(program.name)} too fast for its cycle "
         f"dt = {dt:g} s: the scaled rows, joined by straight lines, leave its path by "
-        f"{dev[k, j]:.3g} at joint {j + 1} (t = {k * dt:.4g} s of the program), more than "
-        f"{PATH_TOL:g} rad | m; a factor of {keep:.3g} or more keeps it")
+        f"{dev[k, j]:.3g} rad (m for a prismatic joint) at joint {j + 1} (t = {k * dt:.4g} s "
+        f"of the program), more than {PATH_TOL:g}; a factor of {keep:.3g} or more keeps it")
 
 
 def _rows(K: int, factor: float) -> int:
