@@ -444,3 +444,13 @@ def test_log_units_in_other_spellings(tmp_path: Path) -> None:
     (tmp_path / "b.csv").write_text("\n".join([lines[0].replace("[N m]", "[nm]"), *lines[1:]]))
     with pytest.raises(LogFileError, match="column 'tau_joint1' is in 'nm'"):
         read_log(tmp_path / "b.csv", robot)
+
+
+def test_a_value_just_over_its_magnitude_shows_its_digits() -> None:
+    """One ulp over 1e7 kg said '1e+07 kg is beyond 1e+07 kg' (three digits)."""
+    from mrnea.frozen import check_magnitude
+
+    with pytest.raises(mrnea.MrneaError, match=r"mass 10000000.000000002 kg is beyond 1e\+07 kg"):
+        check_magnitude(np.nextafter(1e7, np.inf), "mass", "link 'arm'", "kg")
+    with pytest.raises(mrnea.MrneaError, match=r"mass 2e\+07 kg is beyond 1e\+07 kg"):
+        check_magnitude(2e7, "mass", "link 'arm'", "kg")

@@ -110,7 +110,8 @@ def check_magnitude(value: ArrayLike, field: str, what: str, unit: str) -> None:
     bound = MAGNITUDES[field]
     big = float(np.max(np.abs(np.asarray(value, dtype=float))))
     if big > bound:
-        raise ModelError(f"{what}: {field.replace('_', ' ')} {big:.3g} {unit} is beyond "
+        shown = f"{big:.3g}" if f"{big:.3g}" != f"{bound:g}" else repr(big)  # not "1e+07 > 1e+07"
+        raise ModelError(f"{what}: {field.replace('_', ' ')} {shown} {unit} is beyond "
                          f"{bound:g} {unit}, the largest mrnea accepts (the dynamics would lose "
                          "every digit to rounding); check its units")
 
