@@ -241,7 +241,7 @@ def test_the_command_takes_what_is_ready_up_to_what_its_simulation_calls(monkeyp
     """share(): the start check first (unit 0), then the units neither process has begun, each
     once the units it calls are done, up to what the simulation's chunks call; the rest stays
     with the second process. A file marks each claim, another each compile."""
-    simulation = importlib.import_module("mrnea.simulate")  # the module, not mrnea.simulate()
+    simulation = importlib.import_module("mrnea.achievable")  # the module, not mrnea.simulate()
     compiled, checked = [], []
     monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: checked.append(q0))
     claims = _claims(tmp_path, "a", "1")  # the second process: on the drive solve
@@ -264,7 +264,7 @@ def test_the_command_waits_for_what_the_second_process_is_compiling(monkeypatch,
     ended it stops sharing."""
     import threading
 
-    simulation = importlib.import_module("mrnea.simulate")
+    simulation = importlib.import_module("mrnea.achievable")
     monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: None)
     compiled = []
     monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled))
@@ -292,7 +292,7 @@ def test_the_command_waits_for_what_its_simulation_and_summary_call(monkeypatch,
     a unit it has not begun; unshared, settle() does nothing."""
     import threading
 
-    simulation = importlib.import_module("mrnea.simulate")
+    simulation = importlib.import_module("mrnea.achievable")
     monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: None)
     compiled = []
     monkeypatch.setattr(ahead, "signatures", lambda *args: _units(compiled))
@@ -385,7 +385,7 @@ def test_a_unit_that_no_longer_types_costs_time_never_the_command(monkeypatch,
                                                                    tmp_path) -> None:
     """A kernel of the list whose compile fails (its signature drifted): the command goes on,
     the unit is marked done (its callers compile it), and the units after it do not wait."""
-    simulation = importlib.import_module("mrnea.simulate")
+    simulation = importlib.import_module("mrnea.achievable")
     monkeypatch.setattr(simulation, "check_moves", lambda robot, q0: None)
     compiled = []
 

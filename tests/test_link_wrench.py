@@ -331,7 +331,7 @@ def test_a_sweep_time_scaling_moves_each_links_wrench(tmp_path) -> None:
     """``time_scaled`` (a sweep's ``time_scale``) keeps each link's wrench: a ramp on the left
     hand is stretched with the path (its value at the new rows is the ramp's at the program
     instant they map to), the right arm's constant stays."""
-    from mrnea.sweep.variants import time_scaled
+    from mrnea.sweep.timescale import time_scaled
 
     ramp = ('[[wrench]]\nlink = "hand_l"\ntimes = [0.0, 0.05]\n'
             'values = [[0, 0, 0, 0, 0, 0], [5, 0, 0, 0, 0, 0]]\n\n'

@@ -27,7 +27,8 @@ from test_retime_acceptance import _pieces, grid_ratios
 
 import mrnea
 from mrnea.simulate import simulate
-from mrnea.sweep.variants import time_scaled, variant
+from mrnea.sweep.timescale import time_scaled
+from mrnea.sweep.variants import variant
 
 PICK = Path(__file__).resolve().parents[1] / "examples" / "puma_pick.toml"
 CREEP = 1e-6  # rad per cycle: every joint slower than this is creeping

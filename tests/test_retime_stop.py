@@ -127,7 +127,7 @@ def test_a_stop_while_writing_removes_what_was_written(tmp_path: Path, monkeypat
     far are removed again (all of the command's files or none), in process."""
     from click.testing import CliRunner
 
-    import mrnea.cli.retime as cli_retime
+    import mrnea.cli.base as cli_base
     from mrnea.cli import main
 
     out = tmp_path / "out"
@@ -139,7 +139,7 @@ def test_a_stop_while_writing_removes_what_was_written(tmp_path: Path, monkeypat
             seen.append(written)
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli_retime, "checkpoint", stop_after_two_files)
+    monkeypatch.setattr(cli_base, "checkpoint", stop_after_two_files)  # write_files' checks
     res = CliRunner().invoke(main, ["retime", str(EXAMPLES / "puma_pick.toml"), "--out",
                                     str(out), "--no-3d"])
     assert res.exit_code == 130, res.output

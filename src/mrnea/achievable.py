@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.actuators import motor_torque
+from mrnea.errors import SingularMassMatrixError
 from mrnea.kernels.achievable import (
     CLAMP_POSITION,
     CLAMP_VELOCITY,
@@ -42,9 +43,12 @@ from mrnea.kernels.achievable import (
     achievable_ws,
     step,
 )
+from mrnea.kernels.drive import actuator_terms
 from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.engines import ENGINE_MRNEA
 from mrnea.kernels.layout import ACHIEVABLE, batch_scratch, entry_scratch
+from mrnea.kernels.solve import cholesky_solve
+from mrnea.kernels.status import OK
 from mrnea.model import Robot
 
 Mode = Literal["hybrid", "paper"]
@@ -202,3 +206,52 @@ def achievable_step(
         position_clamped=(clamp & CLAMP_POSITION) != 0,
         velocity_clamped=(clamp & CLAMP_VELOCITY) != 0,
     )
+
+
+def check_moves(robot: Robot, q0: NDArray) -> None:
+    """Refuse, before the run, a robot whose actuated mass matrix H_a is singular at the start
+    (a joint that moves no mass and no rotor inertia: the cycle's accelerations are undefined,
+    and no verdict can be given): SingularMassMatrixError naming the joint and the links."""
+    n = robot.n
+    m, _, _, act = compiled.of(robot)
+    Ha, ua, zero = np.empty((n, n)), np.empty(n), np.zeros(n)
+    # q0 as a writable C row, the type the loop's step passes: a program's rows are read-only
+    # (io.program), which compiled the mRNEA's call tree a second time (issue 22)
+    actuator_terms(m, act, np.array(q0, dtype=np.float64), zero, np.zeros(6), np.zeros(3),
+                   ENGINE_MRNEA, Ha, ua,
+                   entry_scratch(n))  # SOLVE's rows: a tree's mRNEA stashes columns in S[n:2n]
+    # H_a and L as (n, n) views of wider buffers, typed layout A as the drive solve's blocks
+    # are (kernels/drive_solve.py): one compiled cholesky_solve serves both (issue 22)
+    H, L = np.empty((n, n + 1))[:, :n], np.empty((n, n + 1))[:, :n]
+    H[...] = Ha
+    j = cholesky_solve(H, zero, L, np.empty(n))
+    if j == OK:
+        return
+    joint = robot.joints[j]
+    moved = robot.links[j:]
+    bare = [lk.name for lk in moved if lk.mass == 0.0 and not np.any(lk.inertia)]
+    d = np.diag(Ha)
+    k = int(np.argmax(d))
+    if d[j] > 0.0 and d[k] > 1e12 * d[j]:  # the pivot failed against another joint's inertia
+        big = robot.joints[k]
+        rotor = big.gear_ratio ** 2 * big.rotor_inertia
+        unit = "kg" if big.is_prismatic else "kg m^2"  # H_a's diagonal entry's unit
+        cause = (f"its rotor inertia through its gear, G^2 J_m = {big.gear_ratio:.3g}^2 x "
+                 f"{big.rotor_inertia:.3g} kg m^2; check its rotor_inertia and gear_ratio"
+                 if rotor > 0.5 * d[k] else "the links it moves; check their masses, inertias "
+                 "and lengths")
+        raise SingularMassMatrixError(
+            f"robot '{robot.name}': the actuated mass matrix H_a is too ill-conditioned to "
+            f"solve: joint '{big.name}' has {d[k]:.3g} {unit} about its axis against {d[j]:.3g} at "
+            f"joint '{joint.name}' ({d[k] / d[j]:.2g} times, beyond double precision), from "
+            f"{cause}")
+    if len(bare) == len(moved) and joint.rotor_inertia == 0.0:
+        why = (f"joint '{joint.name}' moves no mass and no rotor inertia (link"
+               f"{'s' if len(bare) > 1 else ''} {', '.join(repr(b) for b in bare)} without "
+               "inertials)")
+    else:
+        why = (f"joint '{joint.name}' moves no inertia about its axis at the start state (links "
+               f"{', '.join(repr(lk.name) for lk in moved)})")
+    raise SingularMassMatrixError(
+        f"robot '{robot.name}': the actuated mass matrix H_a is singular: {why}; give the links "
+        "their masses and inertias (or the joint a rotor inertia): no verdict without them")

@@ -221,7 +221,7 @@ def _work(claims: str, units: Sequence[Unit], todo: list[int], alive: Callable[[
 def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray,
           meanwhile: list[Callable[[], object]] | None = None) -> None:
     """The command's share of the compiling, before its simulation (a second process started
-    ``shared``): first the start check's kernel (H_a and u'_a, :func:`mrnea.simulate.check_moves`,
+    ``shared``): first the start check's kernel (H_a and u'_a, :func:`mrnea.achievable.check_moves`,
     unit 0: the second process never takes it), then, as the second process does, the units
     of the list neither has begun, each once the kernels it calls are compiled, up to what the
     simulation's chunks call (the loop, the requirement, the derived arrays: :data:`DERIVED`);
@@ -233,7 +233,7 @@ def share(ahead: Ahead | None, robot: Robot, q0: np.ndarray,
     second process it does nothing: the command compiles each kernel as it reaches it."""
     if ahead is None or not ahead.shared:
         return
-    from mrnea.simulate import check_moves
+    from mrnea.achievable import check_moves
 
     check_moves(robot, q0)  # unit CHECK: never the second process's, so not claimed
     _compiled(ahead.claims, CHECK)

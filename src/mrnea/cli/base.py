@@ -36,7 +36,7 @@ import signal
 import sys
 import threading
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -172,6 +172,27 @@ def checkpoint() -> None:
     if _Stop.requested:
         _Stop.requested = False
         raise KeyboardInterrupt
+
+
+def write_files(steps: Sequence[tuple[Path, Callable[[], object]]],
+                side_files: Sequence[Path] = ()) -> None:
+    """A command's output files: each ``(path, write)`` of ``steps`` in turn, a
+    :func:`checkpoint` before each and after the last. On a stop request (or any
+    KeyboardInterrupt) the files written so far are removed, and each of ``side_files`` (a file
+    a step may write besides its own, as a retimed program's payload) that was not there
+    before, and the interrupt goes on: the command leaves all of its files or none."""
+    fresh = [p for p in side_files if not os.path.lexists(p)]
+    written: list[Path] = []
+    try:
+        for path, write in steps:
+            checkpoint()
+            write()
+            written.append(path)
+        checkpoint()
+    except KeyboardInterrupt:
+        for path in [*written, *fresh]:
+            path.unlink(missing_ok=True)
+        raise
 
 
 def last_checkpoint() -> None:

@@ -33,7 +33,14 @@ import numpy as np
 
 from mrnea import validate
 from mrnea.cli import ahead
-from mrnea.cli.base import EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, checkpoint, compile_notice, main
+from mrnea.cli.base import (
+    EXIT_ACHIEVABLE,
+    EXIT_NOT_ACHIEVABLE,
+    checkpoint,
+    compile_notice,
+    main,
+    write_files,
+)
 from mrnea.cli.options import (
     FOLDER,
     FRACTION,
@@ -311,8 +318,6 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
     Cartesian program's (tool spec, CartesianPath), whose retimed timing is written too."""
     from mrnea.report.retime import write_retime_report
 
-    payload = folder / PAYLOAD
-    before = payload.exists()
     steps = [
         (paths[CSV], lambda: res.save_csv(paths[CSV], force)),
         (paths[PROGRAM], lambda: res.save_program(
@@ -324,19 +329,7 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
             "summary": paths[SUMMARY]}, view3d=view3d)),
     ]
-    written: list[Path] = []
-    try:
-        for path, write in steps:
-            checkpoint()
-            write()
-            written.append(path)
-            if path == paths[PROGRAM] and payload.exists() and not before:
-                written.append(payload)
-        checkpoint()
-    except KeyboardInterrupt:
-        for path in written:
-            path.unlink(missing_ok=True)
-        raise
+    write_files(steps, side_files=[folder / PAYLOAD])  # the program's payload file
 
 
 def _option_args(options: RobotOptions) -> list[str]:

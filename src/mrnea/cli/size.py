@@ -30,11 +30,11 @@ from mrnea.cli import ahead
 from mrnea.cli.base import (
     EXIT_ACHIEVABLE,
     EXIT_NOT_ACHIEVABLE,
-    checkpoint,
     compile_notice,
     fresh_dir,
     last_checkpoint,
     main,
+    write_files,
 )
 from mrnea.cli.options import (
     FOLDER,
@@ -55,8 +55,8 @@ FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json",
 
 
 def _write(res, folder: Path, force: bool) -> None:
-    """The sizing's files, a stop request taken before each: on a stop the files this run
-    wrote are removed (all of them or none), and the command exits 130."""
+    """The sizing's files (:func:`mrnea.cli.base.write_files`: a stop request taken before
+    each; on a stop the files this run wrote are removed, and the command exits 130)."""
     from mrnea.sizing.html import sizing_html
     from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
 
@@ -64,25 +64,15 @@ def _write(res, folder: Path, force: bool) -> None:
         with create(path, force) as fh:
             fh.write(make())
 
-    steps = [(folder / "sizing.csv", lambda p: text(p, lambda: sizing_table(res).to_csv(
-        index=False)))]
+    csv, drives, robot, summary, page = (folder / f for f in FILES)
+    steps = [(csv, lambda: text(csv, lambda: sizing_table(res).to_csv(index=False)))]
     if res.sized is not None:
-        steps += [(folder / "chosen_drives.toml", lambda p: text(p, lambda: chosen_toml(res))),
-                  (folder / "sized_robot.toml", lambda p: res.sized.to_toml(p, overwrite=force))]
-    steps += [(folder / "summary.json", lambda p: text(p, lambda: json.dumps(
+        steps += [(drives, lambda: text(drives, lambda: chosen_toml(res))),
+                  (robot, lambda: res.sized.to_toml(robot, overwrite=force))]
+    steps += [(summary, lambda: text(summary, lambda: json.dumps(
                   sizing_summary(res), indent=2, allow_nan=False) + "\n")),
-              (folder / "sizing.html", lambda p: sizing_html(res, p, overwrite=force))]
-    written: list[Path] = []
-    try:
-        for path, write in steps:
-            checkpoint()
-            write(path)
-            written.append(path)
-        checkpoint()
-    except KeyboardInterrupt:
-        for path in written:
-            path.unlink(missing_ok=True)
-        raise
+              (page, lambda: sizing_html(res, page, overwrite=force))]
+    write_files(steps)
 
 
 @main.command()

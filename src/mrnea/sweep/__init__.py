@@ -15,7 +15,8 @@ mrnea.
 """
 
 from mrnea.sweep.engine import DEMO_PROGRAM, load_programs, sweep
-from mrnea.sweep.variants import PARAMETERS, check_grid, time_scaled, units, variant
+from mrnea.sweep.timescale import time_scaled
+from mrnea.sweep.variants import PARAMETERS, check_grid, units, variant
 
 sweep.variant = variant  # type: ignore[attr-defined]
 sweep.time_scaled = time_scaled  # type: ignore[attr-defined]

@@ -59,7 +59,8 @@ from mrnea.sweep.rows import (
     run_batch,
     warm,
 )
-from mrnea.sweep.variants import check_grid, time_scaled, units
+from mrnea.sweep.timescale import time_scaled
+from mrnea.sweep.variants import check_grid, units
 
 if TYPE_CHECKING:
     import pandas as pd
