@@ -37,6 +37,7 @@ from mrnea.kernels.layout import (
     effort_buffer,
     entry_scratch,
     force_buffers,
+    loop_buffers,
     mrnea_buffers,
     new_scratches,
     pose_buffers,
@@ -70,6 +71,7 @@ def _slots(kind: int, n: int, ws: tuple | None = None) -> dict[str, list[np.ndar
         out["drive_solve"] = list(_py(drive_solve_buffers)(ws, n))
         out["tree_solve"] = list(_py(tree_solve_buffers)(ws, n))
         out["update"] = list(_py(update_buffers)(ws, n))
+        out["loop"] = list(_py(loop_buffers)(ws, n))
     return out
 
 
@@ -79,7 +81,7 @@ SHAPES = {  # (rows, columns) of each slot, in units of n: the layout module's d
     "column": ["nn"], "solve_hu": ["nn", "n"],
     "achievable": ["nn", *["n"] * 7],
     "drive_solve": ["nn", "nn", *["n"] * 4, "2n", "3n", *["n"] * 4],
-    "tree_solve": ["n", "n"], "update": ["n", "n"],
+    "tree_solve": ["n", "n"], "update": ["n", "n"], "loop": ["n"] * 3,
 }
 
 
@@ -97,11 +99,13 @@ TOGETHER = {
            ("pose", "force", "branch"), ("pose", "force", "effort", "stash")],
     SOLVE: [("pose", "mrnea", "solve"), ("pose", "force", "solve"), ("pose", "mrnea", "branch"),
             ("pose", "mrnea", "stash", "column", "solve_hu"), ("pose", "force", "stash", "solve")],
-    ACHIEVABLE: [("pose", "mrnea", "achievable", "drive_solve", "tree_solve", "update"),
-                 ("pose", "force", "achievable", "drive_solve", "tree_solve", "update"),
-                 ("pose", "force", "effort"),
-                 ("pose", "mrnea", "stash", "column", "achievable"),
-                 ("pose", "mrnea", "branch", "achievable")],
+    ACHIEVABLE: [  # the simulation loop's "loop" rows: with all of its cycle's and reactions'
+        ("pose", "mrnea", "achievable", "drive_solve", "tree_solve", "update", "loop"),
+        ("pose", "force", "achievable", "drive_solve", "tree_solve", "update", "loop"),
+        ("pose", "force", "effort", "loop"), ("pose", "force", "branch", "loop"),
+        ("pose", "force", "effort", "stash", "loop"),
+        ("pose", "mrnea", "stash", "column", "achievable", "loop"),
+        ("pose", "mrnea", "branch", "achievable", "loop")],
 }
 
 

@@ -77,11 +77,14 @@ holds because every kernel writes a slot before it reads it::
     drive_solve_buffers  S[n:3n], S[3n + 6:3n + 15], I[:4]          its exact solve
     tree_solve_buffers   I[4:6]                                      on a tree's free joints
     update_buffers       S[3n + 16:3n + 18]                          with its factor updated
+    loop_buffers         S[3n + 18:3n + 21]                          the simulation loop's
+                                                                     next state; qdd_des of
+                                                                     the program's requirement
 
 A single-state entry takes the scratch its caller keeps (:func:`entry_scratch`: a ``SOLVE``
 scratch, the largest an entry needs); a batch kernel takes a stack of them, one per thread
 (:func:`batch_scratch`), and each state its thread's own (:func:`own_scratch`); the simulation
-loop allocates one per run: nothing on the hot path allocates.
+loop takes one per run (an ``ACHIEVABLE`` entry scratch): nothing on the hot path allocates.
 """
 
 from __future__ import annotations
@@ -290,7 +293,7 @@ BATCH_PAD = 8  # unused rows after each thread's scratch in a batch stack (``new
 def scratch_rows(n, kind):
     """Rows of S and of I a scratch for ``kind`` holds (the slots below)."""
     if kind == ACHIEVABLE:
-        return 3 * n + 18, 6
+        return 3 * n + 21, 6
     if kind == SOLVE:
         return 2 * n + 2, 0
     return 1, 0  # POSE: S[0], the reactions' efforts
@@ -455,6 +458,15 @@ def update_buffers(ws, n):
     kept as joints are held and released."""
     S = ws[2]
     return S[3 * n + 16], S[3 * n + 17]
+
+
+@nb.njit(**INTO_CALLER)
+def loop_buffers(ws, n):
+    """The simulation loop's (n,) rows (kernels/simulate.py): the next state q_next, qd_next
+    and the velocity v wanted over the next interval; the program's requirement, which runs
+    after the loop's cycles, takes the last for its qdd_des."""
+    S = ws[2]
+    return S[3 * n + 18], S[3 * n + 19], S[3 * n + 20]
 
 
 @nb.njit(**ALLOC)

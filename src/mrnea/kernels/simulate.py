@@ -41,25 +41,24 @@ efficiency, the driving or the back-driven limit).
 from __future__ import annotations
 
 import numba as nb
-import numpy as np
 
 from mrnea.kernels.achievable import step
 from mrnea.kernels.drive import drive_effort, side_limit, wanted_friction
 from mrnea.kernels.engines import ENGINE_MRNEA
-from mrnea.kernels.layout import ALLOC, FNEG, FPOS
+from mrnea.kernels.layout import FNEG, FPOS, JIT, loop_buffers
 from mrnea.kernels.rnea import reactions_ws, rnea_ws
 from mrnea.kernels.status import OK
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**JIT)
 def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0, k1, run, ws):
-    """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6)."""
+    """Run cycles k0 <= k < k1 (module docstring); arrays are (K, n), wrench (K, n, 6).
+    Allocates nothing (no Numba runtime: no reference counts on the cycle's views)."""
     model, act = compiled
     q_cmd, qd_cmd, fext, pe = program
     q, qd, qdd_des, qdd, tau, phi, tau_req, limit, sat, stuck, clamp, wrench = run
-    K, n = q_cmd.shape  # ws: step's, then the reactions'
-    nxt = np.empty((3, n))  # the next state and the velocity wanted over the next interval
-    q_next, qd_next, v = nxt[0], nxt[1], nxt[2]
+    K, n = q_cmd.shape  # ws: step's, then the reactions'; and the loop's own rows:
+    q_next, qd_next, v = loop_buffers(ws, n)  # the next state, the velocity wanted next
     for k in range(k0, k1):
         last = k + 1 >= K
         for i in range(n):
@@ -83,7 +82,7 @@ def simulate_cycles(compiled, program, dt, mode, engine, catch_up, reactions, k0
     return k1, OK
 
 
-@nb.njit(**ALLOC)
+@nb.njit(**JIT)
 def program_requirement(compiled, program, dt, friction, k0, k1, out, status, ws):
     """The program's own requirement (module docstring) in cycles k0 <= k < k1: out = (req,
     limit), each (K, n) [N m | N], joint side; status (K,) per cycle; ``friction`` False leaves
@@ -94,7 +93,7 @@ def program_requirement(compiled, program, dt, friction, k0, k1, out, status, ws
     q_cmd, qd_cmd, fext, pe = program
     req, limit = out
     K, n = q_cmd.shape  # ws: more rows than the RNEA needs, the loop's type: compiled once
-    qdd_des = np.empty(n)
+    qdd_des = loop_buffers(ws, n)[2]  # the loop's rows (the RNEA's are others): no allocation
     # the scratch never holds q_cmd[k]'s kinematics: pose_ready False, as a run-time bool, the
     # type the loop's reactions_ws passes, so both share one compiled rnea_ws (a literal False
     # or the default would be a second signature; docs/performance.md section 7)
