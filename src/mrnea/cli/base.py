@@ -177,22 +177,35 @@ def checkpoint() -> None:
 def write_files(steps: Sequence[tuple[Path, Callable[[], object]]],
                 side_files: Sequence[Path] = ()) -> None:
     """A command's output files: each ``(path, write)`` of ``steps`` in turn, a
-    :func:`checkpoint` before each and after the last. On a stop request (or any
-    KeyboardInterrupt) the files written so far are removed, and each of ``side_files`` (a file
-    a step may write besides its own, as a retimed program's payload) that was not there
-    before, and the interrupt goes on: the command leaves all of its files or none."""
-    fresh = [p for p in side_files if not os.path.lexists(p)]
+    :func:`checkpoint` before each and after the last. ``side_files``: files a step may write
+    besides its own (a retimed program's payload). The command leaves all of its new files or
+    none: a file it is about to replace (``--force``) is first moved aside in its folder
+    (``.NAME.mrnea-old``); on a stop request (or any KeyboardInterrupt) the files written so
+    far are removed and the ones moved aside put back as they were, and the interrupt goes
+    on; once every file is written the old ones are deleted."""
+    targets = list(dict.fromkeys([*(path for path, _ in steps), *side_files]))
+    kept: list[tuple[Path, Path]] = []  # (the file, its old content moved aside)
     written: list[Path] = []
     try:
+        for path in targets:
+            if os.path.isfile(path) and not os.path.islink(path):
+                old = path.with_name(f".{path.name}.mrnea-old")
+                with contextlib.suppress(OSError):  # not movable: the writer says why
+                    os.replace(path, old)
+                    kept.append((path, old))
         for path, write in steps:
             checkpoint()
             write()
             written.append(path)
         checkpoint()
-    except KeyboardInterrupt:
-        for path in [*written, *fresh]:
+    except BaseException:
+        for path in [*written, *side_files]:
             path.unlink(missing_ok=True)
+        for path, old in kept:
+            os.replace(old, path)
         raise
+    for _, old in kept:
+        old.unlink(missing_ok=True)
 
 
 def last_checkpoint() -> None:

@@ -314,8 +314,9 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
            name: str, force: bool, view3d: bool, cartesian: tuple[Any, Any] = (None, None)
            ) -> None:
     """Write the run's files, a checkpoint before each; a stop request removes the files this
-    run wrote so far (the command leaves all of them or none of its own). ``cartesian``: a
-    Cartesian program's (tool spec, CartesianPath), whose retimed timing is written too."""
+    run wrote so far and puts back those they replaced (:func:`mrnea.cli.base.write_files`).
+    ``cartesian``: a Cartesian program's (tool spec, CartesianPath), whose retimed timing is
+    written too."""
     from mrnea.report.retime import write_retime_report
 
     steps = [

@@ -56,7 +56,8 @@ FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json",
 
 def _write(res, folder: Path, force: bool) -> None:
     """The sizing's files (:func:`mrnea.cli.base.write_files`: a stop request taken before
-    each; on a stop the files this run wrote are removed, and the command exits 130)."""
+    each; on a stop the files this run wrote are removed, those they replaced put back, and the
+    command exits 130)."""
     from mrnea.sizing.html import sizing_html
     from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
 

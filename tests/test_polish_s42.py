@@ -1,0 +1,52 @@
+"""Session 42's fixes: a command stopped while it replaces its files (``--force``) leaves the
+old ones as they were."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+@pytest.mark.parametrize("after", [1, 3])
+def test_a_stop_while_replacing_files_puts_the_old_ones_back(monkeypatch, tmp_path: Path,
+                                                              after: int) -> None:
+    """``mrnea size --force`` over a finished run's folder, stopped after ``after`` of its new
+    files: exit 130, and every file of the first run is there with its bytes, nothing else
+    (it had removed the replaced files: neither the old nor the new ones were left)."""
+    from click.testing import CliRunner
+    from test_sizing import CATALOGUE, arm
+
+    from mrnea.cli import base, main
+
+    arm().to_toml(tmp_path / "arm.toml")
+    (tmp_path / "swing.toml").write_text(
+        '[program]\nname = "swing"\nrobot = "arm.toml"\ndt = 0.01\n[path]\nprofile = '
+        '"trapezoidal"\nwaypoints = [[-0.3, 0.0], [0.6, 1.0], [-0.3, 0.0]]\n'
+        "velocity_limit = [1.5, 1.5]\nacceleration_limit = [5.0, 5.0]\n")
+    (tmp_path / "cat.toml").write_text(CATALOGUE)
+    monkeypatch.chdir(tmp_path)
+    args = ["size", "arm.toml", "swing.toml", "--catalogue", "cat.toml", "--out", "out"]
+    first = CliRunner().invoke(main, args)
+    assert first.exit_code in (0, 1), first.output
+    before = _files(tmp_path / "out")
+    assert len(before) >= 3, before.keys()
+    real, calls = base.checkpoint, []
+
+    def stop_after_some() -> None:  # write_files' checks: one before each file
+        calls.append(1)
+        if len(calls) > after:
+            raise KeyboardInterrupt
+        real()
+
+    monkeypatch.setattr(base, "checkpoint", stop_after_some)
+    res = CliRunner().invoke(main, [*args, "--force"])
+    assert res.exit_code == 130, res.output
+    assert len(calls) == after + 1  # stopped while writing, after ``after`` new files
+    assert _files(tmp_path / "out") == before
