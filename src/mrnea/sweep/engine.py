@@ -59,8 +59,7 @@ from mrnea.sweep.rows import (
     run_batch,
     warm,
 )
-from mrnea.sweep.timescale import time_scaled
-from mrnea.sweep.variants import check_grid, units
+from mrnea.sweep.variants import grid_cases, units
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -128,14 +127,6 @@ def _labels(programs: Sequence[Program]) -> list[str]:
     if dup:
         raise SweepError(f"programs: the same program given twice: {', '.join(dup)}")
     return labels
-
-
-def _scaled(programs: Sequence[Program], cases: Sequence[Mapping[str, Any]]
-            ) -> dict[tuple[int, float], Program]:
-    """Every (program number, time scale) the cases need, scaled once (here, not per run;
-    :func:`check_grid` has refused a scale a program cannot take)."""
-    scales = sorted({float(c.get("time_scale", 1.0)) for c in cases})
-    return {(p, s): time_scaled(prog, s) for p, prog in enumerate(programs) for s in scales}
 
 
 # --- the cluster ---------------------------------------------------------------------------
@@ -253,8 +244,7 @@ def sweep(robot: Robot, programs: Any, grid: Mapping[str, Any], client: Any = No
                          f"(str), got {type(client).__name__}")
     progs = load_programs(programs, robot)
     labels = _labels(progs)
-    keys, cases = check_grid(robot, grid, zip, progs)
-    scaled = _scaled(progs, cases)
+    keys, cases, scaled = grid_cases(robot, grid, zip, progs)  # each program scaled once
     jobs = [(v * len(progs) + p, (p, float(case.get("time_scale", 1.0))), case)
             for v, case in enumerate(cases) for p in range(len(progs))]
     rows: dict[int, dict[str, Any]] = {}

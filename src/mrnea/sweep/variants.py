@@ -314,6 +314,15 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False,
     SweepError
         A bad grid, naming the entry (and the value's position in its list).
     """
+    keys, cases, _ = grid_cases(robot, grid, zip, programs)
+    return keys, cases
+
+
+def grid_cases(robot: Robot, grid: Mapping[str, Any], zip: bool, programs: Sequence[Program]
+               ) -> tuple[tuple[str, ...], list[dict[str, Any]], dict[tuple[int, float], Program]]:
+    """:func:`check_grid`'s keys and cases, and each program at each time scale of the grid,
+    scaled once for both the check and the runs: ``{(program number, scale): program}`` (the
+    scale 1.0 alone without ``time_scale``: each program itself)."""
     validate.require_robot(robot)
     if not isinstance(grid, Mapping):
         raise SweepError(f"grid: expected a mapping of parameter -> list of values, got "
@@ -346,13 +355,14 @@ def check_grid(robot: Robot, grid: Mapping[str, Any], zip: bool = False,
                                  f"{str(exc).removeprefix(f'grid entry {quote(key)}: ')}"
                                  ) from None
     _joint_values(robot, {key: lists[key][0] for key in keys})  # conflicting limit keys
-    for k, value in enumerate(lists.get("time_scale", ())):  # each program at each scale
-        for prog in programs:
+    scaled: dict[tuple[int, float], Program] = {}
+    for k, value in enumerate(lists.get("time_scale", [1.0])):  # each program at each scale
+        for p, prog in enumerate(programs):
             try:  # its memory, its cycles, its path kept (time_scaled's own checks)
-                time_scaled(prog, float(value))
+                scaled[p, float(value)] = time_scaled(prog, float(value))
             except MrneaError as exc:
                 raise SweepError(f"grid entry 'time_scale' value {k + 1} ({quote(value)}): "
                                  f"{exc}") from None
     combos = builtins.zip(*lists.values(), strict=True) if zip else itertools.product(
         *lists.values())
-    return keys, [dict(builtins.zip(keys, c, strict=True)) for c in combos]
+    return keys, [dict(builtins.zip(keys, c, strict=True)) for c in combos], scaled
