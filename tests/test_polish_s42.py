@@ -50,3 +50,24 @@ def test_a_stop_while_replacing_files_puts_the_old_ones_back(monkeypatch, tmp_pa
     assert res.exit_code == 130, res.output
     assert len(calls) == after + 1  # stopped while writing, after ``after`` new files
     assert _files(tmp_path / "out") == before
+
+
+def test_out_of_memory_names_the_command_files(monkeypatch, tmp_path: Path) -> None:
+    """A MemoryError inside a command (here the retiming of the Puma 560's pick program): one
+    line naming the program file, exit 2 (it named no file)."""
+    import importlib
+
+    from click.testing import CliRunner
+
+    from mrnea.cli import main
+
+    def no_memory(*args, **kw):
+        raise MemoryError
+
+    # the package mrnea.retime (the name mrnea.retime is the function)
+    monkeypatch.setattr(importlib.import_module("mrnea.retime"), "retime", no_memory)
+    program = str(EXAMPLES / "puma_pick.toml")
+    res = CliRunner().invoke(main, ["retime", program, "--out", str(tmp_path / "out")])
+    assert res.exit_code == 2, res.output
+    assert res.stderr.strip() == (f"mrnea: error: out of memory (on '{program}'): use a "
+                                  "coarser dt or a shorter program"), res.stderr

@@ -304,6 +304,7 @@ class _Group(click.Group):
         # the command says it compiles in its own words (compile_notice, never with --quiet):
         # the library's notice (mrnea/compiled.py) off here and in the processes it starts
         os.environ["MRNEA_COMPILE_NOTICE"] = "0"
+        self.argv = [str(a) for a in (sys.argv[1:] if args is None else args)]
         try:
             rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         except click.exceptions.NoArgsIsHelpError as exc:  # ``mrnea`` alone: the help
@@ -340,7 +341,10 @@ class _Group(click.Group):
             except MemoryError:
                 if debug:
                     raise
-                fail("out of memory; use a coarser dt or a shorter program")
+                files = ", ".join(dict.fromkeys(  # the command's input files, if any
+                    quote(a) for a in getattr(self, "argv", ()) if os.path.isfile(a)))
+                fail(f"out of memory{f' (on {files})' if files else ''}: use a coarser dt or "
+                     "a shorter program")
             except Exception as exc:  # a bug: still one line, the traceback with --debug
                 if debug:
                     raise
