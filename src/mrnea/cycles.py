@@ -3,8 +3,10 @@
 What :class:`mrnea.simulate.SimulationResult` shows cycle by cycle, computed from its arrays:
 :func:`columns` (the table behind :meth:`~mrnea.simulate.SimulationResult.columns` and
 ``cycles.csv``, one column per quantity and joint, :data:`PER_JOINT`), :func:`csv_rows` (a
-chunk of it as CSV), :func:`program_qdd` (the program's own acceleration) and
-:func:`bearing_loads` (the reaction loads along and across each joint's axis). The result's
+chunk of it as CSV), :func:`program_qdd` (the program's own acceleration, with
+:func:`program_next`, what the program commands after the last cycle held),
+:func:`bearing_loads` (the reaction loads along and across each joint's axis), and what a run
+fills chunk by chunk besides the kernel's arrays (:func:`derive`, :func:`tool_errors`). The result's
 methods of the same names are the public API; their docstrings say what each column holds.
 """
 
@@ -17,10 +19,13 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from mrnea import compiled
 from mrnea.errors import StateError
 from mrnea.kernels import bearing
+from mrnea.kernels.derived import derived
 
 if TYPE_CHECKING:
+    from mrnea.cartesian import CartesianPath
     from mrnea.simulate import SimulationResult
 
 # The per-joint columns of the per-cycle table, in order: the result's array (program_qdd: the
@@ -69,25 +74,51 @@ def bearing_loads(res: SimulationResult) -> BearingLoads:
     return BearingLoads(*out)
 
 
+def _cycles(res: SimulationResult, rows: object) -> NDArray:
+    """The indices of the cycles ``rows`` (a slice, any step) of ``res``; StateError for anything
+    else, a slice of non-integers included."""
+    if not isinstance(rows, slice):
+        raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
+    try:
+        return np.arange(*rows.indices(res.K))
+    except (TypeError, ValueError):  # bounds that are not integers, a zero step
+        raise StateError(f"rows: expected a slice of integer cycles, got {rows!r}") from None
+
+
+def program_next(res: SimulationResult) -> tuple[NDArray, NDArray]:
+    """What the program commands after the last cycle of ``res``, (n,) each: its position
+    [rad | m] and its velocity [rad/s | m/s] over the next interval. A run that stopped before
+    the program's end (interrupted, or a runaway): the program's next row (q_cmd[K], qd_cmd[K]
+    of the whole program); at the program's end: its last position, at rest (the last cycle
+    commands zero velocity, kernels/simulate.py)."""
+    if res._next is not None:
+        return res._next[0], res._next[1]
+    rest = np.zeros(res.robot.n)
+    return (res.q_cmd[-1] if res.K else rest), rest
+
+
 def program_qdd(res: SimulationResult, rows: slice) -> NDArray:
     """The program's own acceleration [rad/s^2 | m/s^2] at the cycles ``rows`` of ``res``
-    (:meth:`mrnea.simulate.SimulationResult.program_qdd`)."""
-    start, stop, _ = rows.indices(res.K)
-    v = res.qd_cmd[start:stop]
-    following = np.zeros_like(v)
-    nxt = res.qd_cmd[start + 1:stop + 1]
-    following[:nxt.shape[0]] = nxt
-    return (following - v) / res.dt
+    (:meth:`mrnea.simulate.SimulationResult.program_qdd`): ``(qd_cmd[k + 1] - qd_cmd[k]) /
+    dt`` with the program's own next velocity after the last row (:func:`program_next`), the
+    one kernels/simulate.py ``program_requirement`` computed ``program_effort`` for."""
+    return _program_qdd(res, _cycles(res, rows))
+
+
+def _program_qdd(res: SimulationResult, k: NDArray) -> NDArray:
+    """:func:`program_qdd` at the cycles of the index array ``k``."""
+    following = res.qd_cmd[np.minimum(k + 1, res.K - 1)]  # a copy (an index array)
+    following[k + 1 >= res.K] = program_next(res)[1]
+    return (following - res.qd_cmd[k]) / res.dt
 
 
 def columns(res: SimulationResult, rows: slice) -> dict[str, NDArray]:
     """The per-cycle table of ``res`` at the cycles ``rows`` as named 1-D columns
     (:meth:`mrnea.simulate.SimulationResult.columns`, which lists them)."""
-    if not isinstance(rows, slice):
-        raise StateError(f"rows: expected a slice of cycles, got {type(rows).__name__}")
+    k = _cycles(res, rows)  # the cycles a slice of the arrays holds, whatever its step
     cols: dict[str, NDArray] = {"t [s]": res.t[rows]}
     for attr, name, quantity in PER_JOINT:
-        a = program_qdd(res, rows) if attr == "program_qdd" else getattr(res, attr)[rows]
+        a = _program_qdd(res, k) if attr == "program_qdd" else getattr(res, attr)[rows]
         for i, j in enumerate(res.robot.joints):
             unit = "" if quantity is None else f" [{j.unit(quantity)}]"
             cols[f"{name}_{j.name}{unit}"] = a[:, i]
@@ -99,6 +130,30 @@ def columns(res: SimulationResult, rows: slice) -> dict[str, NDArray]:
         cols["tool_position_error [m]"] = res.tool_position_error[rows]
         cols["tool_orientation_error [rad]"] = res.tool_orientation_error[rows]
     return cols
+
+
+def derive(res: SimulationResult, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
+    """Fill the derived per-cycle arrays of ``res`` at the rows (a chunk) the kernel has just
+    computed (kernels/derived.py: the motor side of each cycle's effort at its starting speed
+    [N m], the margin [N m | N], the tracking error [rad | m], the clamp flags; ``clamp``: the
+    kernel's clamp codes; ``resolution``: (n,) the tracking errors that are rounding, see
+    :attr:`mrnea.simulate.SimulationResult.tracking_error`)."""
+    derived(compiled.of(res.robot)[3], (res.q_cmd, res.q, res.qd, res.tau, res.limit, clamp),
+            (res.tau_motor, res.margin, res.tracking_error, res.position_clamped,
+             res.velocity_clamped), resolution, rows.start, rows.stop)
+
+
+def tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> None:
+    """Fill ``res``'s tool errors at ``rows`` (a run's chunk): the real motion's tool pose against
+    the programmed one, position [m] and angle [rad] (:func:`mrnea.simulate.simulate`'s
+    ``cartesian``)."""
+    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
+
+    T = path.tool_poses(res.robot, res.q[rows], rows)
+    P = path.pose[rows]
+    res.tool_position_error[rows] = np.linalg.norm(T[:, :3, 3] - P[:, :3, 3], axis=1)
+    res.tool_orientation_error[rows] = Rotation.from_matrix(
+        np.transpose(P[:, :3, :3], (0, 2, 1)) @ T[:, :3, :3]).magnitude()
 
 
 def csv_rows(res: SimulationResult, rows: slice, header: bool = False) -> bytes:

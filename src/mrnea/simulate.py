@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import inspect
 import json
 import os
 from collections.abc import Callable
@@ -30,9 +31,9 @@ from numpy.typing import ArrayLike, NDArray
 from mrnea import compiled, cycles, validate
 from mrnea.achievable import MODES, check_moves
 from mrnea.cartesian import CartesianPath
-from mrnea.errors import StateError
-from mrnea.io.writer import create
-from mrnea.kernels.derived import derived
+from mrnea.errors import OutputError, StateError
+from mrnea.io.source import as_path
+from mrnea.io.writer import check_new, create
 from mrnea.kernels.drive_ways import solve_mode
 from mrnea.kernels.engines import ENGINE_CRBA, ENGINE_MRNEA, ENGINE_WALKER_ORIN
 from mrnea.kernels.layout import ACHIEVABLE, entry_scratch
@@ -40,7 +41,7 @@ from mrnea.kernels.simulate import program_requirement, simulate_cycles
 from mrnea.kernels.status import NONFINITE, OK, OVERFLOW
 from mrnea.model import Robot
 from mrnea.resources import require_memory
-from mrnea.summary import start_violations, summarize, verdict
+from mrnea.summary import final_position_line, start_violations, summarize, verdict
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -139,6 +140,9 @@ class SimulationResult:
     tool_point: tuple[float, float, float] | None = None
     tool_targets: NDArray | None = None
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
+    #: (2, n): q_cmd[K], qd_cmd[K] of the program, when the run stopped before its end; None:
+    #: the run held the program's last cycle (:func:`mrnea.cycles.program_next`)
+    _next: NDArray | None = field(default=None, repr=False, compare=False)
 
     @property
     def K(self) -> int:
@@ -205,20 +209,15 @@ class SimulationResult:
     def final_position_line(self) -> str | None:
         """None when the run completed and the robot ended where the program ends; else one
         line stating each joint's final position error q_cmd - q [rad | m] (0: within the
-        resolution of :attr:`tracking_error`)."""
-        if not self.completed or self.runaway_time is not None \
-                or not self.tracking_error[-1].any():
-            return None
-        errors = ", ".join(f"{j.name} {e:.4g} {j.unit('q')}"
-                           for j, e in zip(self.robot.joints, self.tracking_error[-1].tolist(),
-                                           strict=True))
-        return f"The robot did not reach the program's end: final position error {errors}."
+        resolution of :attr:`tracking_error`; :func:`mrnea.summary.final_position_line`)."""
+        return final_position_line(self)
 
     def program_qdd(self, rows: slice = slice(None)) -> NDArray:
         """The program's own acceleration [rad/s^2 | m/s^2] at the cycles ``rows``: the one
-        :attr:`program_effort` is computed for, ``(qd_cmd[k + 1] - qd_cmd[k]) / dt`` (the next
-        velocity 0 after the last row; unclamped). What the drive asked for once the robot lags
-        is ``qdd_des`` (the catch-up)."""
+        :attr:`program_effort` is computed for, ``(qd_cmd[k + 1] - qd_cmd[k]) / dt``, unclamped;
+        after the last row the program's own next velocity, 0 at the program's end (a run that
+        stopped before it: :func:`mrnea.cycles.program_next`). What the drive asked for once the
+        robot lags is ``qdd_des`` (the catch-up)."""
         return cycles.program_qdd(self, rows)
 
     def columns(self, rows: slice = slice(None)) -> dict[str, NDArray]:
@@ -251,21 +250,12 @@ class SimulationResult:
                 fh.write(cycles.csv_rows(self, slice(k, k + CHUNK), header=k == 0))
         return Path(path)
 
-    def _derive(self, rows: slice, clamp: NDArray, resolution: NDArray) -> None:
-        """Fill the derived per-cycle arrays of the rows the kernel has just computed
-        (kernels/derived.py: the motor side of each cycle's effort at its starting speed, the
-        margin, the tracking error, the clamp flags; ``resolution``: (n,) the tracking errors
-        that are rounding, see :attr:`tracking_error`)."""
-        derived(compiled.of(self.robot)[3],
-                (self.q_cmd, self.q, self.qd, self.tau, self.limit, clamp),
-                (self.tau_motor, self.margin, self.tracking_error, self.position_clamped,
-                 self.velocity_clamped), resolution, rows.start, rows.stop)
-
     def _first(self, k: int) -> SimulationResult:
-        """The first k cycles (an interrupted run), as views."""
+        """The first k cycles (an interrupted run), as views, and the program's row after them."""
         arrays = {f.name: getattr(self, f.name)[:k] for f in dataclasses.fields(self)
-                  if isinstance(getattr(self, f.name), np.ndarray)}
-        return dataclasses.replace(self, **arrays, completed=False, _summary={})
+                  if isinstance(getattr(self, f.name), np.ndarray) and f.name[0] != "_"}
+        nxt = self._next if k >= self.K else np.stack((self.q_cmd[k], self.qd_cmd[k]))
+        return dataclasses.replace(self, **arrays, completed=False, _summary={}, _next=nxt)
 
     def save_summary(self, path: str | os.PathLike, overwrite: bool = False) -> Path:
         """Write :meth:`summary` as JSON (``summary.json``), as :meth:`to_csv` writes."""
@@ -280,6 +270,7 @@ class SimulationResult:
         ``path``: :func:`mrnea.report.plot_result` (see there)."""
         from mrnea.report.figures import plot_result  # matplotlib: loaded when first asked for
 
+        check_new([], overwrite)  # its type, also without a path
         return plot_result(self, path, overwrite)
 
     def report(self, path: str | os.PathLike, overwrite: bool = False,
@@ -288,7 +279,7 @@ class SimulationResult:
         ``view3d`` is False: :func:`mrnea.report.write_report` (see there)."""
         from mrnea.report.html import write_report  # matplotlib: loaded when first asked for
 
-        return write_report(self, path, overwrite, view3d=view3d)
+        return write_report(self, path, overwrite, view3d=validate.flag(view3d, "view3d"))
 
 
 def simulate(
@@ -308,7 +299,8 @@ def simulate(
     reactions: bool = True,
     cartesian: CartesianPath | None = None,
 ) -> SimulationResult:
-    """Simulate the programmed motion q_cmd (K, n), one row per interpolation cycle dt [s].
+    """Simulate the programmed motion q_cmd (K, n) [rad | m], one row per interpolation cycle dt
+    [s]; a program (or qd0) faster than :data:`RUNAWAY_SPEED` is refused: a unit mistake.
 
     Parameters
     ----------
@@ -328,7 +320,8 @@ def simulate(
         for the program's velocity plus ``catch_up * (q_cmd - q)``, as a cascaded servo's
         position loop does, so the lag closes at that rate once the limits allow; keep
         ``catch_up * dt`` well below 1 (e.g. 10-50 1/s at dt = 5 ms).
-    progress : called as ``progress(cycles_done, K)`` between compiled chunks.
+    progress : called as ``progress(cycles_done, K)`` between compiled chunks; what else than
+        KeyboardInterrupt (below) it raises reaches the caller as it is, no stream written.
     stream : a CSV path: the per-cycle table is written while the simulation runs, chunk by
         chunk (the same table as :meth:`SimulationResult.to_csv`), for long runs, to a private
         temporary file in the same folder that is renamed to ``stream`` when the run ends or is
@@ -352,25 +345,19 @@ def simulate(
     validate.require_robot(robot)
     engine = validate.choice("fd", fd, FD_ENGINES)
     dt = validate.time_step(dt)
-    validate.callable_or_none(progress, "progress")
+    _check_progress(progress)
     catch_up = validate.catch_up(catch_up, dt)
     reactions = validate.flag(reactions, "reactions")
+    check_new([], overwrite)  # its type, with or without a stream: an OutputError, as create's
+    stream = None if stream is None else as_path(stream, "stream", OutputError)
     n = robot.n
     how = solve_mode(code, n, parents=robot.parents)  # the drive solve's way, chosen here
-    Qc = validate.array(q_cmd, "q_cmd", n)
-    if Qc.ndim != 2 or Qc.shape[0] < 2:
-        raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {Qc.shape}")
-    _require_memory(Qc.shape[0], n)
-    Qc = np.ascontiguousarray(Qc)
+    Qc = _program(q_cmd, n)
     K = Qc.shape[0]
-    x0 = Qc[0] if q0 is None else validate.array(q0, "q0", n)
-    v0 = np.zeros(n) if qd0 is None else validate.array(qd0, "qd0", n)
-    if x0.ndim != 1 or v0.ndim != 1:
-        raise StateError(f"q0, qd0: expected shape ({n},)")
+    x0, v0 = (Qc[0] if q0 is None else _state(q0, "q0", n),
+              np.zeros(n) if qd0 is None else _state(qd0, "qd0", n))
     FE, PE = validate.wrench_per_cycle(robot, f_ext, f_ext_point, K)
-    Vc = np.empty_like(Qc)
-    Vc[0] = v0
-    Vc[1:] = np.diff(Qc, axis=0) / dt
+    Vc = _velocities(robot, Qc, v0, dt)
 
     def zeros(dtype: type = float) -> NDArray:
         return np.zeros((K, n), dtype=dtype)
@@ -425,9 +412,9 @@ def simulate(
                 for k in np.flatnonzero(status_k[done:k1] != OK) + done:
                     validate.check_cycle(robot, int(k), int(status_k[k]), Qc[k], Vc[k], dt)
                 rows = slice(done, k1)
-                res._derive(rows, clamp, resolution)
+                cycles.derive(res, rows, clamp, resolution)
                 if cartesian is not None:
-                    _tool_errors(res, rows, cartesian)
+                    cycles.tool_errors(res, rows, cartesian)
                 if fh is not None:  # on disk at once: after a hard kill the temporary file
                     fh.write(cycles.csv_rows(res, rows, header=done == 0))  # keeps the cycles done
                     fh.flush()
@@ -440,19 +427,11 @@ def simulate(
         except KeyboardInterrupt:
             if fh is not None:  # it may have landed inside a chunk's write: keep whole cycles
                 fh.truncate(kept)
+                if not kept:  # no chunk whole: the header alone, as to_csv writes it
+                    fh.seek(0)
+                    fh.write(cycles.csv_rows(res, slice(0, 0), header=True))
             return res._first(done)  # even after the last chunk (progress raised): not lost
     return res
-
-
-def _tool_errors(res: SimulationResult, rows: slice, path: CartesianPath) -> None:
-    """The real motion's tool errors against the programmed pose, for ``rows``."""
-    from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
-
-    T = path.tool_poses(res.robot, res.q[rows], rows)
-    P = path.pose[rows]
-    res.tool_position_error[rows] = np.linalg.norm(T[:, :3, 3] - P[:, :3, 3], axis=1)
-    res.tool_orientation_error[rows] = Rotation.from_matrix(
-        np.transpose(P[:, :3, :3], (0, 2, 1)) @ T[:, :3, :3]).magnitude()
 
 
 def _require_memory(K: int, n: int) -> None:
@@ -463,3 +442,59 @@ def _require_memory(K: int, n: int) -> None:
     require_memory(8.0 * K * (32 * n + 12), f"simulating {K:.3g} cycles of {n} joints",
                    "use a coarser dt or a shorter program, or split the program and simulate "
                    "the parts one after another", StateError)
+
+
+def _check_progress(progress: object) -> None:
+    """A StateError unless ``progress`` is None or a callable that takes (cycles_done, K): one
+    that cannot would fail only after the first chunk's cycles."""
+    validate.callable_or_none(progress, "progress")
+    try:
+        progress is None or inspect.signature(progress).bind(0, 0)  # type: ignore[arg-type]
+    except ValueError:  # a callable without a signature (some builtins): taken as it is
+        return
+    except TypeError as exc:
+        raise StateError(f"progress: must take two arguments, (cycles_done, K): {exc}") from None
+
+
+def _program(q_cmd: ArrayLike, n: int) -> NDArray:
+    """q_cmd as a C-contiguous (K, n) float64 array of finite numbers with K >= 2
+    (:func:`mrnea.validate.array`); an array too large for the memory budget is refused before
+    any copy of it is made (:func:`_require_memory`)."""
+    def check(shape: tuple[int, ...]) -> None:
+        if len(shape) != 2 or shape[0] < 2 or shape[1] != n:
+            raise StateError(f"q_cmd: expected (K, {n}) with K >= 2 cycles, got {shape}")
+        _require_memory(shape[0], n)
+
+    if isinstance(q_cmd, np.ndarray):  # a view of anything (broadcast, memory-mapped)
+        check(q_cmd.shape)
+    Qc = validate.array(q_cmd, "q_cmd", n)
+    check(Qc.shape)
+    return Qc
+
+
+def _state(x: ArrayLike, name: str, n: int) -> NDArray:
+    """The initial position q0 [rad | m] or velocity qd0 [rad/s | m/s], (n,) finite."""
+    if (a := validate.array(x, name, n)).ndim != 1:
+        raise StateError(f"{name}: expected shape ({n},), got {a.shape}")
+    return a
+
+
+def _velocities(robot: Robot, Qc: NDArray, v0: NDArray, dt: float) -> NDArray:
+    """The program's velocities qd_cmd (module docstring) [rad/s | m/s], qd_cmd[0] = v0 (the
+    initial velocity qd0). A StateError for one beyond :data:`RUNAWAY_SPEED` (overflowing
+    included): a unit mistake in q_cmd, dt or qd0, a speed no machine comes near; the run
+    would only report a runaway (or an overflow) at its first cycle."""
+    Vc = np.empty_like(Qc)
+    Vc[0] = v0
+    with np.errstate(over="ignore"):  # a step of 1e308: inf, refused below
+        np.subtract(Qc[1:], Qc[:-1], out=Vc[1:])
+        Vc[1:] /= dt
+    if max(Vc.max(), -Vc.min()) <= RUNAWAY_SPEED:  # no temporary of the array's size
+        return Vc
+    k, i = (int(x) for x in np.argwhere(np.abs(Vc) > RUNAWAY_SPEED)[0])
+    j = robot.joints[i]
+    what = (f"qd0: {Vc[0, i]:.3g} {j.unit('qd')} for joint {j.name!r}" if k == 0 else
+            f"q_cmd: the program moves joint {j.name!r} at {Vc[k, i]:.3g} {j.unit('qd')} at "
+            f"cycle {k} (t = {k * dt:.6g} s, dt = {dt:g} s)")
+    raise StateError(f"{what}, beyond {RUNAWAY_SPEED:g} {j.unit('qd')}, faster than any machine "
+                     f"moves; check the units of q_cmd, dt and qd0")

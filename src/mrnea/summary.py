@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mrnea import compiled
+from mrnea import compiled, cycles
 from mrnea.kernels import bearing, peaks
 from mrnea.kernels.drive import beyond
 
@@ -134,14 +134,17 @@ def _first_infeasible(r: SimulationResult) -> dict[str, Any] | None:
     reasons = [name for name, m in (("effort saturated", r.saturated),
                                     ("position limit", r.position_clamped),
                                     ("velocity limit", r.velocity_clamped)) if m[k, i]]
-    nxt = min(k + 1, r.K - 1)
+    # the program's next row, which cycle k headed for; after the last cycle held, the
+    # program's own next row or its end at rest (mrnea.cycles.program_next)
+    q_next, qd_next = ((r.q_cmd[k + 1], r.qd_cmd[k + 1]) if k + 1 < r.K
+                       else cycles.program_next(r))
     return {
         "time": float(r.t[k]), "cycle": k, "joint": j.name, "reason": ", ".join(reasons),
         "required_effort": float(r.tau_required[k, i]),
         "available_effort": finite_or_none(r.limit[k, i]),
-        "commanded_velocity": float(r.qd_cmd[nxt, i]),
+        "commanded_velocity": float(qd_next[i]),
         "velocity_limit": finite_or_none(j.velocity_limit),
-        "commanded_position": float(r.q_cmd[nxt, i]),
+        "commanded_position": float(q_next[i]),
         "position_limits": [finite_or_none(j.lower), finite_or_none(j.upper)],
     }
 
@@ -322,3 +325,14 @@ def _shortfall(r: SimulationResult, s: dict[str, Any], worst: dict[str, Any] | N
     return (f"first at t = {fi['time']:.3f} s, joint '{fi['joint']}' ({fi['reason']}): {what}; "
             f"worst tracking error {_g(worst_err['max_tracking_error'])} "
             f"{POSITION_UNIT[units[worst_err['joint']]]} ('{worst_err['joint']}').")
+
+
+def final_position_line(r: SimulationResult) -> str | None:
+    """None when the run completed and the robot ended where the program ends; else one line
+    stating each joint's final position error q_cmd - q [rad | m]
+    (:meth:`mrnea.simulate.SimulationResult.final_position_line`)."""
+    if not r.completed or r.runaway_time is not None or not r.tracking_error[-1].any():
+        return None
+    errors = ", ".join(f"{j.name} {e:.4g} {j.unit('q')}"
+                       for j, e in zip(r.robot.joints, r.tracking_error[-1].tolist(), strict=True))
+    return f"The robot did not reach the program's end: final position error {errors}."
