@@ -71,3 +71,21 @@ def test_out_of_memory_names_the_command_files(monkeypatch, tmp_path: Path) -> N
     assert res.exit_code == 2, res.output
     assert res.stderr.strip() == (f"mrnea: error: out of memory (on '{program}'): use a "
                                   "coarser dt or a shorter program"), res.stderr
+
+
+def test_the_report_functions_refuse_non_bool_flags(tmp_path: Path) -> None:
+    """``plot_result(overwrite=...)`` without a folder and ``write_report(view3d=...)`` called
+    directly refuse a non-bool, naming it (they were accepted; the result's methods alone
+    checked them)."""
+    import numpy as np
+
+    import mrnea
+    from mrnea.errors import MrneaError
+    from mrnea.report import plot_result, write_report
+
+    res = mrnea.simulate(mrnea.robots.puma560(), np.zeros((3, 6)), 0.01)
+    with pytest.raises(MrneaError, match="overwrite"):
+        plot_result(res, None, overwrite="x")
+    with pytest.raises(MrneaError, match="view3d"):
+        write_report(res, tmp_path / "r.html", view3d="x")
+    assert not (tmp_path / "r.html").exists()

@@ -270,7 +270,6 @@ class SimulationResult:
         ``path``: :func:`mrnea.report.plot_result` (see there)."""
         from mrnea.report.figures import plot_result  # matplotlib: loaded when first asked for
 
-        check_new([], overwrite)  # its type, also without a path
         return plot_result(self, path, overwrite)
 
     def report(self, path: str | os.PathLike, overwrite: bool = False,
@@ -279,7 +278,7 @@ class SimulationResult:
         ``view3d`` is False: :func:`mrnea.report.write_report` (see there)."""
         from mrnea.report.html import write_report  # matplotlib: loaded when first asked for
 
-        return write_report(self, path, overwrite, view3d=validate.flag(view3d, "view3d"))
+        return write_report(self, path, overwrite, view3d=view3d)
 
 
 def simulate(

@@ -302,8 +302,8 @@ def plot_result(result: SimulationResult, path: str | os.PathLike[str] | None = 
     """
     require_result(result)
     folder = None if path is None else as_path(path, "path", OutputError)
-    if folder is not None:
-        check_new([folder / f"{name}.png" for name in FIGURES], overwrite)
+    check_new([] if folder is None else [folder / f"{name}.png" for name in FIGURES],
+              overwrite)  # overwrite's type too, with or without a folder
     figs = {
         "motion": _motion_figure(result),
         "efforts": _efforts_figure(result),

@@ -28,7 +28,7 @@ from mrnea.report.figures import plot_result, require_result
 from mrnea.report.pngs import draw_pngs
 from mrnea.report.view3d import result_scene
 from mrnea.report.view3d_html import decimals, figure_axes, license_html, scene_html
-from mrnea.validate import choice
+from mrnea.validate import choice, flag
 
 if TYPE_CHECKING:
     from mrnea.simulate import SimulationResult
@@ -426,6 +426,7 @@ def write_report(
     check_new([path, *(pngs / f"{n}.png" for n in files)], overwrite)  # before any rendering
     if interpolation is not None:
         choice("interpolation", interpolation, INTERPOLATIONS)
+    view3d = flag(view3d, "view3d")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
