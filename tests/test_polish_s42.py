@@ -89,3 +89,24 @@ def test_the_report_functions_refuse_non_bool_flags(tmp_path: Path) -> None:
     with pytest.raises(MrneaError, match="view3d"):
         write_report(res, tmp_path / "r.html", view3d="x")
     assert not (tmp_path / "r.html").exists()
+
+
+def test_an_identified_link_the_model_refuses_is_the_logs_fault() -> None:
+    """A fit whose link the model refuses (link 2's centre of mass 1e6 m away: seen with a
+    300,000-row log of random efforts) says the log does not determine it; it read as if the
+    prior robot were wrong ("link 'link2': centre of mass: length ... is beyond 10000 m")."""
+    import numpy as np
+
+    import mrnea
+    from mrnea.errors import StateError
+    from mrnea.identify.estimate import _robot
+    from mrnea.identify.regressor import actuator_parameters, inertial_parameters
+
+    prior = mrnea.robots.puma560()
+    pi = inertial_parameters(prior)
+    pi[10 + 1:10 + 4] = pi[10] * 1e6  # link 2's first moment m c: c = 1e6 m on each axis
+    with pytest.raises(StateError, match="the log does not determine it"):
+        _robot(prior, np.concatenate([pi, actuator_parameters(prior)]))
+    ident, offset = _robot(prior, np.concatenate([inertial_parameters(prior),
+                                                  actuator_parameters(prior)]))
+    assert np.array_equal(ident.links[1].mass, prior.links[1].mass) and not offset.any()

@@ -52,7 +52,7 @@ from mrnea.io.writer import check_new, create, own_folder
 
 #: the library's argument names as the command line spells them
 OPTION = {"cutoff_hz": "--cutoff", "min_speed": "--min-speed", "prior_weight": "--prior-weight",
-          "holdout": "--holdout"}
+          "holdout": "--holdout", "a validation log": "--validate LOG2"}
 
 FILES = ("identified_robot.toml", "identified_drives.toml", "summary.json", "identify.html")
 
@@ -111,6 +111,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
     """
     from mrnea.identify import identify as run_identify
     from mrnea.identify import read_log
+    from mrnea.identify.estimate import check_log
     from mrnea.identify.html import identify_html
     from mrnea.identify.log import sample_rate
     from mrnea.identify.output import drives_toml, identify_summary
@@ -126,6 +127,11 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
                 sample_rate(d.time, cutoff)
             except MrneaError as exc:
                 raise type(exc)(f"{path}: {as_option(str(exc), OPTION)}") from None
+    try:  # what the fit would refuse, told before the label (a filter pass, no regressor)
+        check_log(prior, data, validation=check, holdout=holdout, cutoff_hz=cutoff,
+                  min_speed=min_speed)
+    except MrneaError as exc:
+        raise type(exc)(f"{log}: {as_option(str(exc), OPTION)}") from None
     with own_folder(Path(out) if out else fresh_dir("mrnea-identify")) as folder:
         check_new([folder / f for f in FILES], force)
         checkpoint()

@@ -58,7 +58,7 @@ from threadpoolctl import threadpool_limits
 
 from mrnea import validate
 from mrnea.actuators import actuator_efforts, effort_limits_at
-from mrnea.errors import StateError
+from mrnea.errors import StateError, quote
 from mrnea.identify import criterion
 from mrnea.identify.base import base_parameters
 from mrnea.identify.criterion import Limits, Problem
@@ -67,6 +67,7 @@ from mrnea.identify.regressor import require_serial
 from mrnea.io.pathcsv import save_csv
 from mrnea.io.program import Program, save_program
 from mrnea.model import Robot
+from mrnea.resources import require_memory
 from mrnea.simulate import simulate
 
 UNLIMITED_SPAN = math.pi  # [rad | m] the position range +-span of a joint without limits
@@ -77,6 +78,9 @@ MAX_CYCLES = 10_000_000  # rows of a program, at most (about 0.5 GB for 6 joints
 #: 109 s at 20 on the 2-core machine; at 100 one SLSQP iteration took minutes, and a stop
 #: request waited for it (session 41).
 MAX_HARMONICS = 20
+#: The most random candidates: each is scored on its own (about 10 ms for a 2-joint arm, 25 ms
+#: for the Puma 560 on the 2-core machine), so 10 000 take minutes; a billion would take months.
+MAX_CANDIDATES = 10_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,6 +339,9 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
                          f"least {10 * L} (dt <= {period / (10 * L):g} s)")
     limits = limits_of(robot, velocity_limit, acceleration_limit, effort_margin)
     candidates = _count(candidates, "candidates", 1)
+    if candidates > MAX_CANDIDATES:
+        raise StateError(f"candidates: at most {MAX_CANDIDATES} (each random series is scored on "
+                         f"its own, tens of milliseconds each), got {candidates}")
     starts = _count(starts, "starts", 0)
     if starts > candidates:
         raise StateError(f"starts: at most candidates ({candidates}), got {starts}")
@@ -342,6 +349,12 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
     base = base_parameters(robot)
     least = max(12 * L, -(-2 * base.r // robot.n))
     samples = least if samples is None else _count(samples, "samples", -(-base.r // robot.n) + 1)
+    # the criterion's regressor and its derivatives (K, 3, n, n, 15 n) at the samples, and the
+    # constraints' Jacobian [bytes]
+    n, m = robot.n, 2 * L - 1
+    require_memory(8.0 * samples * n * (15 * n * (3 * n + 2) + 8 * n * m),
+                   f"samples: {samples} instants per period of {n} joints",
+                   "fewer samples (None: 12 per harmonic)", StateError)
     seed = _count(seed, "seed", 0)
     validate.callable_or_none(checkpoint, "checkpoint")
     stop = checkpoint or (lambda: None)
@@ -369,10 +382,15 @@ def excitation(robot: Robot, *, base_frequency: float = 0.1, harmonics: int = 5,
             W = criterion.stacked(robot, base, *evaluate(c, a, b, f, t))
             scored.append((criterion.condition(W), c, a, b))
     best = min(scored, key=lambda s: s[0])
-    if not math.isfinite(best[0]):
-        raise StateError("velocity_limit: the limits leave no motion that excites every base "
-                         "parameter (the condition number is infinite); allow larger velocities, "
-                         "accelerations or efforts")
+    if not math.isfinite(best[0]):  # name the limits given (the robot's own: its name)
+        given = [name for name, v in (("velocity_limit", velocity_limit),
+                                      ("acceleration_limit", acceleration_limit)) if v is not None]
+        given += ["effort_margin"] if np.isfinite(limits.effort).any() else []
+        who = (f"{' or '.join(given)}: the limits" if given else
+               f"robot {quote(robot.name)}: its limits")
+        raise StateError(f"{who} leave no motion that excites every base parameter (the "
+                         "condition number is infinite); allow larger velocities, accelerations "
+                         "or efforts")
     t_all = np.arange(periods * cycles + 1) * dt
     q_cmd = evaluate(best[1], best[2], best[3], f, t_all)[0]
     q_cmd[-1] = q_cmd[0]  # the period closes exactly

@@ -15,6 +15,10 @@ squares (:mod:`mrnea.identify.estimate`) hold.
 from __future__ import annotations
 
 import csv
+import os
+import re
+from array import array
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,9 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mrnea import validate
-from mrnea.errors import LogFileError, StateError, quote
-from mrnea.io.source import read_text
+from mrnea.errors import LogFileError, StateError, listing, quote
+from mrnea.io.source import MAX_CSV_SIZE, parse_number, read_text
 from mrnea.model import Robot
+from mrnea.resources import format_bytes, require_memory
 
 CUTOFF_HZ = 10.0  # the position filter's default cut-off [Hz]
 #: The largest magnitude of a log's number (time [s], q [rad | m], efforts [N m | N], qd, qdd):
@@ -34,6 +39,13 @@ LOG_BOUND = 1e12
 #: Butterworth design loses its digits (at 1e-8 its gain is off by 7 %, at 1e-10 it is singular).
 MIN_CUTOFF_RATIO = 1e-6
 FILTER_ORDER = 4
+#: The fewest samples a log holds (26): the zero-phase filter pads each end with samples
+#: reflected from the log, and needs a log well longer than that padding.
+MIN_SAMPLES = 2 * (3 * FILTER_ORDER + 1)
+#: The column delimiters of a log CSV, by name; the header row says which (the first of these
+#: it holds).
+DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
+_NOT_PLAIN = re.compile(r"[^\x00-\x7f]|_")  # what float reads outside parse_number's grammar
 
 
 @dataclass(frozen=True)
@@ -50,9 +62,11 @@ class Log:
 
     def __post_init__(self) -> None:
         t = validate.numeric(self.time, "log: time")
-        if t.ndim != 1 or t.size < 2 * (3 * FILTER_ORDER + 1):
-            raise StateError(f"log: time must be (K,) with K >= {6 * FILTER_ORDER + 2} samples, "
-                             f"got shape {t.shape}")
+        if t.ndim != 1:
+            raise StateError(f"log: time must be (K,), got shape {t.shape}")
+        if t.size < MIN_SAMPLES:
+            raise StateError(f"log: {t.size} samples; a log needs at least {MIN_SAMPLES} (the "
+                             "position filter's edges)")
         K = t.size
         for name in ("q", "tau", "qd", "qdd"):
             v = getattr(self, name)
@@ -134,63 +148,83 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
     aside), columns in any order, others ignored). Optional ``qd_<joint>`` and ``qdd_<joint>``
     columns (all joints) give velocities and accelerations.
 
+    The columns are separated by the header row's delimiter (:data:`DELIMITERS`: a comma, else a
+    semicolon, else a tab), every row has the header's count of cells, blank lines are skipped,
+    and every number used is in :func:`mrnea.io.source.parse_number`'s grammar. The file is at
+    most :data:`mrnea.io.source.MAX_CSV_SIZE` bytes, its reading within the memory budget
+    (:mod:`mrnea.resources`), with at least :data:`MIN_SAMPLES` data rows.
+
     ``torque_constant``: one number or one per joint [N m/A, motor side]: the log has motor
     currents ``i_<joint>`` instead of efforts, and ``tau = G k_t i`` (joint side, G the gear
     ratio).
 
-    Raises LogFileError naming the file and the row (1-based, the header is row 1) or column.
+    Raises LogFileError naming the file and the row (the file's line, 1-based: the header is
+    row 1 unless blank lines precede it) or column.
     """
-    text = read_text(path, "log", LogFileError)
-    rows = list(csv.reader(text.splitlines()))
-    if not rows:
-        raise LogFileError(f"{path}: empty log")
-    header = [h.split("[")[0].strip() for h in rows[0]]
+    try:
+        size = os.stat(path).st_size
+    except (OSError, ValueError, TypeError):
+        size = 0  # read_text says what is wrong with the path
+    if size <= MAX_CSV_SIZE:  # the text (bytes and str) and the numbers: 8 bytes per >= 2 bytes
+        require_memory(9 * size, f"{path}: reading this {format_bytes(size)} log",
+                       "log at a lower rate or split the log", LogFileError)
+    text = read_text(path, "log", LogFileError, MAX_CSV_SIZE)
+    lines = _lines(text)
+    first = next(((k, line, end) for k, line, end in lines if line.strip(" \t")), None)
+    if first is None:
+        raise LogFileError(f"{path}: empty log: expected a header row (time, the joint "
+                           "positions and efforts) and the data rows")
+    head_row, head_text, head_end = first
+    delimiter = next((d for d in DELIMITERS if d in head_text), ",")
+    try:
+        header_cells = next(csv.reader([head_text], delimiter=delimiter), [])
+    except csv.Error as exc:
+        raise LogFileError(f"{path}: row {head_row}: not valid CSV: {exc}") from None
+    header = [h.split("[")[0].strip() for h in header_cells]
     names = robot.joint_names
     effort = "i_" if torque_constant is not None else "tau_"
     need = ["time", *names, *(effort + j for j in names)]
     missing = [c for c in need if c not in header]
     if missing:
-        raise LogFileError(f"{path}: row 1: missing column {missing[0]!r} (needed: time, the "
-                           f"joint positions and {effort}<joint> for joints {', '.join(names)})")
+        shape = ("; the header row is one column: separate its cells by a comma, a semicolon "
+                 "or a tab" if len(header) == 1 else "")
+        raise LogFileError(f"{path}: row {head_row}: missing column {quote(missing[0])} "
+                           f"(needed: time, the joint positions and {effort}<joint> for joints "
+                           f"{listing(names)}){shape}")
     optional = [p + j for p in ("qd_", "qdd_") for j in names]
     has_rates = all(c in header for c in optional)
     used = need + (optional if has_rates else [])
     twice = next((c for c in used if header.count(c) > 1), None)
     if twice is not None:
-        first = header.index(twice)
-        raise LogFileError(f"{path}: row 1: column {quote(twice)} appears twice (columns "
-                           f"{first + 1} and {header.index(twice, first + 1) + 1})")
+        one = header.index(twice)
+        raise LogFileError(f"{path}: row {head_row}: column {quote(twice)} appears twice "
+                           f"(columns {one + 1} and {header.index(twice, one + 1) + 1})")
     cols = [header.index(c) for c in used]
-    _check_units(path, rows[0], cols, _units(robot, effort, has_rates))
-    data = np.empty((len(rows) - 1, len(cols)))
-    for r, row in enumerate(rows[1:]):
-        try:
-            data[r] = [float(row[c]) for c in cols]
-        except (ValueError, IndexError):
-            if len(row) < len(rows[0]):
-                raise LogFileError(f"{path}: row {r + 2}: {len(row)} columns, the header has "
-                                   f"{len(rows[0])}") from None
-            bad_col = next(u for u, c in zip(used, cols, strict=True) if not _is_number(row[c]))
-            raise LogFileError(f"{path}: row {r + 2}: column {bad_col!r}: expected a number, "
-                               f"got {quote(row[header.index(bad_col)])}") from None
-        bad = np.flatnonzero(~np.isfinite(data[r]))
-        if bad.size:
-            raise LogFileError(f"{path}: row {r + 2}: column {used[bad[0]]!r} is NaN or inf")
-        if r and not data[r, 0] > data[r - 1, 0]:
-            raise LogFileError(f"{path}: row {r + 2}: time {data[r, 0]:g} s does not increase "
-                               f"(row {r + 1}: {data[r - 1, 0]:g} s)")
+    _check_units(path, head_row, header_cells, cols, _units(robot, effort, has_rates))
+    # float reads what the grammar does, and more only where a cell holds _ or a non-ASCII digit
+    strict = _NOT_PLAIN.search(text, head_end) is not None
+    data, rows = _numbers(path, lines, delimiter, len(header_cells), used, cols, strict)
+    if data.shape[0] < MIN_SAMPLES:
+        raise LogFileError(f"{path}: {data.shape[0]} data row(s) after the header; a log needs "
+                           f"at least {MIN_SAMPLES} samples (the position filter's edges)")
+    back = np.flatnonzero(~(np.diff(data[:, 0]) > 0))
+    if back.size:
+        r = int(back[0]) + 1
+        raise LogFileError(f"{path}: row {rows[r]}: time {data[r, 0]:g} s does not increase "
+                           f"(row {rows[r - 1]}: {data[r - 1, 0]:g} s)")
     big = np.argwhere(np.abs(data) > LOG_BOUND)
     if big.size:
         r, c = big[0]
-        raise LogFileError(f"{path}: row {r + 2}: column {used[c]!r} is {data[r, c]:.3g}, beyond "
-                           f"{LOG_BOUND:g}, the largest mrnea accepts in a log (check its units)")
+        raise LogFileError(f"{path}: row {rows[r]}: column {quote(used[c])} is {data[r, c]:.3g}, "
+                           f"beyond {LOG_BOUND:g}, the largest mrnea accepts in a log (check its "
+                           "units)")
     n = robot.n
     tau = data[:, 1 + n:1 + 2 * n]
     if torque_constant is not None:
         kt = np.asarray(torque_constant, dtype=float).ravel()
         if kt.size not in (1, n) or not np.all((kt > 0) & np.isfinite(kt)):
             raise StateError(f"torque constant: expected one number > 0 or {n} (one per joint: "
-                             f"{', '.join(robot.joint_names)}), got {kt.size}: "
+                             f"{listing(robot.joint_names)}), got {kt.size}: "
                              f"{quote(kt.tolist())}")
         kt = np.broadcast_to(kt, (n,))
         tau = tau * kt * robot.gear_ratio
@@ -199,6 +233,70 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         return Log(data[:, 0], data[:, 1:1 + n], tau, *rates)
     except StateError as exc:
         raise LogFileError(f"{path}: {exc}") from None
+
+
+def _lines(text: str) -> Iterator[tuple[int, str, int]]:
+    """(line number, line without its end, offset after it) of every line of ``text``, without
+    a copy of its list (a log may be a GiB)."""
+    start, number = 0, 0
+    while start < len(text):
+        end = text.find("\n", start)
+        end = len(text) if end < 0 else end
+        number += 1
+        yield number, text[start:end].rstrip("\r"), end + 1
+        start = end + 1
+
+
+def _numbers(path: str | Path, lines: Iterator[tuple[int, str, int]], delimiter: str,
+             width: int, used: list[str], cols: list[int], strict: bool
+             ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """(R, len(cols)) numbers of the data rows ``lines`` holds after the header, and each row's
+    line number. Every row has ``width`` cells; every cell used is a number in
+    :func:`parse_number`'s grammar (``strict``: read by it; else by ``float``, which reads the
+    same where the rows hold no ``_`` and nothing but ASCII), finite."""
+    numbers, where = array("d"), array("q")
+    row = [0]
+
+    def data_lines() -> Iterator[str]:
+        for number, line, _ in lines:
+            if line.strip(" \t"):  # a blank line is skipped
+                row[0] = number
+                yield line
+
+    read = parse_number if strict else float
+    try:
+        for cells in csv.reader(data_lines(), delimiter=delimiter):
+            if len(cells) != width:
+                held = [name for d, name in DELIMITERS.items()
+                        if d != delimiter and any(d in c for c in cells)]
+                raise LogFileError(
+                    f"{path}: row {row[0]}: {len(cells)} columns, the header has {width}"
+                    + (f" (the row holds a {held[0]}; the header's delimiter, a "
+                       f"{DELIMITERS[delimiter]}, separates every row's cells)" if held else ""))
+            try:
+                numbers.extend([read(cells[c].strip(" \t")) for c in cols])
+            except ValueError:
+                for name, c in zip(used, cols, strict=True):
+                    cell = cells[c].strip(" \t")
+                    try:
+                        parse_number(cell)
+                    except ValueError as exc:
+                        hint = (" (numbers use a decimal point, not a comma)"
+                                if "," in cell and delimiter != "," else "")
+                        raise LogFileError(f"{path}: row {row[0]}: column {quote(name)}: "
+                                           + (str(exc) + hint if cell else "empty cell")
+                                           ) from None
+                raise  # float refused what the grammar reads: not reached
+            where.append(row[0])
+    except csv.Error as exc:
+        raise LogFileError(f"{path}: row {row[0]}: not valid CSV: {exc}") from None
+    data = np.frombuffer(numbers, dtype=np.float64).reshape(-1, len(cols)).copy()
+    rows = np.frombuffer(where, dtype=np.int64).copy()
+    bad = np.argwhere(~np.isfinite(data))
+    if bad.size:
+        r, c = bad[0]
+        raise LogFileError(f"{path}: row {rows[r]}: column {quote(used[c])} is NaN or inf")
+    return data, rows
 
 
 def _units(robot: Robot, effort: str, rates: bool) -> list[str]:
@@ -216,8 +314,8 @@ def _spelled(unit: str) -> str:
     return "".join(c for c in unit.replace("²", "2") if c not in " *·^").replace("sec", "s")
 
 
-def _check_units(path: str | Path, header: list[str], cols: list[int], units: list[str]
-                 ) -> None:
+def _check_units(path: str | Path, row: int, header: list[str], cols: list[int],
+                 units: list[str]) -> None:
     """A column whose header gives a unit (``name [unit]``) other than the one mrnea reads it
     in is an error naming it: a log in degrees or milliseconds is never read as radians or
     seconds."""
@@ -225,7 +323,7 @@ def _check_units(path: str | Path, header: list[str], cols: list[int], units: li
         name, _, given = header[c].partition("[")
         given = given.split("]")[0].strip()
         if given and _spelled(given) != _spelled(unit):
-            raise LogFileError(f"{path}: row 1: column {quote(name.strip())} is in "
+            raise LogFileError(f"{path}: row {row}: column {quote(name.strip())} is in "
                                f"{quote(given)}; a log gives it in {quote(unit)} (convert it, or "
                                f"leave the unit out)")
 
