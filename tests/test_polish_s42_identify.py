@@ -246,3 +246,20 @@ def test_excite_names_the_limit_that_leaves_no_motion(robot_file, tmp_path):
 def test_excitation_samples_beyond_memory_are_refused():
     with pytest.raises(StateError, match=r"samples: .* needs about"):
         excitation(arm(), harmonics=2, candidates=1, starts=0, samples=10 ** 12)
+
+
+def test_an_unsteady_time_step_is_warned_of_once(tmp_path: Path) -> None:
+    """A log whose time step leaves [1/2, 3/2] of its median (a gap of dropped samples): one
+    warning naming the file, the step range and the first row after such a step (the rates'
+    filter takes the samples as equally spaced); a steady log, or one with rate columns, none."""
+    import warnings
+
+    data = samples(300)
+    data[200:, 0] += 1.0  # a 1 s gap before the file's row 202 (the header is row 1)
+    with pytest.warns(UserWarning, match=r"gap\.csv: the time step varies from 0\.01 s to "
+                                         r"1\.01 s .*1 step\(s\).*before row 202") as seen:
+        read_log(write(tmp_path / "gap.csv", data), arm())
+    assert len(seen) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_log(write(tmp_path / "steady.csv", samples(300)), arm())

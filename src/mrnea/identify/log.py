@@ -17,8 +17,9 @@ from __future__ import annotations
 import csv
 import os
 import re
+import warnings
 from array import array
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -212,6 +213,8 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         r = int(back[0]) + 1
         raise LogFileError(f"{path}: row {rows[r]}: time {data[r, 0]:g} s does not increase "
                            f"(row {rows[r - 1]}: {data[r - 1, 0]:g} s)")
+    if not has_rates:
+        _steady(path, data[:, 0], rows)
     big = np.argwhere(np.abs(data) > LOG_BOUND)
     if big.size:
         r, c = big[0]
@@ -233,6 +236,23 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         return Log(data[:, 0], data[:, 1:1 + n], tau, *rates)
     except StateError as exc:
         raise LogFileError(f"{path}: {exc}") from None
+
+
+def _steady(path: str | Path, time: NDArray, rows: Sequence[int]) -> None:
+    """Warn where the time step of a log without rate columns leaves [1/2, 3/2] of its median:
+    the zero-phase filter that gives the rates takes the samples as equally spaced, so the
+    rates near such a step (a gap, dropped samples, heavy jitter) are not the motion's."""
+    dt = np.diff(time)
+    med = float(np.median(dt))
+    odd = np.flatnonzero((dt > 1.5 * med) | (dt < 0.5 * med))
+    if odd.size:
+        r = int(odd[0]) + 1
+        warnings.warn(f"{path}: the time step varies from {dt.min():.3g} s to {dt.max():.3g} s "
+                      f"(median {med:.3g} s; {odd.size} step(s) beyond half or 1.5 times it, the "
+                      f"first before row {rows[r]}): the rates' filter takes the samples as "
+                      "equally spaced, so the fit near those steps is approximate; resample the "
+                      "log to a steady rate, or give qd_<joint> and qdd_<joint> columns",
+                      stacklevel=3)
 
 
 def _lines(text: str) -> Iterator[tuple[int, str, int]]:
