@@ -4,7 +4,7 @@ What :class:`mrnea.simulate.SimulationResult` shows cycle by cycle, computed fro
 :func:`columns` (the table behind :meth:`~mrnea.simulate.SimulationResult.columns` and
 ``cycles.csv``, one column per quantity and joint, :data:`PER_JOINT`), :func:`csv_rows` (a
 chunk of it as CSV), :func:`program_qdd` (the program's own acceleration, with
-:func:`program_next`, what the program commands after the last cycle held),
+:func:`mrnea.summary.program_next`, what the program commands after the last cycle held),
 :func:`bearing_loads` (the reaction loads along and across each joint's axis), and what a run
 fills chunk by chunk besides the kernel's arrays (:func:`derive`, :func:`tool_errors`). The result's
 methods of the same names are the public API; their docstrings say what each column holds.
@@ -23,6 +23,7 @@ from mrnea import compiled
 from mrnea.errors import StateError
 from mrnea.kernels import bearing
 from mrnea.kernels.derived import derived
+from mrnea.summary import program_next
 
 if TYPE_CHECKING:
     from mrnea.cartesian import CartesianPath
@@ -83,18 +84,6 @@ def _cycles(res: SimulationResult, rows: object) -> NDArray:
         return np.arange(*rows.indices(res.K))
     except (TypeError, ValueError):  # bounds that are not integers, a zero step
         raise StateError(f"rows: expected a slice of integer cycles, got {rows!r}") from None
-
-
-def program_next(res: SimulationResult) -> tuple[NDArray, NDArray]:
-    """What the program commands after the last cycle of ``res``, (n,) each: its position
-    [rad | m] and its velocity [rad/s | m/s] over the next interval. A run that stopped before
-    the program's end (interrupted, or a runaway): the program's next row (q_cmd[K], qd_cmd[K]
-    of the whole program); at the program's end: its last position, at rest (the last cycle
-    commands zero velocity, kernels/simulate.py)."""
-    if res._next is not None:
-        return res._next[0], res._next[1]
-    rest = np.zeros(res.robot.n)
-    return (res.q_cmd[-1] if res.K else rest), rest
 
 
 def program_qdd(res: SimulationResult, rows: slice) -> NDArray:

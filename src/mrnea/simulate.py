@@ -141,7 +141,7 @@ class SimulationResult:
     tool_targets: NDArray | None = None
     _summary: dict = field(default_factory=dict, repr=False, compare=False)
     #: (2, n): q_cmd[K], qd_cmd[K] of the program, when the run stopped before its end; None:
-    #: the run held the program's last cycle (:func:`mrnea.cycles.program_next`)
+    #: the run held the program's last cycle (:func:`mrnea.summary.program_next`)
     _next: NDArray | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -216,7 +216,7 @@ class SimulationResult:
         """The program's own acceleration [rad/s^2 | m/s^2] at the cycles ``rows``: the one
         :attr:`program_effort` is computed for, ``(qd_cmd[k + 1] - qd_cmd[k]) / dt``, unclamped;
         after the last row the program's own next velocity, 0 at the program's end (a run that
-        stopped before it: :func:`mrnea.cycles.program_next`). What the drive asked for once the
+        stopped before it: :func:`mrnea.summary.program_next`). What the drive asked for once the
         robot lags is ``qdd_des`` (the catch-up)."""
         return cycles.program_qdd(self, rows)
 

@@ -21,8 +21,9 @@ from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from mrnea import compiled, cycles
+from mrnea import compiled
 from mrnea.kernels import bearing, peaks
 from mrnea.kernels.drive import beyond
 
@@ -135,9 +136,9 @@ def _first_infeasible(r: SimulationResult) -> dict[str, Any] | None:
                                     ("position limit", r.position_clamped),
                                     ("velocity limit", r.velocity_clamped)) if m[k, i]]
     # the program's next row, which cycle k headed for; after the last cycle held, the
-    # program's own next row or its end at rest (mrnea.cycles.program_next)
+    # program's own next row or its end at rest (program_next)
     q_next, qd_next = ((r.q_cmd[k + 1], r.qd_cmd[k + 1]) if k + 1 < r.K
-                       else cycles.program_next(r))
+                       else program_next(r))
     return {
         "time": float(r.t[k]), "cycle": k, "joint": j.name, "reason": ", ".join(reasons),
         "required_effort": float(r.tau_required[k, i]),
@@ -336,3 +337,15 @@ def final_position_line(r: SimulationResult) -> str | None:
     errors = ", ".join(f"{j.name} {e:.4g} {j.unit('q')}"
                        for j, e in zip(r.robot.joints, r.tracking_error[-1].tolist(), strict=True))
     return f"The robot did not reach the program's end: final position error {errors}."
+
+
+def program_next(res: SimulationResult) -> tuple[NDArray, NDArray]:
+    """What the program commands after the last cycle of ``res``, (n,) each: its position
+    [rad | m] and its velocity [rad/s | m/s] over the next interval. A run that stopped before
+    the program's end (interrupted, or a runaway): the program's next row (q_cmd[K], qd_cmd[K]
+    of the whole program); at the program's end: its last position, at rest (the last cycle
+    commands zero velocity, kernels/simulate.py)."""
+    if res._next is not None:
+        return res._next[0], res._next[1]
+    rest = np.zeros(res.robot.n)
+    return (res.q_cmd[-1] if res.K else rest), rest
