@@ -26,12 +26,14 @@ system for want of memory, not refused.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import StateError
+from mrnea.ik import BLOCK
 from mrnea.io.moves import Move
 from mrnea.resources import require_memory
 from mrnea.trajectory import scurve, trapezoidal
@@ -88,10 +90,13 @@ def _limit(value: float, size: float) -> float:
     return value / size if size > 0.0 else math.inf
 
 
-def move_poses(move: Move, T0: NDArray, dt: float, room: Room) -> tuple[NDArray, NDArray]:
+def move_poses(move: Move, T0: NDArray, dt: float, room: Room,
+               checkpoint: Callable[[], None] = lambda: None) -> tuple[NDArray, NDArray]:
     """(s (N + 1,), poses (N + 1, 4, 4)) of a linear or circular move from T0 (module
-    docstring). StateError: a move that only turns without an angular limit, a circle
-    that does not exist, or cycles beyond the memory budget (``room``)."""
+    docstring); the orientations in blocks of :data:`mrnea.ik.BLOCK` cycles, ``checkpoint``
+    called between two (a stop request). StateError: a move that only turns without an
+    angular limit, a circle that does not exist, or cycles beyond the memory budget
+    (``room``)."""
     from scipy.spatial.transform import Rotation  # here, not at the top (io.posecsv)
 
     p0, R0 = T0[:3, 3], T0[:3, :3]
@@ -125,8 +130,12 @@ def move_poses(move: Move, T0: NDArray, dt: float, room: Room) -> tuple[NDArray,
         poses[:, :3, 3] = c + r * (np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2)
     else:
         poses[:, :3, 3] = p0 + s[:, None] * (p1 - p0)
-    poses[:, :3, :3] = (Rotation.from_matrix(R0) * Rotation.from_rotvec(s[:, None] * rotvec)
-                        ).as_matrix()
+    start = Rotation.from_matrix(R0)
+    for a in range(0, s.size, BLOCK):
+        if a:
+            checkpoint()
+        b = a + BLOCK
+        poses[a:b, :3, :3] = (start * Rotation.from_rotvec(s[a:b, None] * rotvec)).as_matrix()
     poses[0, :3, :3], poses[0, :3, 3] = R0, p0
     poses[-1, :3, 3] = p1
     if move.R is not None:

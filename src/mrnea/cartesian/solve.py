@@ -38,7 +38,7 @@ is :mod:`mrnea.cartesian.verdict`'s, in ``CartesianPath.findings``.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -163,10 +163,17 @@ def _poses_of(move: Move, T: NDArray, where: str) -> NDArray:
     return P
 
 
-def solve(program: Program, robot: Robot) -> Program:
+def solve(program: Program, robot: Robot, checkpoint: Callable[[], None] | None = None
+          ) -> Program:
     """``program`` with ``t``, ``q_cmd`` and ``cartesian`` made by inverse kinematics on ``robot``
     (module docstring); a joint program in the robot's joint order
     (:meth:`mrnea.io.Program.on`: a program naming its joints), else unchanged.
+
+    ``checkpoint`` is called between the blocks of a long solve (every
+    :data:`mrnea.ik.BLOCK` cycles: the inverse kinematics, the verdict's singular values) and
+    between moves; raising from it (KeyboardInterrupt) stops the solve (the command line
+    passes its stop request, :func:`mrnea.cli.base.checkpoint`: Ctrl-C stops ``mrnea check`` of
+    a program of a million cycles within a fraction of a second). None: no stop.
 
     Raises
     ------
@@ -179,6 +186,7 @@ def solve(program: Program, robot: Robot) -> Program:
     spec = program.moves
     if spec is None:
         return program
+    stop = checkpoint or _never
     where = program.source or program.name
     frames, joints = _tools(robot, spec, where)
     dt, q = program.dt, _positions(spec.q0, np.zeros(robot.n), robot, f"{where}: [program] q0")
@@ -193,6 +201,7 @@ def solve(program: Program, robot: Robot) -> Program:
         [np.full(1, first.type == "poses")], [start_err]
     targets, done = [], 1  # done: the cycles made so far (the memory check's, Room)
     for chain in _chains(spec.moves):
+        stop()
         mv = chain[-1]
         if frames[mv.index - 1] is not frame:  # another tool: from where it is now
             frame = frames[mv.index - 1]
@@ -213,11 +222,11 @@ def solve(program: Program, robot: Robot) -> Program:
                     targets += [(m.index, end) for m, end in zip(chain, ends, strict=True)]
                 else:
                     Ts = _poses_of(mv, T, where) if mv.type == "poses" else \
-                        move_poses(mv, T, dt, Room(done, robot.n))[1]
+                        move_poses(mv, T, dt, Room(done, robot.n), stop)[1]
                     own = np.full(len(Ts), mv.index, np.int64)
                     targets.append((mv.index, Ts[-1]))
                 Ts, own = Ts[1:], own[1:]
-                res = solve_path(robot, Ts, q, frame, mv.hold) if len(Ts) else None
+                res = solve_path(robot, Ts, q, frame, mv.hold, stop) if len(Ts) else None
                 qs = res.q if res else np.empty((0, robot.n))
                 e = (np.column_stack([res.position_error, res.orientation_error]) if res
                      else np.zeros((0, 2)))
@@ -227,13 +236,14 @@ def solve(program: Program, robot: Robot) -> Program:
                                    f"{exc}") from None
         if len(qs):
             q, T = qs[-1], Ts[-1]
-        hold = int(cycles(mv.dwell, dt))
+        hold = _dwell(mv, dt, done + len(qs), robot.n, where)
         done += len(qs) + hold
         rows += [qs, _hold(q, hold)]
         poses += [Ts, _hold(T, hold)]
         owner += [own, np.full(hold, mv.index, np.int64)]
         is_cart += [np.full(len(qs), cart), np.zeros(hold, bool)]
         errs += [e, np.zeros((hold, 2))]
+    stop()
     q_cmd, pose = np.concatenate(rows), np.concatenate(poses)
     move, cart, err = np.concatenate(owner), np.concatenate(is_cart), np.concatenate(errs)
     t = np.arange(q_cmd.shape[0]) * dt
@@ -241,7 +251,7 @@ def solve(program: Program, robot: Robot) -> Program:
         raise ProgramFileError(f"{where}: the moves take a single cycle (every target is where "
                                f"the robot is, or a pose CSV shorter than a cycle of "
                                f"{dt:g} s, and no dwell); give a move that moves")
-    found = findings(robot, t, q_cmd, pose, move, cart, err, frames, joints, spec.moves)
+    found = findings(robot, t, q_cmd, pose, move, cart, err, frames, joints, spec.moves, stop)
     path = CartesianPath(tools=frames, joints=joints, pose=pose, move=move, cartesian=cart,
                          position_error=err[:, 0], orientation_error=err[:, 1],
                          targets=tuple(targets), findings=tuple(found), moves=spec.moves)
@@ -249,6 +259,23 @@ def solve(program: Program, robot: Robot) -> Program:
         a.setflags(write=False)
     return dataclasses.replace(program, t=t, q_cmd=q_cmd, cartesian=path,
                                **_wrench(program, robot, t, path.tool, where))
+
+
+def _never() -> None:
+    """No stop request (:func:`solve` without a ``checkpoint``)."""
+
+
+def _dwell(mv: Move, dt: float, done: int, n: int, where: str) -> int:
+    """The cycles of a move's ``dwell`` [s] (rounded up), the program having ``done`` cycles
+    before it: ProgramFileError naming the move and the key where they are more than a
+    program may have or would not fit the memory budget (:class:`Room`), as a move's own."""
+    try:
+        hold = int(cycles(mv.dwell, dt))
+        Room(done, n).check(hold)
+    except StateError as exc:
+        raise ProgramFileError(f"{where}: [[move]] {mv.index} ({mv.type}): 'dwell' "
+                               f"{mv.dwell:g} s: {exc}") from None
+    return hold
 
 
 def _positions(given: NDArray | Mapping[str, float], q: NDArray, robot: Robot, where: str

@@ -32,12 +32,14 @@ The thresholds are absolute, for arms of about a metre (the UR5's smallest singu
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.dynamics import jacobian
+from mrnea.ik import BLOCK
 from mrnea.io.moves import Move
 from mrnea.model import Robot
 from mrnea.tool import ToolFrame
@@ -78,32 +80,40 @@ def _tool_jacobian(robot: Robot, q: NDArray, tool: ToolFrame, idx: NDArray) -> N
 
 
 def _singular(robot: Robot, q: NDArray, move: NDArray, tools: tuple[ToolFrame, ...],
-              joints: tuple[NDArray, ...]) -> tuple[NDArray, NDArray, NDArray]:
+              joints: tuple[NDArray, ...], checkpoint: Callable[[], None]
+              ) -> tuple[NDArray, NDArray, NDArray]:
     """Per cycle, with its move's tool and moving joints: the smallest singular value of the
-    tool Jacobian, the joint (index) moving most along it, and det J (NaN unless 6 joints)."""
+    tool Jacobian, the joint (index) moving most along it, and det J (NaN unless 6 joints).
+    In blocks of :data:`mrnea.ik.BLOCK` cycles, ``checkpoint`` called before each (an SVD of a
+    million Jacobians takes seconds; per cycle the same numbers as in one call)."""
     K = q.shape[0]
     sigma, joint, det = np.empty(K), np.empty(K, np.int64), np.full(K, np.nan)
     for m in np.unique(move):
-        rows, idx = np.flatnonzero(move == m), joints[m - 1]
-        J = _tool_jacobian(robot, q[rows], tools[m - 1], idx)
-        _, S, Vt = np.linalg.svd(J)
-        sigma[rows] = S[:, -1]
-        # the joint motion along the smallest singular value
-        joint[rows] = idx[np.argmax(np.abs(Vt[:, min(5, idx.size - 1)]), axis=1)]
-        if idx.size == 6:
-            det[rows] = np.linalg.det(J)
+        every, idx = np.flatnonzero(move == m), joints[m - 1]
+        for a in range(0, every.size, BLOCK):
+            checkpoint()
+            rows = every[a:a + BLOCK]
+            J = _tool_jacobian(robot, q[rows], tools[m - 1], idx)
+            _, S, Vt = np.linalg.svd(J)
+            sigma[rows] = S[:, -1]
+            # the joint motion along the smallest singular value
+            joint[rows] = idx[np.argmax(np.abs(Vt[:, min(5, idx.size - 1)]), axis=1)]
+            if idx.size == 6:
+                det[rows] = np.linalg.det(J)
     return sigma, joint, det
 
 
 def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
              cartesian: NDArray, err: NDArray, tools: tuple[ToolFrame, ...],
-             joints: tuple[NDArray, ...], moves: tuple[Move, ...]) -> list[Finding]:
+             joints: tuple[NDArray, ...], moves: tuple[Move, ...],
+             checkpoint: Callable[[], None] = lambda: None) -> list[Finding]:
     """The findings of a solved Cartesian path (module docstring), in its order: ``tools``
-    and ``joints`` per move, its tool frame and the joints its inverse kinematics moves."""
+    and ``joints`` per move, its tool frame and the joints its inverse kinematics moves;
+    ``checkpoint`` called between blocks of the long computations (a stop request)."""
     out: list[Finding] = []
     names = robot.joint_names
     dt = float(t[1] - t[0])
-    sigma, lost, det = _singular(robot, q, move, tools, joints)
+    sigma, lost, det = _singular(robot, q, move, tools, joints, checkpoint)
     seen: set[tuple[str, int]] = set()
 
     def add(kind: str, k: int, joint: int, what: str) -> None:
@@ -129,7 +139,8 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
     # joint limits
     lo, hi = robot.lower, robot.upper
     over = (q < lo) | (q > hi)
-    for k, j in zip(*np.nonzero(over), strict=True):
+    for k in _first_per_move(np.flatnonzero(over.any(axis=1)), move):  # not every cycle
+        j = int(np.argmax(over[k]))
         side, lim = ("upper", hi[j]) if q[k, j] > hi[j] else ("lower", lo[j])
         unit = robot.joints[j].unit("q")
         add("joint_limit", int(k), int(j), f"joint limit crossed: joint {names[j]} at "
@@ -170,7 +181,7 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
     same = group[1:] == group[:-1]
     flip = np.flatnonzero(cartesian[1:] & cartesian[:-1] & same & np.isfinite(det[1:])
                           & np.isfinite(det[:-1]) & (np.sign(det[1:]) != np.sign(det[:-1]))) + 1
-    for k in flip:
+    for k in _first_per_move(flip, move):  # not every flip (each costs 12 Jacobians)
         m = int(move[k])
         j = _flip_joint(robot, q[k - 1], q[k], tools[m - 1], joints[m - 1])
         add("configuration", int(k), j, f"configuration change: det J changes sign (the arm "
@@ -178,6 +189,12 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
                                         f"{q[k - 1, j]:.4g} to {q[k, j]:.4g}")
     out.sort(key=lambda f: (f.move, _ORDER[f.kind], f.t))
     return out
+
+
+def _first_per_move(rows: NDArray, move: NDArray) -> NDArray:
+    """The first of the cycles ``rows`` (ascending) in each move (only the first finding of a
+    kind in a move is kept: the others need not be worded, a million on a long path)."""
+    return rows[np.unique(move[rows], return_index=True)[1]]
 
 
 def _flip_joint(robot: Robot, qa: NDArray, qb: NDArray, tool: ToolFrame, idx: NDArray,

@@ -21,6 +21,7 @@ import numpy as np
 
 from mrnea.cartesian import CartesianPath
 from mrnea.cartesian import solve as solve_moves
+from mrnea.cli.base import checkpoint
 from mrnea.errors import MrneaError, quote
 from mrnea.io import RobotOptions, from_csv, is_program_file, load_program, load_robot_spec
 from mrnea.io.gridfile import DEMO_PROGRAM
@@ -262,6 +263,7 @@ def load_run(robot: str | None, program: str | None, dt: float | None,
             f"--interpolation {interpolation} differs from the program's "
             f"({prog.interpolation or 'a waypoint path'}); set 'interpolation' in its [path]")
     rob = prog.load_robot(robot, options)
-    prog = solve_moves(prog, rob)  # a Cartesian program's joint path (others: unchanged)
+    # a Cartesian program's joint path (others: unchanged), stopping on a stop request
+    prog = solve_moves(prog, rob, checkpoint=checkpoint)
     return Run(rob, prog.q_cmd, prog.dt, prog.f_ext, prog.f_ext_point, prog.mode,
                prog.interpolation, prog.cartesian)

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from mrnea.frozen import MAGNITUDES
 from mrnea.io.jointnames import number_table
-from mrnea.io.posecsv import POSE_INTERPOLATIONS, read_poses, resample_poses
+from mrnea.io.posecsv import POSE_INTERPOLATIONS, ROTVEC_BOUND, read_poses, resample_poses
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.rigid import rotation_from_rpy
 
@@ -109,8 +109,26 @@ def _tool(check: TomlCheck, value: Any, where: str) -> str | dict[str, Any]:
         raise check.error(where, f"'tool' must be a frame's name or a table with xyz [m], rpy "
                                  f"[rad] and link, got {value!r}")
     check.check_keys(value, ("xyz", "rpy", "link"), f"{where} tool")
-    return {k: (check.string(value[k], where, "tool.link") if k == "link" else
-                check.vector(value[k], where, f"tool.{k}", 3).tolist()) for k in value}
+    out: dict[str, Any] = {}
+    for k in value:
+        if k == "link":
+            out[k] = check.string(value[k], where, "tool.link")
+        elif k == "rpy":
+            out[k] = _rpy(check, value[k], where, "tool.rpy").tolist()
+        else:
+            out[k] = check.vector(value[k], where, f"tool.{k}", 3).tolist()
+    return out
+
+
+def _rpy(check: TomlCheck, value: Any, where: str, key: str) -> NDArray:
+    """Roll, pitch and yaw (3,) [rad]: finite, and each within :data:`ROTVEC_BOUND` (as a pose
+    CSV's rotation angle: beyond, the angle modulo a turn loses its digits)."""
+    rpy = check.vector(value, where, key, 3)
+    big = float(np.max(np.abs(rpy)))
+    if big > ROTVEC_BOUND:
+        raise check.error(where, f"'{key}' {big:.3g} rad is beyond {ROTVEC_BOUND:g} rad, the "
+                                 f"largest angle mrnea accepts; check its units")
+    return rpy
 
 
 def _hold(check: TomlCheck, value: Any, where: str) -> tuple[str, ...]:
@@ -168,7 +186,7 @@ def _orientation(check: TomlCheck, table: Mapping[str, Any], where: str) -> NDAr
     if "rpy" in table and "quat" in table:
         raise check.error(where, "give the orientation once: 'rpy' or 'quat', not both")
     if "rpy" in table:
-        return rotation_from_rpy(check.vector(table["rpy"], where, "rpy", 3))
+        return rotation_from_rpy(_rpy(check, table["rpy"], where, "rpy"))
     if "quat" in table:
         w, x, y, z = check.vector(table["quat"], where, "quat", 4)
         norm = float(np.sqrt(w * w + x * x + y * y + z * z))

@@ -1,9 +1,13 @@
 """Inverse kinematics of a tool frame: damped least squares (Levenberg-Marquardt) on the Jacobian.
 
-Usage: ``ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter)`` fills
-``Q`` (K, n) with joint positions whose tool frame reaches ``poses`` (K, 4, 4) (base frame) one
-after the other, each solve warm-started from the previous ones (the first at ``q0``): the
-continuous branch through ``q0``. Only the m joints ``idx`` (m,) move (those that carry the
+Usage: ``ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter, k0, k1)``
+fills ``Q[k0:k1]`` (of (K, n)) with joint positions whose tool frame reaches ``poses[k0:k1]``
+(of (K, 4, 4), base frame) one after the other, each solve warm-started from the previous ones
+(the first at ``q0``): the continuous branch through ``q0``. A call from k0 > 0 carries on from
+the rows before it (``Q[k0 - 1]``, ``Q[k0 - 2]``, ``ERR[k0 - 1]``, filled by an earlier call):
+calls over consecutive ranges give exactly (bit for bit) what one call over all the poses gives,
+so a long path is solved in blocks with a stop request honoured between them
+(:func:`mrnea.ik.solve_path`). Only the m joints ``idx`` (m,) move (those that carry the
 tool's link t, less any held; on a serial chain all n): the others keep their ``q0``, and m
 counts the joints below. For m <= 6 the start of pose k is the predictor ``2 q_{k-1} - q_{k-2}``
 (the last joint step again; ``q_{k-1}`` alone after a pose not reached, and for k = 0 ``q0``):
@@ -152,10 +156,11 @@ def damped_step(J, e, l2, A, L, rhs, x, dq):
 
 
 @nb.njit(**ALLOC)
-def ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter):
-    """Joint positions Q (K, n) whose tool frame on link t reaches the poses (K, 4, 4) in turn
-    from q0, moving the joints idx (m,) only (module docstring); ERR (K, 3): position error
-    [m], orientation error [rad], iterations."""
+def ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter, k0, k1):
+    """Joint positions Q[k0:k1] (of (K, n)) whose tool frame on link t reaches the poses
+    [k0:k1] (of (K, 4, 4)) in turn from q0 (or from the rows before k0, module docstring),
+    moving the joints idx (m,) only; ERR[k0:k1] (of (K, 3)): position error [m], orientation
+    error [rad], iterations."""
     n, m = q0.shape[0], idx.shape[0]
     mm = max(m, 6)
     ws = scratch(n, POSE)
@@ -163,8 +168,11 @@ def ik_path(model, poses, t, pe, Rt, idx, q0, Q, ERR, tol_p, tol_w, max_iter):
     J = Jn if m == n else np.empty((6, m))  # every joint moves (a chain): no columns to pick
     A, L = np.empty((mm, mm)), np.empty((mm, mm))
     rhs, x = np.empty(mm), np.empty(mm)
-    q, q_new, dq, q_prev = q0.copy(), np.empty(n), np.empty(m), q0.copy()
-    for k in range(poses.shape[0]):
+    q_new, dq = np.empty(n), np.empty(m)
+    # where the solve of pose k starts from: q = Q[k - 1], q_prev = Q[k - 2] (q0 before pose 0)
+    q = q0.copy() if k0 == 0 else Q[k0 - 1].copy()
+    q_prev = q0.copy() if k0 < 2 else Q[k0 - 2].copy()
+    for k in range(k0, k1):
         target = poses[k]
         if m <= 6 and k > 0 and ERR[k - 1, 0] <= tol_p and ERR[k - 1, 1] <= tol_w:
             for i in range(n):  # the predictor: the last cycle's joint step again
