@@ -253,18 +253,13 @@ def test_size_stopped_writes_nothing(monkeypatch, tmp_path: Path, at: str) -> No
     (after summary.json's contents are made): exit 130, 'mrnea: interrupted', no file left,
     nothing printed on stdout (it had exited 0 with every file written)."""
     from click.testing import CliRunner
-    from test_sizing import CATALOGUE, arm
+    from test_sizing import write_cli_case
 
     import mrnea.sizing
     import mrnea.sizing.output
     from mrnea.cli import base, main
 
-    arm().to_toml(tmp_path / "arm.toml")
-    (tmp_path / "swing.toml").write_text(
-        '[program]\nname = "swing"\nrobot = "arm.toml"\ndt = 0.01\n[path]\nprofile = '
-        '"trapezoidal"\nwaypoints = [[-0.3, 0.0], [0.6, 1.0], [-0.3, 0.0]]\n'
-        "velocity_limit = [1.5, 1.5]\nacceleration_limit = [5.0, 5.0]\n")
-    (tmp_path / "cat.toml").write_text(CATALOGUE)
+    write_cli_case(tmp_path)
     module, name = ((mrnea.sizing, "size_drives") if at == "sizing"
                     else (mrnea.sizing.output, "sizing_summary"))
     real = getattr(module, name)

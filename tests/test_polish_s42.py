@@ -21,16 +21,11 @@ def test_a_stop_while_replacing_files_puts_the_old_ones_back(monkeypatch, tmp_pa
     files: exit 130, and every file of the first run is there with its bytes, nothing else
     (it had removed the replaced files: neither the old nor the new ones were left)."""
     from click.testing import CliRunner
-    from test_sizing import CATALOGUE, arm
+    from test_sizing import write_cli_case
 
     from mrnea.cli import base, main
 
-    arm().to_toml(tmp_path / "arm.toml")
-    (tmp_path / "swing.toml").write_text(
-        '[program]\nname = "swing"\nrobot = "arm.toml"\ndt = 0.01\n[path]\nprofile = '
-        '"trapezoidal"\nwaypoints = [[-0.3, 0.0], [0.6, 1.0], [-0.3, 0.0]]\n'
-        "velocity_limit = [1.5, 1.5]\nacceleration_limit = [5.0, 5.0]\n")
-    (tmp_path / "cat.toml").write_text(CATALOGUE)
+    write_cli_case(tmp_path)
     monkeypatch.chdir(tmp_path)
     args = ["size", "arm.toml", "swing.toml", "--catalogue", "cat.toml", "--out", "out"]
     first = CliRunner().invoke(main, args)

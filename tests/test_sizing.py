@@ -14,6 +14,7 @@ reflected inertia in H_a, which the sizing instead adds as G^2 J qdd_des to the 
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -87,6 +88,17 @@ def arm() -> Robot:
     j2 = Joint("j2", "revolute", "l1", "l2", origin=mrnea.transform((0.5, 0, 0)), axis=(0, 1, 0))
     return Robot([j1, j2], [Link("l1", 4.0, (0.25, 0, 0), np.diag([0.01, 0.09, 0.09])),
                             Link("l2", 2.0, (0.2, 0, 0), np.diag([0.005, 0.03, 0.03]))])
+
+
+def write_cli_case(folder: Path) -> None:
+    """The command line's sizing case in ``folder``: arm.toml (:func:`arm`), swing.toml (its
+    program: :func:`arm_program`'s waypoints and limits) and cat.toml (:data:`CATALOGUE`)."""
+    arm().to_toml(folder / "arm.toml")
+    (folder / "swing.toml").write_text(
+        '[program]\nname = "swing"\nrobot = "arm.toml"\ndt = 0.01\n[path]\nprofile = '
+        '"trapezoidal"\nwaypoints = [[-0.3, 0.0], [0.6, 1.0], [-0.3, 0.0]]\n'
+        "velocity_limit = [1.5, 1.5]\nacceleration_limit = [5.0, 5.0]\n")
+    (folder / "cat.toml").write_text(CATALOGUE)
 
 
 def arm_program() -> np.ndarray:
