@@ -105,3 +105,45 @@ def test_an_identified_link_the_model_refuses_is_the_logs_fault() -> None:
     ident, offset = _robot(prior, np.concatenate([inertial_parameters(prior),
                                                   actuator_parameters(prior)]))
     assert np.array_equal(ident.links[1].mass, prior.links[1].mass) and not offset.any()
+
+
+def test_a_joint_just_past_its_limit_shows_the_digits_that_tell_them_apart(tmp_path: Path
+                                                                           ) -> None:
+    """A MoveJ two ulps past the Puma 560's joint5 upper limit (100 deg): the verdict said "at
+    1.745 rad, beyond its upper limit 1.745 rad"; it shows the digits that differ."""
+    import numpy as np
+    from click.testing import CliRunner
+
+    import mrnea
+    from mrnea.cli import main
+
+    upper = mrnea.robots.puma560().joints[4].upper
+    assert upper == np.deg2rad(100.0)  # the URDF-like built-in's limit
+    target = float(np.nextafter(np.nextafter(upper, 2.0), 2.0))
+    (tmp_path / "lim.toml").write_text(
+        '[program]\nname = "lim"\nrobot = "puma560"\ndt = 0.01\nq0 = [0, 0, 0, 0, 0, 0]\n'
+        f'[[move]]\ntype = "joint"\ntarget = [0, 0, 0, 0, {target!r}, 0]\n'
+        "velocity_limit = 1.0\nacceleration_limit = 2.0\n")
+    res = CliRunner().invoke(main, ["check", str(tmp_path / "lim.toml")])
+    assert res.exit_code == 1, res.output
+    assert (f"joint joint5 at {target!r} rad, beyond its upper limit {float(upper)!r} rad"
+            in res.stdout), res.stdout
+
+
+def test_a_pose_beyond_any_length_is_refused_by_the_inverse_kinematics() -> None:
+    """A pose 1e300 m away: refused naming the pose and the bound (it was solved and said
+    "position error inf m"); one at 2 m is solved and reported unreached."""
+    import numpy as np
+
+    import mrnea
+    from mrnea.errors import StateError
+
+    robot = mrnea.robots.puma560()
+    T = np.eye(4)
+    T[:3, 3] = (1e300, 0.0, 0.0)
+    with pytest.raises(StateError, match=r"pose 0's position \[1e\+300, 0\.0, 0\.0\] m is "
+                                         r"beyond 10000 m"):
+        mrnea.inverse_kinematics(robot, T, np.zeros(6))
+    T[:3, 3] = (2.0, 0.0, 0.0)  # out of the Puma's reach (under 1 m), within the bound
+    res = mrnea.ik.solve_path(robot, T[None], np.zeros(6))
+    assert not res.converged[0] and np.isfinite(res.position_error[0])

@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import compiled, validate
 from mrnea.errors import StateError, quote
+from mrnea.frozen import MAGNITUDES
 from mrnea.kernels.ik import ik_path
 from mrnea.model import Robot
 from mrnea.tool import Tool, carrying_joints, tool_frame
@@ -79,6 +80,12 @@ def _check_rigid(P3: NDArray, first: int) -> None:
     if not np.isfinite(P3).all():
         k = first + int(np.flatnonzero(~np.isfinite(P3).all(axis=(1, 2)))[0])
         raise StateError(f"poses: pose {k} contains NaN or inf")
+    far = np.flatnonzero(np.abs(P3[:, :3, 3]).max(axis=1) > MAGNITUDES["length"])
+    if far.size:  # a robot's lengths are bounded so (mrnea.frozen): out of any reach
+        k = int(far[0])
+        raise StateError(f"poses: pose {first + k}'s position {P3[k, :3, 3].tolist()} m is "
+                         f"beyond {MAGNITUDES['length']:g} m, the largest length mrnea accepts "
+                         "(check its units)")
     R = P3[:, :3, :3]
     bad = np.flatnonzero((np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)).max(axis=(1, 2)) > 1e-9)
                          | (np.linalg.det(R) < 0) | (np.abs(P3[:, 3] - (0, 0, 0, 1)).max(axis=1)

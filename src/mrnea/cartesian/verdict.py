@@ -143,9 +143,11 @@ def findings(robot: Robot, t: NDArray, q: NDArray, pose: NDArray, move: NDArray,
         j = int(np.argmax(over[k]))
         side, lim = ("upper", hi[j]) if q[k, j] > hi[j] else ("lower", lo[j])
         unit = robot.joints[j].unit("q")
-        add("joint_limit", int(k), int(j), f"joint limit crossed: joint {names[j]} at "
-                                           f"{q[k, j]:.4g} {unit}, beyond its {side} limit "
-                                           f"{lim:.4g} {unit}")
+        at, limit = f"{q[k, j]:.4g}", f"{lim:.4g}"
+        if at == limit:  # just past it: the digits that tell them apart
+            at, limit = repr(float(q[k, j])), repr(float(lim))
+        add("joint_limit", int(k), int(j), f"joint limit crossed: joint {names[j]} at {at} "
+                                           f"{unit}, beyond its {side} limit {limit} {unit}")
     # singularities: a small singular value, or a joint too fast near one
     qd = np.zeros_like(q)
     qd[1:] = np.diff(q, axis=0) / dt
