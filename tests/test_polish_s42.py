@@ -147,3 +147,34 @@ def test_a_pose_beyond_any_length_is_refused_by_the_inverse_kinematics() -> None
     T[:3, 3] = (2.0, 0.0, 0.0)  # out of the Puma's reach (under 1 m), within the bound
     res = mrnea.ik.solve_path(robot, T[None], np.zeros(6))
     assert not res.converged[0] and np.isfinite(res.position_error[0])
+
+
+def test_an_arc_too_long_for_memory_is_refused_before_its_profile_is_made(monkeypatch,
+                                                                          tmp_path: Path
+                                                                          ) -> None:
+    """A MoveC through a via 1e-6 m off the line beyond its target: a radius of kilometres,
+    39 million cycles at 4 ms. Refused by the memory budget naming the move, and no profile of
+    those cycles made first (it built one, about 7 s, then refused it)."""
+    import mrnea
+    import mrnea.cartesian.path as path
+    from mrnea.errors import MrneaError
+
+    made = []
+    real = path.trapezoidal
+
+    def recorded(*args, **kw):
+        out = real(*args, **kw)
+        made.append(out[1].shape[0])
+        return out
+
+    monkeypatch.setattr(path, "trapezoidal", recorded)
+    (tmp_path / "circ.toml").write_text(
+        '[program]\nname = "circ"\nrobot = "puma560"\ndt = 0.004\n'
+        "q0 = [0.0, 0.5, -0.5, 0.0, 0.5, 0.0]\n"
+        '[[move]]\ntype = "linear"\nxyz = [0.35, 0.0, 1.25]\nspeed = 0.1\nacceleration = 0.5\n'
+        '[[move]]\ntype = "circular"\nvia = [0.25, 1e-6, 1.25]\nxyz = [0.3, 0.0, 1.25]\n'
+        "speed = 0.1\nacceleration = 0.5\n")
+    with pytest.raises(MrneaError, match=r"\[\[move\]\] 2 \(circular\): a Cartesian program of "
+                                         r"3\.9\d+e\+07 cycles"):
+        mrnea.load_program(tmp_path / "circ.toml")
+    assert len(made) == 1 and made[0] < 1000, made  # the first move's profile alone

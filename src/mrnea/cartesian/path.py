@@ -114,14 +114,19 @@ def move_poses(move: Move, T0: NDArray, dt: float, room: Room,
                                                            _limit(al, theta))
     if length == 0.0 and theta == 0.0:
         s = np.zeros(1)
-    elif math.isinf(vs) or math.isinf(as_):
-        raise StateError(f"the tool only turns ({theta:.4g} rad, no translation): give "
-                         f"angular_speed and angular_acceleration")
-    elif math.isinf(j) and math.isinf(jw):
-        s = trapezoidal([[0.0], [1.0]], dt, vs, as_)[1][:, 0]
     else:
-        js = min(_limit(j, length), _limit(jw, theta))
-        s = scurve([[0.0], [1.0]], dt, vs, as_, js)[1][:, 0]
+        if math.isinf(vs) or math.isinf(as_):
+            raise StateError(f"the tool only turns ({theta:.4g} rad, no translation): give "
+                             f"angular_speed and angular_acceleration")
+        # the memory before the profile is made: a trapezoid's duration [s] (an S-curve's is
+        # longer); an arc through a via almost in line with its ends is kilometres long
+        trapezoid = 2.0 / math.sqrt(as_) if vs * vs >= as_ else 1.0 / vs + vs / as_
+        room.check(int(min(trapezoid / dt, 1e18)))
+        if math.isinf(j) and math.isinf(jw):
+            s = trapezoidal([[0.0], [1.0]], dt, vs, as_)[1][:, 0]
+        else:
+            js = min(_limit(j, length), _limit(jw, theta))
+            s = scurve([[0.0], [1.0]], dt, vs, as_, js)[1][:, 0]
     room.check(s.size)
     poses = np.zeros((s.size, 4, 4))
     poses[:, 3, 3] = 1.0
