@@ -208,10 +208,8 @@ def test_the_valid_calls_succeed(env) -> None:
             fn(**kw)
 
 
-# messages that name the argument otherwise: transform's xyz and rpy make an "origin"; a bad
-# simulate(stream=) is refused by the writer, which calls every file it writes "path"
-ALIAS = {("transform", "xyz"): "origin", ("transform", "rpy"): "origin",
-         ("simulate", "stream"): "path"}
+# messages that name the argument otherwise: transform's xyz and rpy make an "origin"
+ALIAS = {("transform", "xyz"): "origin", ("transform", "rpy"): "origin"}
 
 NAMES = ("forward_dynamics", "inverse_dynamics", "mass_matrix_and_bias", "joint_reactions",
          "transform", "load_program", "load_robot", "load_urdf", "apply_actuator_file",
