@@ -328,12 +328,12 @@ def identify(robot: Robot, log: Log, *, validation: Log | None = None, holdout: 
     < 1) of ``log`` is held out. ``min_speed`` [rad/s | m/s]: a joint's rows slower than this
     are left out. ``physical=False`` skips step 3 (``robot`` and ``theta`` are then the prior's).
     """
+    prior_weight = validate.real(prior_weight, "prior_weight")  # the arguments before the log
+    if not (math.isfinite(prior_weight) and prior_weight >= 0):
+        raise StateError(f"prior_weight: must be a finite number >= 0, got {prior_weight}")
     K_fit = check_log(robot, log, validation=validation, holdout=holdout, cutoff_hz=cutoff_hz,
                       min_speed=min_speed)
     holdout, min_speed = float(holdout), float(min_speed)
-    prior_weight = validate.real(prior_weight, "prior_weight")
-    if not (math.isfinite(prior_weight) and prior_weight >= 0):
-        raise StateError(f"prior_weight: must be a finite number >= 0, got {prior_weight}")
     base = base_parameters(robot)
     W, used = base_rows(robot, base, log, cutoff_hz, min_speed)
     beta, cov, sigma, info = _least_squares(W[:K_fit], log.tau[:K_fit], used[:K_fit])
