@@ -234,6 +234,9 @@ def _parse_joints(check: TomlCheck, entries: list[Any], dh: str | None, base: st
         lname = link.pop("link_name")
         if "parent" in entry:  # the joint whose link carries this one; default: the previous
             named = check.string(entry["parent"], where, "parent")
+            if named == base and link_of[named] != base:  # an earlier joint has the base's name
+                raise check.error(where, f"parent {quote(named)} names both the base link and "
+                                         f"an earlier joint: rename that joint")
             if named not in link_of:
                 raise check.error(where, f"parent {quote(named)} is neither the base "
                                          f"{quote(base)} nor an earlier joint")
@@ -439,6 +442,11 @@ def dumps_native(robot: Robot) -> str:
              *_visual_lines("base_visual", robot.base_visuals)]
     for i, (j, lk) in enumerate(zip(robot.joints, robot.links, strict=True)):
         p = robot.parents[i]
+        if p != i - 1 and robot.base in robot.joint_names[:i]:
+            raise ModelError(f"robot {quote(robot.name)}: joint {quote(j.name)}: its parent "
+                             f"cannot be written: an earlier joint has the base link's name "
+                             f"{quote(robot.base)}, and a native file's 'parent' names either; "
+                             f"rename that joint")
         parent = [] if p == i - 1 else [  # a tree: the joint whose link carries this one
             f"parent = {_string(robot.base if p < 0 else robot.joints[p].name)}"]
         lines += ["", "[[joint]]", f"name = {_string(j.name)}", f"type = {_string(j.type)}",

@@ -93,8 +93,9 @@ def apply_actuator_file(robot: Robot, path: str | Path) -> Robot:
         table = check.table(table, "", jname)
         check.check_keys(table, JOINT_FIELDS, where)
         i = names.index(jname)
+        fields = joint_fields(check, table, where)  # its errors name the file already
         try:
-            joints[i] = dataclasses.replace(joints[i], **joint_fields(check, table, where))
+            joints[i] = dataclasses.replace(joints[i], **fields)
         except ModelError as exc:
             raise check.error("", str(exc)) from None
     return robot._replace(joints=joints)

@@ -60,9 +60,12 @@ class TomlCheck:
         self.finite = finite
 
     def error(self, where: str, what: str) -> MrneaError:
-        """The error ``<source>: <where>: <what>`` (``<source>: <what>`` without ``where``)."""
-        return self._error(clip(f"{self.source}: {where}: {what}" if where else
-                                f"{self.source}: {what}"))
+        """The error ``<source>: <where>: <what>`` (``<source>: <what>`` without ``where``, or
+        when ``what``, a model's message, starts by naming ``where`` itself: it had said
+        ``joint 'a': joint 'a': efficiency must be in [0.01, 1]``)."""
+        if where and not what.startswith(f"{where}: "):
+            return self._error(clip(f"{self.source}: {where}: {what}"))
+        return self._error(clip(f"{self.source}: {what}"))
 
     def parse(self, text: str) -> dict[str, Any]:
         """The document, or an error with tomllib's message, line and column; a document

@@ -55,6 +55,7 @@ from mrnea.errors import ModelError, RobotFileError, clip, listing, quote, short
 from mrnea.io.sidecar import apply_actuator_file
 from mrnea.io.source import as_path, parse_number, read_bytes, refused_prolog
 from mrnea.io.urdf_transmission import transmissions
+from mrnea.io.urdf_tree import MOVING_TYPES, kept_joints, tip_candidates
 from mrnea.io.urdf_visual import materials, visuals
 from mrnea.model import DEFAULT_GRAVITY, Frame, Joint, Link, Robot
 from mrnea.rigid import combine_inertials, transform
@@ -62,7 +63,6 @@ from mrnea.visual import Visual
 
 __all__ = ["load_urdf"]
 
-MOVING_TYPES = ("revolute", "continuous", "prismatic")
 UNSUPPORTED_TYPES = ("floating", "planar")
 
 #: Written for an unbounded limit (urdfdom rejects ``inf``) and read back as infinite. It is the
@@ -255,22 +255,6 @@ class _Reader:
         return j
 
 
-def _tip_candidates(links: dict[str, _UrdfLink], paths: list[tuple[str, list[_UrdfJoint]]]
-                    ) -> list[str]:
-    """The leaves whose path has a moving joint (the caller gives those whose path has no
-    ``<mimic>`` joint), ordered by the mass the chain to them would
-    move (the links after the path's first moving joint), heaviest first, then by name: real
-    end effectors before the cameras and sensors hanging off a wrist with placeholder masses."""
-    def moved(path: list[_UrdfJoint]) -> float:
-        first = next(k for k, j in enumerate(path) if j.type in MOVING_TYPES)
-        masses = (links[j.child].mass for j in path[first:])
-        return sum(m for m in masses if math.isfinite(m) and m > 0)
-
-    ranked = [(-moved(path), leaf) for leaf, path in paths
-              if any(j.type in MOVING_TYPES for j in path)]
-    return [leaf for _, leaf in sorted(ranked)]
-
-
 def load_urdf(
     path: str | Path, tip: str | Sequence[str] | None = None,
     actuators: str | Path | None = None
@@ -390,40 +374,20 @@ def load_urdf(
             f"{quote(base)} (their joints form a cycle)"
         )
 
-    def path_to(link: str) -> list[_UrdfJoint]:
-        out = []
-        while link != base:
-            j = parent_joint[link]
-            out.append(j)
-            link = j.parent
-        return out[::-1]
-
     # --- choose the joints: all, or those on the paths to the tips ------------------------
     n_moving = sum(j.type in MOVING_TYPES for j in joints.values())
     if n_moving == 0:
         raise rd.error(f"robot {quote(robot_name)} has no moving joint")
-    kept = {j.name for j in joints.values() if j.type in MOVING_TYPES}
-    if tips:
-        kept = set()
-        for t in tips:
-            if t not in links:
-                raise rd.error(f"tip link {quote(t)} does not exist")
-            on_path = [j.name for j in path_to(t) if j.type in MOVING_TYPES]
-            if not on_path:
-                raise rd.error(f"the path from root link {quote(base)} to tip link {quote(t)} "
-                               "has no moving joint")
-            kept.update(on_path)
+    kept = kept_joints(rd, order, parent_joint, tips)
     # depth first, children in file order (``order``): Robot's order (Pinocchio's URDF parser
     # orders a link's children by joint name instead: tests compare by name)
     chain_path = [parent_joint[name] for name in order[1:] if parent_joint[name].name in kept]
     chain = {j.name: i + 1 for i, j in enumerate(chain_path)}  # joint -> body index (1..n)
     for j in chain_path:
         if j.mimic:
-            leaves = [name for name in order if not children[name]]
             # a candidate's path avoids every <mimic> joint, not only this one: a tip it
             # suggests must load
-            candidates = _tip_candidates(links, [(lf, path_to(lf)) for lf in leaves
-                                                 if not any(k.mimic for k in path_to(lf))])
+            candidates = tip_candidates(links, order, parent_joint, children)
             raise rd.error(
                 f"joint {quote(j.name)}: <mimic> joints (coupled to another joint) are not "
                 f"supported: keep the links whose paths avoid it with tip=<link name> "
