@@ -178,3 +178,22 @@ def test_an_arc_too_long_for_memory_is_refused_before_its_profile_is_made(monkey
                                          r"3\.9\d+e\+07 cycles"):
         mrnea.load_program(tmp_path / "circ.toml")
     assert len(made) == 1 and made[0] < 1000, made  # the first move's profile alone
+
+
+def test_a_path_with_a_nul_character_is_a_named_error(tmp_path: Path) -> None:
+    """A NUL in an output or input path: one MrneaError naming the argument (os.lstat's
+    ValueError 'embedded null byte' had escaped from the writer)."""
+    import numpy as np
+
+    import mrnea
+    from mrnea.errors import MrneaError
+
+    res = mrnea.simulate(mrnea.robots.puma560(), np.zeros((3, 6)), 0.01)
+    for call in (lambda: res.to_csv(str(tmp_path / "a\0b.csv")),
+                 lambda: res.save_summary(str(tmp_path / "a\0b.json")),
+                 lambda: mrnea.simulate(mrnea.robots.puma560(), np.zeros((3, 6)), 0.01,
+                                        stream=str(tmp_path / "a\0b.csv")),
+                 lambda: mrnea.load_robot("x\0y.urdf")):
+        with pytest.raises(MrneaError, match="cannot hold a NUL character"):
+            call()
+    assert list(tmp_path.iterdir()) == []

@@ -57,6 +57,8 @@ def as_path(value: object, name: str, error: type[MrneaError]) -> Path:
         except TypeError:  # a PathLike whose path is bytes
             pass
         else:
+            if "\0" in str(p):  # no file system takes it (os.stat: "embedded null byte")
+                raise error(f"{name}: a file path cannot hold a NUL character, got {quote(value)}")
             if str(value):
                 return p
             raise error(f"{name}: expected a file path, got an empty string")
