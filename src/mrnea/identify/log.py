@@ -213,14 +213,14 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
         r = int(back[0]) + 1
         raise LogFileError(f"{path}: row {rows[r]}: time {data[r, 0]:g} s does not increase "
                            f"(row {rows[r - 1]}: {data[r - 1, 0]:g} s)")
-    if not has_rates:
-        _steady(path, data[:, 0], rows)
     big = np.argwhere(np.abs(data) > LOG_BOUND)
     if big.size:
         r, c = big[0]
         raise LogFileError(f"{path}: row {rows[r]}: column {quote(used[c])} is {data[r, c]:.3g}, "
                            f"beyond {LOG_BOUND:g}, the largest mrnea accepts in a log (check its "
                            "units)")
+    if not has_rates:  # a log read, not refused
+        _steady(path, data[:, 0], rows)
     n = robot.n
     tau = data[:, 1 + n:1 + 2 * n]
     if torque_constant is not None:
