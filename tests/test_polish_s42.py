@@ -197,3 +197,40 @@ def test_a_path_with_a_nul_character_is_a_named_error(tmp_path: Path) -> None:
         with pytest.raises(MrneaError, match="cannot hold a NUL character"):
             call()
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("delimiter", [",", ";", "\t", " "])
+def test_a_plain_path_csv_read_at_once_equals_row_by_row(monkeypatch, tmp_path: Path,
+                                                         delimiter: str) -> None:
+    """The rows of a plain path CSV (digits, signs, points, exponents, CRLF and blank lines)
+    read at once are the numbers the row-by-row reader gives, bit for bit; a file with a
+    comment, a word or a bad row goes row by row and keeps its message naming the line."""
+    import numpy as np
+
+    import mrnea.io.pathcsv as pathcsv
+    from mrnea.errors import ProgramFileError
+
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(1e-3, 2e-3, 500))
+    q = rng.normal(size=(500, 3)) * np.array([1e-7, 1.0, 1e5])
+    cells = [[repr(float(x)) for x in row] for row in np.column_stack([t, q])]
+    cells[3][1], cells[4][2], cells[5][3] = "+1.5", ".25", "-3.E+2"  # the grammar's spellings
+    lines = [delimiter.join(["time", "a", "b", "c"])] + [delimiter.join(r) for r in cells]
+    lines.insert(10, "")
+    (tmp_path / "p.csv").write_bytes(("\r\n".join(lines) + "\r\n").encode())
+    text = (tmp_path / "p.csv").read_text()
+    assert pathcsv._plain_rows(text, 1, delimiter, 4) is not None  # the file is plain
+    header, fast = pathcsv.read_table(tmp_path / "p.csv", 3)
+    monkeypatch.setattr(pathcsv, "_plain_rows", lambda *args: None)
+    header_slow, slow = pathcsv.read_table(tmp_path / "p.csv", 3)
+    assert header == header_slow and fast.shape == (500, 4)
+    assert fast.tobytes() == slow.tobytes()
+    assert fast[3, 1] == 1.5 and fast[4, 2] == 0.25 and fast[5, 3] == -300.0
+    monkeypatch.undo()
+    for bad, message in (("1e", "line 8 .*column 2"), ("1_0", "line 8 .*column 2"),
+                         ("nan", "line 8 .*column 2.*not a finite number")):
+        rows = list(lines)
+        rows[7] = delimiter.join([cells[6][0], bad, "0", "0"])
+        (tmp_path / "bad.csv").write_text("\n".join(rows) + "\n")
+        with pytest.raises(ProgramFileError, match=message):
+            pathcsv.read_table(tmp_path / "bad.csv", 3)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 import warnings
 from array import array
 from collections.abc import Sequence
@@ -93,7 +94,8 @@ def data_lines(path: Path) -> list[int]:
     :func:`read_table` reads (not blank, not a ``#`` comment). For messages about a row that
     :func:`read_table` has returned."""
     text = read_text(path, "path CSV file", ProgramFileError, MAX_CSV_SIZE)
-    return [number for number, _ in list(_rows(text))[1:]]
+    return [number for number, raw in enumerate(text.splitlines(), start=1)  # as _rows skips
+            if (line := raw.strip(" \t\r")) and not line.startswith("#")]
 
 
 def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64]]:
@@ -139,6 +141,9 @@ def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64
             if header is None:
                 header, header_line = cells, line
                 _check_header(path, line, header, n, delimiter)
+                plain = _plain_rows(text, header_line, delimiter, len(header))
+                if plain is not None:  # every row read at once; else row by row, below
+                    return CsvHeader(tuple(header), str(path), header_line), plain
                 continue
             if len(cells) != len(header):
                 found = [name for d, name in DELIMITERS.items()
@@ -182,6 +187,44 @@ def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64
                                "at least two (time strictly increasing)")
     return (CsvHeader(tuple(header), str(path), header_line),
             np.frombuffer(values, dtype=np.float64).reshape(rows, len(header)).copy())
+
+
+#: What the data rows of a plain path CSV hold: ASCII digits, the number grammar's signs,
+#: points and exponents, delimiters, spaces and line ends; no comment, quote or word.
+_PLAIN = re.compile(r"[0-9.eE+\-,;\t \r\n]*")
+
+
+def _plain_rows(text: str, header_line: int, delimiter: str, columns: int
+                ) -> NDArray[np.float64] | None:
+    """The rows after the header (line ``header_line``) of a plain path CSV, read at once: at
+    least two, each of ``columns`` numbers, finite, time strictly increasing. None where any
+    of that fails, or the rows hold more than :data:`_PLAIN` allows: :func:`read_table` then
+    reads row by row and names the line and the column at fault. Every number in such a row
+    is in :func:`~mrnea.io.source.parse_number`'s grammar exactly when Python's ``float``
+    reads it (no word, no underscore, no non-ASCII digit can be there), so both ways read
+    the same numbers; this one about ten times faster (a million rows in seconds)."""
+    pos = 0
+    for _ in range(header_line):  # past the header's line end
+        pos = text.find("\n", pos) + 1
+    if pos == 0 or len(text[:pos].splitlines()) != header_line \
+            or not _PLAIN.fullmatch(text, pos):
+        return None
+    values = array("d")
+    rows = 0
+    try:
+        for line in text[pos:].splitlines():
+            if line.strip(" \t\r"):
+                cells = line.split() if delimiter == " " else line.split(delimiter)
+                if len(cells) != columns:
+                    return None
+                values.extend(map(float, cells))
+                rows += 1
+    except ValueError:  # an empty cell, "1e", "+-1", "1.2.3": not a number of the grammar
+        return None
+    data = np.frombuffer(values, dtype=np.float64).reshape(rows, columns)
+    if rows < 2 or not np.isfinite(data).all() or not (np.diff(data[:, 0]) > 0).all():
+        return None
+    return data.copy()
 
 
 def _check_header(path: Path, line: int, header: list[str], n: int | None,
