@@ -71,7 +71,7 @@ def test_a_log_too_short_to_determine_the_parameters_is_one_error(tmp_path: Path
 def test_a_log_without_efforts_is_one_error(tmp_path: Path) -> None:
     path = _part(tmp_path, 300, zero_efforts=True)
     res = mrnea_cli("identify", "puma560", path, "--out", tmp_path / "out", "--quiet")
-    one_error_line(res, "log.csv", "joint 1's effort is 0")
+    one_error_line(res, "log.csv", "the effort of joint 'joint1' is 0")
     assert not (tmp_path / "out").exists()
 
 
