@@ -39,6 +39,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 CHILD = r"""
 import json, sys, time
@@ -65,19 +66,21 @@ class Record(event.Listener):
                        "nested": len(stack), "end_s": round(time.perf_counter() - T0, 2)})
 
 event.register("numba:compile", Record())
+code = 0
 try:
     if sys.argv[1:2] == ["--python"]:
         exec(sys.argv[2])
     else:
         from mrnea.cli import main
         main(sys.argv[1:], standalone_mode=True)
-except SystemExit:
-    pass  # the exit code is the process's
+except SystemExit as exc:  # the command's exit code, kept for the process's
+    code = exc.code if isinstance(exc.code, int) else int(exc.code is not None)
 finally:
     import resource
     ru = resource.getrusage(resource.RUSAGE_SELF)  # before the exit reaps the second process
     sys.stderr.write("\nFIRST_RUN_EVENTS " + json.dumps(events) + "\n")
     sys.stderr.write(f"FIRST_RUN_SELF_CPU {ru.ru_utime + ru.ru_stime}\n")
+sys.exit(code)
 """
 
 # The README's library example (the section "The library"), on the built-in Puma 560: single
@@ -102,7 +105,7 @@ print(mrnea.simulate(robot, q_cmd, dt=0.005).verdict())
 
 def suite(out: str) -> list[list[str]]:
     """The first runs of issue 22 (module docstring); outputs under the folder ``out``."""
-    pick = "examples/puma_pick.toml"
+    pick = str(Path(__file__).resolve().parents[1] / "examples" / "puma_pick.toml")
     return [["demo", "--out", f"{out}/demo", "--quiet"],
             ["check", "puma560", pick, "--quiet"],
             ["simulate", "puma560", pick, "--out", f"{out}/simulate", "--quiet"],
