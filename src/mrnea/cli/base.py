@@ -45,6 +45,7 @@ import numpy as np
 from numba.core import event as numba_event
 
 from mrnea.errors import MrneaError, clip, quote
+from mrnea.io.writer import all_or_none
 
 EXIT_ACHIEVABLE, EXIT_NOT_ACHIEVABLE, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report an interrupted command
@@ -178,34 +179,15 @@ def write_files(steps: Sequence[tuple[Path, Callable[[], object]]],
                 side_files: Sequence[Path] = ()) -> None:
     """A command's output files: each ``(path, write)`` of ``steps`` in turn, a
     :func:`checkpoint` before each and after the last. ``side_files``: files a step may write
-    besides its own (a retimed program's payload). The command leaves all of its new files or
-    none: a file it is about to replace (``--force``) is first moved aside in its folder
-    (``.NAME.mrnea-old``); on a stop request (or any KeyboardInterrupt) the files written so
-    far are removed and the ones moved aside put back as they were, and the interrupt goes
-    on; once every file is written the old ones are deleted."""
-    targets = list(dict.fromkeys([*(path for path, _ in steps), *side_files]))
-    kept: list[tuple[Path, Path]] = []  # (the file, its old content moved aside)
-    written: list[Path] = []
-    try:
-        for path in targets:
-            if os.path.isfile(path) and not os.path.islink(path):
-                old = path.with_name(f".{path.name}.mrnea-old")
-                with contextlib.suppress(OSError):  # not movable: the writer says why
-                    os.replace(path, old)
-                    kept.append((path, old))
-        for path, write in steps:
+    besides its own (a retimed program's payload). All of the new files or none
+    (:func:`mrnea.io.writer.all_or_none`): a file about to be replaced (``--force``: a file
+    there has passed ``check_new``) is moved aside first; on a stop request (or any error) the
+    files written are removed and the old ones put back, and the interrupt goes on."""
+    with all_or_none([*(path for path, _ in steps), *side_files], overwrite=True):
+        for _, write in steps:
             checkpoint()
             write()
-            written.append(path)
         checkpoint()
-    except BaseException:
-        for path in [*written, *side_files]:
-            path.unlink(missing_ok=True)
-        for path, old in kept:
-            os.replace(old, path)
-        raise
-    for _, old in kept:
-        old.unlink(missing_ok=True)
 
 
 def last_checkpoint() -> None:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 import numpy as np
 
 from mrnea import robots
-from mrnea.cli.base import checkpoint, compile_notice, last_checkpoint, main
+from mrnea.cli.base import checkpoint, compile_notice, last_checkpoint, main, one_line
 from mrnea.cli.options import force_opt
+from mrnea.errors import quote
 from mrnea.io.writer import check_new
 
 
@@ -29,6 +32,10 @@ def fig3(out: str, force: bool) -> None:
     if not out.strip():  # an unset "$FILE": not the current folder's name
         raise click.BadParameter("an empty path; name the figure file to write",
                                  param_hint="'--out'")
+    if os.path.exists(out) and not (os.path.isfile(out) or os.path.isdir(out)):
+        # /dev/null, /dev/stdout, a FIFO: never a NAME.png made next to a device
+        raise click.BadParameter(f"{quote(out)} is not a regular file (a device, pipe or socket); "
+                                 "name the figure file to write", param_hint="'--out'")
     path, _ = figure_file(out)
     check_new([path], force)  # before any work
     dt = 0.005
@@ -40,4 +47,4 @@ def fig3(out: str, force: bool) -> None:
     checkpoint()  # interrupted while computing: write nothing
     written = save_figure(fig, path, force, dpi=110)
     last_checkpoint()
-    click.echo(f"Fig. 3: {written}")
+    click.echo(f"Fig. 3: {one_line(str(written))}")  # a newline in --out: one line

@@ -34,6 +34,7 @@ from mrnea.cli.base import (
     fresh_dir,
     last_checkpoint,
     main,
+    one_line,
 )
 from mrnea.cli.options import (
     FOLDER,
@@ -48,7 +49,7 @@ from mrnea.cli.options import (
     quiet_opt,
 )
 from mrnea.io import RobotOptions
-from mrnea.io.writer import check_new, own_folder
+from mrnea.io.writer import all_or_none, check_new, own_folder
 from mrnea.model import Robot
 
 TABLE, SUMMARY, REPORT = "cycles.csv", "summary.json", "report.html"
@@ -132,7 +133,7 @@ def _print_result(res, report: Path | None, as_json: bool, quiet: bool) -> None:
         if (end := res.final_position_line()) is not None:
             click.echo(end)
         if report is not None:
-            click.echo(f"Report: {report}")
+            click.echo(f"Report: {one_line(str(report))}")  # a newline in --out: one line
 
 
 def _print_cartesian(path, quiet: bool) -> None:
@@ -179,13 +180,15 @@ def demo(out: str | None, dt: float, mode: str, no_3d: bool, force: bool, quiet:
     robot = robots.sdt()
     _, q_cmd = training_profile(dt)
     with own_folder(Path(out) if out else fresh_dir("mrnea-demo")) as folder:
-        check_new(_outputs(folder, ("fig3",)), force)
-        res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
-        from mrnea.report import fig3  # matplotlib: after the second process started, if any
+        outputs = _outputs(folder, ("fig3",))
+        check_new(outputs, force)
+        with all_or_none(outputs, force, keep_on_interrupt=True):  # an error: no mixed set
+            res = _run(robot, q_cmd, dt, mode, "mrnea", 0.0, None, None, quiet, folder, force)
+            from mrnea.report import fig3  # matplotlib: after the second process started
 
-        with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states.py)
-            figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
-        report = _write_outputs(res, folder, force, not no_3d, figs)
+            with compile_notice(quiet):  # fig3 reuses the simulation's kernels (report/states)
+                figs = {"fig3": fig3(robot, res.t, res.q, res.qd, res.qdd)} if res.K else {}
+            report = _write_outputs(res, folder, force, not no_3d, figs)
     _print_result(res, report, as_json, quiet)
     exit_with_verdict(res)
 
@@ -231,10 +234,12 @@ def simulate(robot: str | None, program: str | None, dt: float | None,
     rob, q_cmd, dt, f_ext, f_pt, prog_mode, interp = run[:7]
     _print_cartesian(run.cartesian, quiet or as_json)
     with own_folder(Path(out) if out else fresh_dir("mrnea-out")) as folder:
-        check_new(_outputs(folder), force)
-        res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet, folder,
-                   force, run.cartesian)
-        report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
+        outputs = _outputs(folder)
+        check_new(outputs, force)
+        with all_or_none(outputs, force, keep_on_interrupt=True):  # an error: no mixed set
+            res = _run(rob, q_cmd, dt, prog_mode or mode, fd, catch_up, f_ext, f_pt, quiet,
+                       folder, force, run.cartesian)
+            report = _write_outputs(res, folder, force, not no_3d, interpolation=interp)
     _print_result(res, report, as_json, quiet)
     _suggest(res, robot, program, robot_options, run, interpolation, mode, quiet, as_json,
              units)
