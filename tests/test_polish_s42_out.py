@@ -69,6 +69,12 @@ def test_a_newline_in_out_stays_one_line(tmp_path) -> None:
     assert res.returncode == 0, res.stderr
     assert res.stdout.splitlines()[-1] == "Report: a\\nb/report.html", res.stdout
     assert (tmp_path / "a\nb" / "report.html").is_file()
+    res = mrnea_cli("retime", PICK, "--out", "c\nd", "--no-3d", cwd=tmp_path)  # and its kin
+    assert res.returncode == 0, res.stderr
+    written = [line for line in res.stdout.splitlines() if line.startswith("Written: ")]
+    assert len(written) == 1 and written[0].startswith("Written: c\\nd/retimed.csv, "), res.stdout
+    # (its "Check it:" line is a shell command: the newline stays, quoted, as the shell reads it)
+    assert "Check it: mrnea check 'c\nd/retimed.toml'" in res.stdout, res.stdout
 
 
 def test_fig3_refuses_a_pipe_or_device(tmp_path) -> None:

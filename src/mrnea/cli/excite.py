@@ -32,6 +32,7 @@ from mrnea.cli.base import (
     compile_notice,
     fresh_dir,
     main,
+    one_line,
 )
 from mrnea.cli.options import (
     FOLDER,
@@ -180,6 +181,6 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
                    f"{exc.duration:g} s; condition number {exc.condition:.4g} (best random "
                    f"start {exc.condition_start:.4g})")
         click.echo(exc.verdict)
-        click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}")
+        click.echo(one_line(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}"))
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if exc.achievable else EXIT_NOT_ACHIEVABLE)

@@ -159,7 +159,7 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
     if not quiet:
         for line in _lines(summary):
             click.echo(line)
-        click.echo(f"Wrote {folder}: " + ", ".join(FILES))
+        click.echo(one_line(f"Wrote {folder}: " + ", ".join(FILES)))
 
 
 def _lines(s: dict[str, Any]) -> list[str]:

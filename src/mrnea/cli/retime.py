@@ -39,6 +39,7 @@ from mrnea.cli.base import (
     checkpoint,
     compile_notice,
     main,
+    one_line,
     write_files,
 )
 from mrnea.cli.options import (
@@ -240,9 +241,9 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                               allow_nan=False))
     elif not quiet:
         click.echo(res.verdict())
-        click.echo(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
-                   f"{paths[REPORT]}" + (f", {paths[POSES]}, {paths[CARTESIAN]}"
-                                         if CARTESIAN in paths else ""))
+        click.echo(one_line(f"Written: {paths[CSV]}, {paths[PROGRAM]}, {paths[SUMMARY]}, "
+                            f"{paths[REPORT]}" + (f", {paths[POSES]}, {paths[CARTESIAN]}"
+                                                  if CARTESIAN in paths else "")))
         click.echo(f"Check it: mrnea check {shlex.quote(str(paths[PROGRAM]))}")
     sys.exit(EXIT_ACHIEVABLE if res.achievable else EXIT_NOT_ACHIEVABLE)
 

@@ -34,6 +34,7 @@ from mrnea.cli.base import (
     fresh_dir,
     last_checkpoint,
     main,
+    one_line,
     write_files,
 )
 from mrnea.cli.options import (
@@ -139,5 +140,6 @@ def size(args: tuple[str, ...], catalogue: str, joints: str | None, objective: s
     if not quiet:
         for line in res.lines():
             click.echo(line)
-        click.echo(f"Wrote {folder}: " + ", ".join(f for f in FILES if (folder / f).exists()))
+        click.echo(one_line(f"Wrote {folder}: "
+                            + ", ".join(f for f in FILES if (folder / f).exists())))
     sys.exit(EXIT_ACHIEVABLE if res.verified else EXIT_NOT_ACHIEVABLE)

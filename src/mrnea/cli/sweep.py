@@ -29,7 +29,7 @@ import click
 import numpy as np
 
 from mrnea.cli import ahead
-from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, last_checkpoint, main
+from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, last_checkpoint, main, one_line
 from mrnea.cli.options import FOLDER, force_opt, load_program_arg, quiet_opt, robot_options
 from mrnea.errors import SweepError, quote
 from mrnea.io import (
@@ -221,8 +221,9 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
         last_checkpoint()
     if not quiet:
         ok, failed = int(df["achievable"].fillna(False).sum()), int(df["error"].notna().sum())
-        click.echo(f"{'INTERRUPTED: ' if not done else ''}{len(df)} of {df.attrs['cases']} "
-                   f"rows ({len(programs)} program(s)): {ok} achievable, {failed} failed, "
-                   f"{df.attrs['seconds']['total']:.1f} s. Wrote {folder}: {', '.join(files)}")
+        click.echo(one_line(
+            f"{'INTERRUPTED: ' if not done else ''}{len(df)} of {df.attrs['cases']} rows "
+            f"({len(programs)} program(s)): {ok} achievable, {failed} failed, "
+            f"{df.attrs['seconds']['total']:.1f} s. Wrote {folder}: {', '.join(files)}"))
     if not done:
         exit_interrupted()
