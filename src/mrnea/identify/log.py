@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import csv
 import os
-import re
 import warnings
 from array import array
 from collections.abc import Iterator, Sequence
@@ -28,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import validate
 from mrnea.errors import LogFileError, StateError, listing, quote
-from mrnea.io.source import MAX_CSV_SIZE, parse_number, read_text
+from mrnea.io.source import MAX_CSV_SIZE, float_reads_grammar, parse_number, read_text
 from mrnea.model import Robot
 from mrnea.resources import format_bytes, require_memory
 
@@ -46,7 +45,6 @@ MIN_SAMPLES = 2 * (3 * FILTER_ORDER + 1)
 #: The column delimiters of a log CSV, by name; the header row says which (the first of these
 #: it holds).
 DELIMITERS = {",": "comma", ";": "semicolon", "\t": "tab"}
-_NOT_PLAIN = re.compile(r"[^\x00-\x7f]|_")  # what float reads outside parse_number's grammar
 
 
 @dataclass(frozen=True)
@@ -202,8 +200,7 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
                            f"(columns {one + 1} and {header.index(twice, one + 1) + 1})")
     cols = [header.index(c) for c in used]
     _check_units(path, head_row, header_cells, cols, _units(robot, effort, has_rates))
-    # float reads what the grammar does, and more only where a cell holds _ or a non-ASCII digit
-    strict = _NOT_PLAIN.search(text, head_end) is not None
+    strict = not float_reads_grammar(text, head_end)  # else float reads the grammar's numbers
     data, rows = _numbers(path, lines, delimiter, len(header_cells), used, cols, strict)
     if data.shape[0] < MIN_SAMPLES:
         raise LogFileError(f"{path}: {data.shape[0]} data row(s) after the header; a log needs "
@@ -346,11 +343,3 @@ def _check_units(path: str | Path, row: int, header: list[str], cols: list[int],
             raise LogFileError(f"{path}: row {row}: column {quote(name.strip())} is in "
                                f"{quote(given)}; a log gives it in {quote(unit)} (convert it, or "
                                f"leave the unit out)")
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True

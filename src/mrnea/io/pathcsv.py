@@ -23,7 +23,6 @@ from __future__ import annotations
 import csv
 import io
 import os
-import re
 import warnings
 from array import array
 from collections.abc import Sequence
@@ -34,7 +33,7 @@ from numpy.typing import NDArray
 
 from mrnea.errors import PathWarning, ProgramFileError, StateError, quote
 from mrnea.io.jointnames import CsvHeader, column_order
-from mrnea.io.source import MAX_CSV_SIZE, as_path, parse_number, read_text
+from mrnea.io.source import MAX_CSV_SIZE, as_path, float_reads_grammar, parse_number, read_text
 from mrnea.io.writer import create
 from mrnea.model import Robot
 from mrnea.resources import format_bytes, require_memory
@@ -189,25 +188,19 @@ def read_table(path: Path, n: int | None) -> tuple[CsvHeader, NDArray[np.float64
             np.frombuffer(values, dtype=np.float64).reshape(rows, len(header)).copy())
 
 
-#: What the data rows of a plain path CSV hold: ASCII digits, the number grammar's signs,
-#: points and exponents, delimiters, spaces and line ends; no comment, quote or word.
-_PLAIN = re.compile(r"[0-9.eE+\-,;\t \r\n]*")
-
-
 def _plain_rows(text: str, header_line: int, delimiter: str, columns: int
                 ) -> NDArray[np.float64] | None:
     """The rows after the header (line ``header_line``) of a plain path CSV, read at once: at
     least two, each of ``columns`` numbers, finite, time strictly increasing. None where any
-    of that fails, or the rows hold more than :data:`_PLAIN` allows: :func:`read_table` then
-    reads row by row and names the line and the column at fault. Every number in such a row
-    is in :func:`~mrnea.io.source.parse_number`'s grammar exactly when Python's ``float``
-    reads it (no word, no underscore, no non-ASCII digit can be there), so both ways read
-    the same numbers; this one about ten times faster (a million rows in seconds)."""
+    of that fails, or ``float`` could read a cell the grammar does not
+    (:func:`~mrnea.io.source.float_reads_grammar`): :func:`read_table` then reads row by row and
+    names the line and the column at fault. Both ways read the same numbers; this one about
+    ten times faster (a million rows in seconds)."""
     pos = 0
     for _ in range(header_line):  # past the header's line end
         pos = text.find("\n", pos) + 1
     if pos == 0 or len(text[:pos].splitlines()) != header_line \
-            or not _PLAIN.fullmatch(text, pos):
+            or not float_reads_grammar(text, pos):
         return None
     values = array("d")
     rows = 0
@@ -219,7 +212,7 @@ def _plain_rows(text: str, header_line: int, delimiter: str, columns: int
                     return None
                 values.extend(map(float, cells))
                 rows += 1
-    except ValueError:  # an empty cell, "1e", "+-1", "1.2.3": not a number of the grammar
+    except ValueError:  # an empty cell, "1e", "+-1", a word, a comment: not the grammar's
         return None
     data = np.frombuffer(values, dtype=np.float64).reshape(rows, columns)
     if rows < 2 or not np.isfinite(data).all() or not (np.diff(data[:, 0]) > 0).all():

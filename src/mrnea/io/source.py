@@ -149,6 +149,19 @@ def read_text(path: str | os.PathLike[str], what: str, error: type[MrneaError],
                     f"{quote(data[exc.start:exc.start + 1])} at line {line})") from None
 
 
+#: A character outside what Python's ``float`` and :func:`parse_number` read alike
+_BEYOND_GRAMMAR = re.compile(r"[^\x20-\x7e\t\r\n]|_")
+
+
+def float_reads_grammar(text: str, pos: int = 0) -> bool:
+    """Whether Python's ``float`` reads each cell of ``text[pos:]`` as :func:`parse_number` does
+    (a reader's fast path: many cells through ``float``, the odd file through the grammar):
+    where the text holds nothing but printable ASCII, tabs and line ends, and no underscore
+    (``float``'s extras: ``1_000``, non-ASCII digits, other whitespace). ``float`` still reads
+    ``nan``, ``inf`` and ``infinity``, which such a caller refuses as non-finite numbers."""
+    return _BEYOND_GRAMMAR.search(text, pos) is None
+
+
 def parse_number(text: str, allow_inf: bool = False) -> float:
     """The number ``text`` spells in the grammar of the module docstring.
 
