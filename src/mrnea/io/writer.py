@@ -125,7 +125,6 @@ def create(path: str | os.PathLike[str], overwrite: bool = False, *,
             fh.flush()
             os.fsync(fd)
         _publish(tmp, path, overwrite)
-        _record(path)
     except OSError as exc:
         raise OutputError(f"{path}: cannot write: {exc.strerror or exc}") from None
     finally:
@@ -142,57 +141,41 @@ def write_file(path: str | os.PathLike[str], data: str | bytes, overwrite: bool 
     return path
 
 
-_RECORDERS: list[list[tuple[Path, os.stat_result]]] = []  # all_or_none's, innermost last
-
-
-def _record(path: Path) -> None:
-    """Note a file :func:`create` just published for every :func:`all_or_none` block open."""
-    if _RECORDERS:
-        with contextlib.suppress(OSError):
-            st = os.lstat(path)
-            for files in _RECORDERS:
-                files.append((path, st))
-
-
 @contextlib.contextmanager
 def all_or_none(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False, *,
                 keep_on_interrupt: bool = False) -> Iterator[None]:
-    """The files :func:`create` publishes within the block (a run's outputs, ``paths``): all of
-    them, or none.
+    """The files the block writes at ``paths`` (a run's outputs): all of them, or none.
 
     With ``overwrite`` each regular file already at one of ``paths`` is first moved aside in its
-    folder (``.NAME.mrnea-old``). If the block raises, every file it published is removed
-    (only while it is still the very file published: one put there by someone else stays) and
-    the files moved aside are put back as they were; once the block ends, they are deleted.
-    ``keep_on_interrupt``: a KeyboardInterrupt (a stop request) keeps the files written when
-    none was moved aside (they are whole, and the only ones of this kind there).
+    folder (``.NAME.mrnea-old``). If the block raises, every one of ``paths`` that was not there
+    before it is removed and the files moved aside are put back as they were; once the block
+    ends, they are deleted. ``keep_on_interrupt``: a KeyboardInterrupt (a stop request) keeps
+    the files written when none was moved aside (they are whole, and the only ones of this kind
+    there).
     """
     overwrite = _flag(overwrite)
     targets = list(dict.fromkeys(as_path(p, "path", OutputError) for p in paths))
     kept: list[tuple[Path, Path]] = []  # (the file, its old content moved aside)
-    published: list[tuple[Path, os.stat_result]] = []
-    _RECORDERS.append(published)
+    if overwrite:
+        for path in targets:
+            if stat.S_ISREG(_lstat_mode(path)):
+                old = path.with_name(f".{path.name}.mrnea-old")
+                with contextlib.suppress(OSError):  # not movable: create says why
+                    os.replace(path, old)
+                    kept.append((path, old))
+    there = {path for path in targets if _lstat_mode(path)}  # not this block's to remove
     try:
-        if overwrite:
-            for path in targets:
-                if stat.S_ISREG(_lstat_mode(path)):
-                    old = path.with_name(f".{path.name}.mrnea-old")
-                    with contextlib.suppress(OSError):  # not movable: create says why
-                        os.replace(path, old)
-                        kept.append((path, old))
         yield
     except BaseException as exc:
         if not (keep_on_interrupt and not kept and isinstance(exc, KeyboardInterrupt)):
-            for path, st in reversed(published):
-                with contextlib.suppress(OSError):
-                    if os.path.samestat(os.lstat(path), st):
+            for path in targets:
+                if path not in there:
+                    with contextlib.suppress(OSError):
                         os.unlink(path)
             for path, old in kept:
                 with contextlib.suppress(OSError):
                     os.replace(old, path)
         raise
-    finally:
-        del _RECORDERS[next(i for i, r in enumerate(_RECORDERS) if r is published)]
     for _, old in kept:
         with contextlib.suppress(OSError):
             os.unlink(old)
