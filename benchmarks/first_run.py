@@ -71,8 +71,9 @@ try:
     if sys.argv[1:2] == ["--python"]:
         exec(sys.argv[2])
     else:
-        from mrnea.cli import main
-        main(sys.argv[1:], standalone_mode=True)
+        from mrnea_launcher import main  # the command's entry point, as `mrnea` runs it
+        sys.argv = ["mrnea", *sys.argv[1:]]
+        main()
 except SystemExit as exc:  # the command's exit code, kept for the process's
     code = exc.code if isinstance(exc.code, int) else int(exc.code is not None)
 finally:

@@ -5,6 +5,7 @@ Numba functions, off with ``MRNEA_COMPILE_NOTICE=0`` or the ``"mrnea"`` logger's
 
 from __future__ import annotations
 
+import gc
 import logging
 import os
 import subprocess
@@ -114,3 +115,43 @@ def test_the_command_and_its_children_leave_it_to_the_command() -> None:
     assert res.returncode == 0, res.stderr[-2000:]
     assert COMPILE_NOTICE not in res.stderr
     assert res.stdout.splitlines()[-1] == "children get 0"
+
+
+class _Thresholds(numba.core.event.Listener):
+    """The collector's thresholds each time Numba starts compiling (listeners are called in
+    the order they were registered: mrnea's first, at its import)."""
+
+    def __init__(self) -> None:
+        self.seen: list[tuple[int, ...]] = []
+
+    def on_start(self, ev) -> None:
+        self.seen.append(gc.get_threshold())
+
+    def on_end(self, ev) -> None:
+        pass
+
+
+def test_collector_runs_less_often_while_a_kernel_compiles_then_as_before() -> None:
+    from numba.core import event
+    from numba.core.errors import TypingError
+
+    caller = (900, 11, 12)  # the caller's own thresholds, not Python's defaults
+    before = gc.get_threshold()
+    gc.set_threshold(*caller)
+    try:
+        spy = _Thresholds()
+        with event.install_listener("numba:compile", spy):
+            _user_kernel()(1)  # the caller's function: its thresholds untouched
+            _mrnea_kernel(7)(1)
+
+            def bad(x):
+                return x + "a"  # no such addition: Numba's typing fails
+
+            bad.__module__ = "mrnea.kernels.fake"
+            with pytest.raises(TypingError):
+                numba.njit(cache=False)(bad)(1)
+            after = gc.get_threshold()
+    finally:
+        gc.set_threshold(*before)
+    assert spy.seen == [caller, compiled.COMPILE_GC_THRESHOLD, compiled.COMPILE_GC_THRESHOLD]
+    assert after == caller  # restored after a compile, a failed one included
