@@ -286,7 +286,8 @@ def test_workers_get_one_numba_thread_and_the_heap_settings():
 
     with cluster.spawning():
         lc = LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                          dashboard_address=None, silence_logs=logging.CRITICAL)
+                          dashboard_address=None, silence_logs=logging.CRITICAL,
+                          scheduler_kwargs={"dashboard_address": ":0"})  # no port 8787 fight
     grid = {"payload": [0.0, 300.0]}
     with lc, Client(lc) as c:
         df = mrnea.sweep(sdt(), "demo", grid, client=c, progress=False)
