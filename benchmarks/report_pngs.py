@@ -8,9 +8,9 @@ Usage::
 
     python benchmarks/report_pngs.py [ROUNDS] [--fork]   # default 3; docs/performance.md section 7
 
-``draw_pngs`` forks only when a CPU is idle at that instant (``pngs._idle_cpu``); ``--fork``
-forks whatever the load (to measure the split itself on a loaded machine). Each round says
-whether it forked.
+``draw_pngs`` forks only when a CPU is idle at that instant (``mrnea.resources.idle_cpu``);
+``--fork`` forks whatever the load (to measure the split itself on a loaded machine). Each round
+says whether it forked.
 """
 
 from __future__ import annotations
@@ -33,9 +33,9 @@ def main(rounds: int = 3, force: bool = False) -> None:
     from mrnea.report.drawing import DPI, png_bytes
     from mrnea.report.pngs import draw_pngs
 
-    idle = pngs._idle_cpu
+    idle = pngs.idle_cpu
     forked: list[bool] = []
-    pngs._idle_cpu = lambda: forked.append(force or idle()) or forked[-1]
+    pngs.idle_cpu = lambda: forked.append(force or idle()) or forked[-1]
     from mrnea.robots.sdt_profile import training_profile
 
     robot = robots.sdt()

@@ -153,7 +153,11 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "0", "1", "0", "0"]
     assert started[-1][-1] == second.claims and os.path.isdir(second.claims)  # its claims
     monkeypatch.setattr(ahead.os, "getloadavg", lambda: (2.1, 0.5, 0.5))  # saturated
+    monkeypatch.setattr(ahead, "idle_cpu", lambda: False)  # and no CPU idle now
     assert ahead.start((-1, 0, 1, 2), False, True) is None
+    monkeypatch.setattr(ahead, "idle_cpu", lambda: True)  # the last minute's job has ended
+    assert ahead.start((-1, 0, 1, 2), False, True) is not None
+    monkeypatch.setattr(ahead, "idle_cpu", lambda: False)
     monkeypatch.setenv("MRNEA_AHEAD", "1")  # on whatever the load
     assert ahead.start((-1, 0, 1, 2), True, False, retime=True) is not None
     assert started[-1][1:-1] == ["-m", "mrnea.cli.ahead", "-1,0,1,2", "1", "0", "1", "0"]
@@ -166,7 +170,7 @@ def test_it_starts_only_on_a_cold_cache_with_a_core_to_spare(monkeypatch) -> Non
     monkeypatch.setattr(ahead.os, "sched_getaffinity", lambda pid: {0, 1})
     monkeypatch.setattr(ahead, "cold_cache", lambda: False)  # a warm cache
     assert ahead.start((-1, 0, 1, 2), False, True) is None
-    assert len(started) == 2
+    assert len(started) == 3
 
 
 def test_cold_reads_the_simulation_loops_cache_index(tmp_path) -> None:

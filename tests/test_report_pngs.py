@@ -22,7 +22,7 @@ def _forks(monkeypatch: pytest.MonkeyPatch) -> None:
     """draw_pngs forks whatever the machine's load and whatever threads an earlier test in
     this worker left running (the children of the tests below draw no figure: they take no
     lock another thread could hold)."""
-    monkeypatch.setattr(pngs, "_idle_cpu", lambda: True)
+    monkeypatch.setattr(pngs, "idle_cpu", lambda: True)
     monkeypatch.setattr(pngs, "_can_fork", lambda: True)
 
 
@@ -42,7 +42,7 @@ def _figures() -> list[tuple[Figure, float]]:
 def test_same_bytes_as_one_process(idle: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     """In order, byte for byte what matplotlib writes for each figure alone, dpi included,
     with a child or without."""
-    monkeypatch.setattr(pngs, "_idle_cpu", lambda: idle)
+    monkeypatch.setattr(pngs, "idle_cpu", lambda: idle)
     jobs = _figures()
     want = [png_bytes(fig, dpi) for fig, dpi in jobs]
     assert pngs.draw_pngs(jobs) == want
@@ -81,45 +81,6 @@ def test_hung_child_killed(monkeypatch: pytest.MonkeyPatch) -> None:
     t0 = time.monotonic()
     assert pngs.draw_pngs(jobs) == want
     assert time.monotonic() - t0 < 30
-
-
-def test_idle_cpu_reads_the_runnable_tasks(monkeypatch: pytest.MonkeyPatch) -> None:
-    """/proc/loadavg's runnable count against this process's CPUs: fewer, a CPU is idle."""
-    import builtins
-    import io
-
-    cpus = len(os.sched_getaffinity(0))
-    real_open = builtins.open
-    for running, idle in ((1, cpus > 1), (cpus, False), (cpus + 5, False)):
-        text = f"0.5 0.4 0.3 {running}/900 1234\n"
-        monkeypatch.setattr(builtins, "open", lambda p, *a, _t=text, **k: io.StringIO(_t)
-                            if p == "/proc/loadavg" else real_open(p, *a, **k))
-        assert pngs._idle_cpu() is idle, (running, cpus)
-
-
-def test_idle_cpu_is_not_fooled_by_a_moment_s_busy_snapshot(monkeypatch: pytest.MonkeyPatch
-                                                             ) -> None:
-    """One busy snapshot (a task runnable for a moment, seen after every fresh demo's
-    compiling) and then an idle one: a CPU is idle. Busy in every one of the IDLE_READS
-    snapshots: not idle, after reading each."""
-    import builtins
-    import io
-
-    cpus = len(os.sched_getaffinity(0))
-    real_open = builtins.open
-    for counts, idle in (([cpus, cpus - 1], True), ([cpus] * pngs.IDLE_READS, False)):
-        reads = iter(counts)
-        seen = []
-
-        def fake(p, *a, _reads=reads, _seen=seen, **k):
-            if p != "/proc/loadavg":
-                return real_open(p, *a, **k)
-            _seen.append(1)
-            return io.StringIO(f"0.5 0.4 0.3 {next(_reads)}/900 1234\n")
-
-        monkeypatch.setattr(builtins, "open", fake)
-        assert pngs._idle_cpu() is idle, counts
-        assert len(seen) == len(counts)
 
 
 def test_no_fork_with_threads() -> None:

@@ -1,5 +1,6 @@
 """Resources: a run that needs more memory than the budget is refused, with one line, before
-anything large is allocated (mrnea.resources; docs/design.md "Memory budget").
+anything large is allocated (mrnea.resources; docs/design.md "Memory budget"); a CPU idle now
+is read from /proc/loadavg's runnable tasks.
 
 The estimates are checked against what the code really allocates, measured with tracemalloc
 (NumPy reports its arrays to it): each estimate must be an upper bound of the measured peak, and
@@ -11,6 +12,7 @@ spanning 1e7 s at 0.01 s, a waypoint program of 5e8 cycles).
 from __future__ import annotations
 
 import functools
+import os
 import time
 import tracemalloc
 from pathlib import Path
@@ -209,3 +211,42 @@ def test_a_long_chains_figures_draw_twelve_joints() -> None:
         rows = {round(ax.get_position().y0, 6) for ax in fig.axes if ax.get_title(loc="left")}
         assert len(rows) == MAX_JOINTS, name
         assert "12 of 40 joints" in fig._suptitle.get_text(), name
+
+
+def test_idle_cpu_reads_the_runnable_tasks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """/proc/loadavg's runnable count against this process's CPUs: fewer, a CPU is idle."""
+    import builtins
+    import io
+
+    cpus = len(os.sched_getaffinity(0))
+    real_open = builtins.open
+    for running, idle in ((1, cpus > 1), (cpus, False), (cpus + 5, False)):
+        text = f"0.5 0.4 0.3 {running}/900 1234\n"
+        monkeypatch.setattr(builtins, "open", lambda p, *a, _t=text, **k: io.StringIO(_t)
+                            if p == "/proc/loadavg" else real_open(p, *a, **k))
+        assert resources.idle_cpu() is idle, (running, cpus)
+
+
+def test_idle_cpu_is_not_fooled_by_a_moment_s_busy_snapshot(monkeypatch: pytest.MonkeyPatch
+                                                             ) -> None:
+    """One busy snapshot (a task runnable for a moment, seen after every fresh demo's
+    compiling) and then an idle one: a CPU is idle. Busy in every one of the IDLE_READS
+    snapshots: not idle, after reading each."""
+    import builtins
+    import io
+
+    cpus = len(os.sched_getaffinity(0))
+    real_open = builtins.open
+    for counts, idle in (([cpus, cpus - 1], True), ([cpus] * resources.IDLE_READS, False)):
+        reads = iter(counts)
+        seen = []
+
+        def fake(p, *a, _reads=reads, _seen=seen, **k):
+            if p != "/proc/loadavg":
+                return real_open(p, *a, **k)
+            _seen.append(1)
+            return io.StringIO(f"0.5 0.4 0.3 {next(_reads)}/900 1234\n")
+
+        monkeypatch.setattr(builtins, "open", fake)
+        assert resources.idle_cpu() is idle, counts
+        assert len(seen) == len(counts)

@@ -1,5 +1,5 @@
-"""The memory budget: how much memory mrnea lets one allocation of a run take, checked before it
-allocates.
+"""The machine's resources: the memory budget, how much memory mrnea lets one allocation of a
+run take, checked before it allocates; and the CPUs, whether one is idle now.
 
 A run keeps every cycle in memory (the path, then about 20 arrays of ``(K, n)`` values and the
 ``(K, n, 6)`` reactions), so a tiny ``dt`` or a very long program can ask for more memory than
@@ -13,17 +13,22 @@ check runs, never less than :data:`BUDGET_FLOOR`. "Available" is the smallest of
 ``MemAvailable`` (``/proc/meminfo``; elsewhere the free physical pages, ``os.sysconf``), the
 room left under a cgroup memory limit (containers) and under an address-space limit
 (``ulimit -v``).
+
+Whether a CPU is idle now (:func:`idle_cpu`) decides whether a command starts a second process
+to share its work: drawing its figures (report/pngs.py), compiling ahead on a cold cache
+(cli/ahead.py).
 """
 
 from __future__ import annotations
 
 import os
 import resource
+import time
 
 from mrnea.errors import MrneaError
 
-__all__ = ["BUDGET_FLOOR", "BUDGET_FRACTION", "available_memory", "format_bytes",
-           "memory_budget", "require_memory"]
+__all__ = ["BUDGET_FLOOR", "BUDGET_FRACTION", "IDLE_READS", "available_memory", "cpus",
+           "format_bytes", "idle_cpu", "memory_budget", "require_memory"]
 
 BUDGET_FRACTION = 0.75
 """The share of the available memory one run may plan to use (the rest: Python, matplotlib,
@@ -125,3 +130,37 @@ def require_memory(nbytes: float, what: str, advice: str,
     avail = format_bytes(budget / BUDGET_FRACTION)
     raise error(f"{what} needs about {need} of memory, more than the {format_bytes(budget)} "
                 f"mrnea may use ({BUDGET_FRACTION:.0%} of the {avail} available); {advice}")
+
+
+def cpus() -> int:
+    """The number of CPUs this process may run on (its affinity where the system tells it)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+IDLE_READS = 5
+"""Snapshots of the runnable tasks (:func:`idle_cpu`), 4 ms apart, of which one must show a
+CPU idle: a task runnable for a moment (after a fresh run's compiling, with the second process
+gone, the first snapshot showed one more every time: presumably the kernel writing back the
+files just written) is not a busy core."""
+
+
+def idle_cpu() -> bool:
+    """A CPU idle now besides this process's: fewer runnable tasks (this one included) than
+    CPUs for this process (/proc/loadavg's fourth field, a snapshot) in one of
+    :data:`IDLE_READS` reads. False where /proc/loadavg cannot be read (not Linux: do not
+    guess)."""
+    n = cpus()
+    for k in range(IDLE_READS):
+        if k:
+            time.sleep(0.004)
+        try:
+            with open("/proc/loadavg") as fh:
+                running = int(fh.read().split()[3].split("/")[0])
+        except (OSError, ValueError, IndexError):
+            return False
+        if running < n:
+            return True
+    return False

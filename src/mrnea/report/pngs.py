@@ -3,11 +3,13 @@
 Drawing is most of a warm ``mrnea demo`` after its simulation (the Agg canvas: ticks, texts,
 lines; about 0.5 s a figure for the SDT's six figures, one process, one core) and matplotlib
 holds the GIL while it draws, so threads would not help. On Linux, with a CPU idle now
-(:func:`_idle_cpu`) and no other Python thread running, :func:`draw_pngs` forks: the child (a
-copy of this process, figures included: nothing is pickled but the PNG bytes it sends back)
-draws its share while this process draws the rest. The objects both share are frozen out of
-the garbage collector meanwhile (``gc.freeze``), so that neither copies the other's pages by
-collecting. The bytes are those of
+(:func:`mrnea.resources.idle_cpu`: on a loaded machine, or while the compile-ahead process,
+cli/ahead.py, still runs, a child would only compete for the cores, and cost its own start:
+fonts, text caches, about 0.3 s of CPU) and no other Python thread running,
+:func:`draw_pngs` forks: the child (a copy of this process, figures included: nothing is
+pickled but the PNG bytes it sends back) draws its share while this process draws the rest.
+The objects both share are frozen out of the garbage collector meanwhile (``gc.freeze``), so
+that neither copies the other's pages by collecting. The bytes are those of
 :func:`mrnea.report.drawing.png_bytes` either way (the same figure, the same Agg code): only
 the wall time differs. Elsewhere (Windows and macOS have no safe ``fork``; no idle CPU; a
 thread that might hold a lock the child would need) everything is drawn here, one figure after
@@ -36,6 +38,7 @@ from typing import cast
 from matplotlib.figure import Figure
 
 from mrnea.report.drawing import png_bytes
+from mrnea.resources import idle_cpu
 
 PATIENCE = 30.0
 """Seconds the child may take beyond this process's own drawing before it is given up."""
@@ -45,33 +48,6 @@ def _can_fork() -> bool:
     """Linux, and no other Python thread (a forked child inherits only the calling thread: a
     lock another one held would never be released in it)."""
     return sys.platform.startswith("linux") and threading.active_count() == 1
-
-
-IDLE_READS = 5
-"""Snapshots of the runnable tasks (:func:`_idle_cpu`), 4 ms apart, of which one must show a
-CPU idle: a task runnable for a moment (after a fresh run's compiling, with the second process
-gone, the first snapshot showed one more every time: presumably the kernel writing back the
-files just written) is not a busy core."""
-
-
-def _idle_cpu() -> bool:
-    """A CPU idle now besides this process's: fewer runnable tasks (this one included) than
-    CPUs for this process (/proc/loadavg's fourth field, a snapshot) in one of
-    :data:`IDLE_READS` reads. On a loaded machine, or while the compile-ahead process
-    (cli/ahead.py) still runs, a child would only compete for the cores, and cost its own
-    start (fonts, text caches: about 0.3 s of CPU)."""
-    cpus = len(os.sched_getaffinity(0))
-    for k in range(IDLE_READS):
-        if k:
-            time.sleep(0.004)
-        try:
-            with open("/proc/loadavg") as fh:
-                running = int(fh.read().split()[3].split("/")[0])
-        except (OSError, ValueError, IndexError):  # not readable: do not guess
-            return False
-        if running < cpus:
-            return True
-    return False
 
 
 def _cost(job: tuple[Figure, float]) -> float:
@@ -143,7 +119,7 @@ def draw_pngs(jobs: Sequence[tuple[Figure, float]]) -> list[bytes]:
     out: list[bytes | None] = [None] * len(jobs)
     pid = None
     here = list(range(len(jobs)))
-    if len(jobs) >= 2 and _can_fork() and _idle_cpu():
+    if len(jobs) >= 2 and _can_fork() and idle_cpu():
         here, there = _split(jobs)
         read_fd, write_fd = os.pipe()
         gc.freeze()  # neither process's collector writes to the objects they share (copy-on-write)
