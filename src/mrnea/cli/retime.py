@@ -216,8 +216,11 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
         with own_folder(Path(out)) as folder:
             paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY, REPORT,
                                              *((POSES, CARTESIAN) if cartesian else ()))}
-            check_new([*paths.values(), *([folder / PAYLOAD] if _payload_specs(options) else [])],
-                      force)
+            # payload.toml only when this run writes it: a point-mass payload's run (or one
+            # without a payload) leaves a payload.toml there alone, as it does the folder's
+            # other files
+            side = [folder / PAYLOAD] if PAYLOAD in _payload_specs(options) else []
+            check_new([*paths.values(), *side], force)
             # one process, one retiming: the single-state kernels the simulation compiles anyway
             # (mrnea.actuators.one_state_at_a_time; issue 22)
             with compile_notice(quiet), one_state_at_a_time():
@@ -233,7 +236,7 @@ def retime(robot: str | None, program: str | None, out: str, method: str, margin
                 except RetimeError as exc:  # about the program: say which file it is
                     raise RetimeError(f"{program_arg}: {exc}") from None
             _write(res, folder, paths, spec, options, f"{Path(program_arg).stem}-retimed",
-                   force, not no_3d, (tool, cartesian))
+                   force, not no_3d, (tool, cartesian), side)
     except NoTimingError as exc:  # a verdict: nothing written, the new folder removed
         _no_timing(f"{program_arg}: {exc}", as_json, quiet)
     if as_json:
@@ -312,12 +315,13 @@ def _cartesian_steps(res: Any, paths: dict[str, Path], tool: Any, cartesian: Any
 
 
 def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: RobotOptions,
-           name: str, force: bool, view3d: bool, cartesian: tuple[Any, Any] = (None, None)
-           ) -> None:
+           name: str, force: bool, view3d: bool, cartesian: tuple[Any, Any] = (None, None),
+           side: list[Path] | None = None) -> None:
     """Write the run's files, a checkpoint before each; a stop request removes the files this
     run wrote so far and puts back those they replaced (:func:`mrnea.cli.base.write_files`).
     ``cartesian``: a Cartesian program's (tool spec, CartesianPath), whose retimed timing is
-    written too."""
+    written too. ``side``: the payload file, when the program keys write one (only then is a
+    file at its name replaced: write_files moves every file it names aside and deletes it)."""
     from mrnea.report.retime import write_retime_report
 
     steps = [
@@ -331,7 +335,7 @@ def _write(res: Any, folder: Path, paths: dict[str, Path], spec: str, options: R
             "retimed program (CSV)": paths[CSV], "program file": paths[PROGRAM],
             "summary": paths[SUMMARY]}, view3d=view3d)),
     ]
-    write_files(steps, side_files=[folder / PAYLOAD])  # the program's payload file
+    write_files(steps, side_files=side or [])  # the program's payload file
 
 
 def _option_args(options: RobotOptions) -> list[str]:

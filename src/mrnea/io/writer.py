@@ -152,17 +152,21 @@ def all_or_none(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False
     ends, they are deleted. ``keep_on_interrupt``: a KeyboardInterrupt (a stop request) keeps
     the files written when none was moved aside (they are whole, and the only ones of this kind
     there).
+
+    Something already at a ``.NAME.mrnea-old`` name (the old file of a run that was killed, or a
+    user's file) is refused rather than replaced, and a file that cannot be moved aside is an
+    error rather than replaced without a copy: either way it could not be put back.
     """
     overwrite = _flag(overwrite)
     targets = list(dict.fromkeys(as_path(p, "path", OutputError) for p in paths))
     kept: list[tuple[Path, Path]] = []  # (the file, its old content moved aside)
-    if overwrite:
-        for path in targets:
+    try:
+        for path in targets if overwrite else ():
             if stat.S_ISREG(_lstat_mode(path)):
-                old = path.with_name(f".{path.name}.mrnea-old")
-                with contextlib.suppress(OSError):  # not movable: create says why
-                    os.replace(path, old)
-                    kept.append((path, old))
+                kept.append((path, _move_aside(path)))
+    except BaseException:
+        _put_back(kept)
+        raise
     there = {path for path in targets if _lstat_mode(path)}  # not this block's to remove
     try:
         yield
@@ -172,13 +176,32 @@ def all_or_none(paths: Iterable[str | os.PathLike[str]], overwrite: bool = False
                 if path not in there:
                     with contextlib.suppress(OSError):
                         os.unlink(path)
-            for path, old in kept:
-                with contextlib.suppress(OSError):
-                    os.replace(old, path)
+            _put_back(kept)
         raise
     for _, old in kept:
         with contextlib.suppress(OSError):
             os.unlink(old)
+
+
+def _move_aside(path: Path) -> Path:
+    """Move the file ``path`` to ``.NAME.mrnea-old`` in its folder (for :func:`all_or_none`);
+    returns that path. An OutputError, ``path`` untouched, if anything is there already."""
+    old = path.with_name(f".{path.name}.mrnea-old")
+    if os.path.lexists(old):
+        raise OutputError(f"{old} exists (the old {path.name} of a run that was stopped?); move "
+                          f"or remove it before replacing {path}")
+    try:
+        os.replace(path, old)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot move it aside to replace it: {exc.strerror}") from None
+    return old
+
+
+def _put_back(kept: list[tuple[Path, Path]]) -> None:
+    """The files :func:`all_or_none` moved aside, back at their names."""
+    for path, old in kept:
+        with contextlib.suppress(OSError):
+            os.replace(old, path)
 
 
 def _lstat_mode(path: Path) -> int:
@@ -242,8 +265,8 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
     _refuse_link(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
-    except FileExistsError:
-        raise OutputError(f"{folder} exists and is not a folder") from None
+    except FileExistsError:  # folder, or a folder above it, is something else
+        raise OutputError(_not_a_folder(folder)) from None
     except OSError as exc:
         raise OutputError(f"{folder}: cannot create the output folder: {exc.strerror}") from None
     _refuse_link(folder)  # a link planted between the check and mkdir
@@ -260,6 +283,17 @@ def own_folder(folder: str | os.PathLike[str]) -> Iterator[Path]:
         if failed and created:
             with contextlib.suppress(OSError):
                 folder.rmdir()  # only if empty: nothing written, nothing lost
+
+
+def _not_a_folder(folder: Path) -> str:
+    """Why ``folder`` cannot be created when something exists in its way: itself, or a folder
+    above it that is a file or a dangling symbolic link (``mkdir -p`` says only that a file
+    exists, and ``LINK/out`` was said to exist when it was ``LINK`` that did)."""
+    for p in reversed(folder.parents):
+        if os.path.lexists(p) and not os.path.isdir(p):
+            what = "a dangling symbolic link" if os.path.islink(p) else "not a folder"
+            return f"{folder}: cannot create the output folder: {p} is {what}"
+    return f"{folder} exists and is not a folder"
 
 
 def _refuse_link(folder: Path) -> None:
