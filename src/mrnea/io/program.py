@@ -111,6 +111,8 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                                          "gives its own positions and times; allowed with csv: "
                                          f"{', '.join(_CSV_KEYS)})")
         p = Path(check.string(table["csv"], where, "csv")).expanduser()
+        if "\0" in str(p):  # a TOML "\u0000": name the program file, not only the path
+            raise check.error(where, f"'csv' cannot hold a NUL character, got {quote(str(p))}")
         if not p.is_absolute():
             p = base_dir / p
         interpolation = table.get("interpolation", "cubic")

@@ -29,13 +29,14 @@ import errno
 import os
 import re
 import stat
+from collections.abc import Iterator
 from pathlib import Path
 from xml.parsers import expat
 
 from mrnea.errors import MrneaError, quote
 
-__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "parse_number", "read_bytes", "read_text",
-           "refused_prolog"]
+__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "line_blocks", "parse_number",
+           "read_bytes", "read_text", "refused_prolog", "text_lines"]
 
 MAX_FILE_SIZE = 16 * 2**20
 """Largest robot, sidecar or program file read (16 MiB: a 1000-joint robot in TOML is 0.2 MB)."""
@@ -57,8 +58,9 @@ def as_path(value: object, name: str, error: type[MrneaError]) -> Path:
         except TypeError:  # a PathLike whose path is bytes
             pass
         else:
-            if "\0" in str(p):  # no file system takes it (os.stat: "embedded null byte")
-                raise error(f"{name}: a file path cannot hold a NUL character, got {quote(value)}")
+            if "\0" in str(p):  # no file system takes it (os.stat: "embedded null byte");
+                # quoted as text: a Path's repr (PosixPath('...')) is not what the user wrote
+                raise error(f"{name}: a file path cannot hold a NUL character, got {quote(str(p))}")
             if str(value):
                 return p
             raise error(f"{name}: expected a file path, got an empty string")
@@ -147,6 +149,36 @@ def read_text(path: str | os.PathLike[str], what: str, error: type[MrneaError],
         line = data.count(b"\n", 0, exc.start) + 1
         raise error(f"{path}: cannot read {what}: not UTF-8 text (byte "
                     f"{quote(data[exc.start:exc.start + 1])} at line {line})") from None
+
+
+_LINE_END = re.compile(r"\r\n?|\n")
+
+
+def text_lines(text: str, pos: int = 0) -> Iterator[str]:
+    """The lines of ``text[pos:]`` one by one, each ended by LF, CRLF or a lone CR (an old Mac
+    file) and by nothing else: ``str.splitlines`` also ends a line at a form feed, a vertical
+    tab, U+001C..U+001E, U+0085, U+2028 and U+2029, which made a comment's rest a data row,
+    read a row holding such a character as two, and shifted every later line number from an
+    editor's. One by one: a list of a short-rowed file's lines takes 16 bytes per byte of it,
+    beyond the reading's memory budget (:mod:`mrnea.resources`)."""
+    for end in _LINE_END.finditer(text, pos):
+        yield text[pos:end.start()]
+        pos = end.end()
+    if pos < len(text):
+        yield text[pos:]
+
+
+def line_blocks(text: str, pos: int = 0, size: int = 2**20) -> Iterator[list[str]]:
+    """The lines of ``text[pos:]`` (as :func:`text_lines`) as lists of about ``size`` characters of
+    them: a fast reader splits a block at once, and never holds a list of every line."""
+    while pos < len(text):
+        end = _LINE_END.search(text, min(pos + size, len(text)))  # a block ends a line
+        stop = len(text) if end is None else end.end()
+        block = text[pos:stop]
+        if "\r" in block:
+            block = block.replace("\r\n", "\n").replace("\r", "\n")
+        yield block.split("\n")[:-1] if block.endswith("\n") else block.split("\n")
+        pos = stop
 
 
 #: A character outside what Python's ``float`` and :func:`parse_number` read alike
