@@ -10,6 +10,9 @@ limits, the condition number and the best random start's, the verdict). Exit 0 w
 simulation of the program is ACHIEVABLE, 1 when not (the files are written), 2 on bad input.
 A stop request (Ctrl-C, SIGTERM) ends the command within one SLSQP iteration
 (:func:`mrnea.cli.base.checkpoint`, called by the optimisation) and writes nothing: exit 130.
+The files are written all or none (:func:`mrnea.cli.base.write_files`): a stop request or an
+error between two of them removes those written and puts back the files they replaced
+(``--force``).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from mrnea.cli.base import (
     fresh_dir,
     main,
     one_line,
+    write_files,
 )
 from mrnea.cli.options import (
     FOLDER,
@@ -44,7 +48,7 @@ from mrnea.cli.options import (
     quiet_opt,
     robot_options,
 )
-from mrnea.cli.retime import _program_keys, _robot_spec
+from mrnea.cli.retime import PAYLOAD, _payload_specs, _program_keys, _robot_spec
 from mrnea.errors import StateError, quote
 from mrnea.io import RobotOptions, is_program_file, load_program
 from mrnea.io.source import parse_number
@@ -153,7 +157,7 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
     spec = _robot_spec(spec)
     with own_folder(Path(out) if out else fresh_dir("mrnea-excite")) as folder:
         paths = {k: folder / k for k in (CSV, PROGRAM, SUMMARY)}
-        check_new([*paths.values(), *([folder / "payload.toml"] if options.payload else [])],
+        check_new([*paths.values(), *([folder / PAYLOAD] if options.payload else [])],
                   force)
         # the verifying simulation's later kernels, compiled while the search runs
         ahead.start(rob.parents, False, False)  # cold cache only (cli/ahead.py)
@@ -167,13 +171,19 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
             except StateError as err:  # an argument: say it as the command line spells it
                 raise StateError(as_option(str(err), OPTION)) from None
         checkpoint()  # a stop request during the simulation: nothing written
-        exc.save_csv(paths[CSV], force)
-        exc.save_program(paths[PROGRAM], spec, CSV,
-                         program_keys=_program_keys(options, folder, force),
-                         overwrite=force)
-        with create(paths[SUMMARY], force) as fh:
-            json.dump(exc.summary(), fh, indent=2, allow_nan=False)
-            fh.write("\n")
+
+        def summary() -> None:
+            with create(paths[SUMMARY], force) as fh:
+                json.dump(exc.summary(), fh, indent=2, allow_nan=False)
+                fh.write("\n")
+
+        # all or none (as retime's): the payload file, when the program keys write one
+        side = [folder / PAYLOAD] if PAYLOAD in _payload_specs(options) else []
+        write_files([(paths[CSV], lambda: exc.save_csv(paths[CSV], force)),
+                     (paths[PROGRAM], lambda: exc.save_program(
+                         paths[PROGRAM], spec, CSV,
+                         program_keys=_program_keys(options, folder, force), overwrite=force)),
+                     (paths[SUMMARY], summary)], side_files=side)
     if as_json:
         click.echo(json.dumps(exc.summary(), indent=2, allow_nan=False))
     elif not quiet:

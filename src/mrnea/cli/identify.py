@@ -15,7 +15,9 @@ robot file: ``mrnea check identified_robot.toml PROGRAM``), ``identified_drives.
 actuator file: ``--actuators identified_drives.toml`` with the robot file given), ``summary.json``
 (strict JSON; every field and unit in ``identify.schema.json``) and ``identify.html``; prints one
 line per joint (and, on stderr, an ``identifying ...`` label while it fits). Exit 0 done, 2 bad
-input, 130 interrupted (a stop is honoured once the fit returns, before the first file).
+input, 130 interrupted (a stop is honoured once the fit returns, before the first file, and
+between the files: all of them or none, :func:`mrnea.cli.base.write_files`, the files they
+replaced with ``--force`` put back).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from mrnea.cli.base import (
     last_checkpoint,
     main,
     one_line,
+    write_files,
 )
 from mrnea.cli.options import (
     FOLDER,
@@ -148,13 +151,19 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
                                 f"{as_option(str(exc), OPTION)}") from None
         checkpoint()
         summary = identify_summary(res, prior, data, str(log), validation, torque_constant)
-        res.robot.to_toml(folder / FILES[0], overwrite=force)
-        with create(folder / FILES[1], force) as fh:
-            fh.write(drives_toml(res, str(log)))
-        with create(folder / FILES[2], force) as fh:
-            json.dump(summary, fh, indent=2, allow_nan=False)
-            fh.write("\n")
-        identify_html(res, summary, folder / FILES[3], overwrite=force)
+        robot_file, drives, summary_file, page = (folder / f for f in FILES)
+
+        def text(path: Path, make) -> None:
+            with create(path, force) as fh:
+                fh.write(make())
+
+        # all or none: a stop or an error between two files puts back those they replaced
+        write_files([
+            (robot_file, lambda: res.robot.to_toml(robot_file, overwrite=force)),
+            (drives, lambda: text(drives, lambda: drives_toml(res, str(log)))),
+            (summary_file, lambda: text(summary_file, lambda: json.dumps(
+                summary, indent=2, allow_nan=False) + "\n")),
+            (page, lambda: identify_html(res, summary, page, overwrite=force))])
     last_checkpoint()
     if not quiet:
         for line in _lines(summary):

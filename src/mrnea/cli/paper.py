@@ -17,13 +17,14 @@ from mrnea.io.writer import check_new
 @main.command(short_help="Reproduce the paper's Fig. 3 on the SDT (RNEA vs mRNEA torques).")
 @click.option("--out", default="fig3.png", show_default=True,
               help="The file to write; its suffix names the format (.png, .pdf, .svg...; "
-                   "none: .png is appended).")
+                   "none: .png is appended). A folder, or a name ending in '/', is refused.")
 @force_opt
 def fig3(out: str, force: bool) -> None:
     """Reproduce the paper's Fig. 3 on the SDT: RNEA vs mRNEA torques, input vs FD accelerations.
 
     The trajectory is the demo's training profile; its velocities and accelerations are the
-    positions' finite differences.
+    positions' finite differences. --out names the file, never a folder: an existing folder, or
+    a name ending in '/' (not NAME.png beside it), is one error and writes nothing.
     """
     from mrnea.report import fig3 as make_fig3
     from mrnea.report.drawing import figure_file, save_figure
@@ -36,6 +37,10 @@ def fig3(out: str, force: bool) -> None:
         # /dev/null, /dev/stdout, a FIFO: never a NAME.png made next to a device
         raise click.BadParameter(f"{quote(out)} is not a regular file (a device, pipe or socket); "
                                  "name the figure file to write", param_hint="'--out'")
+    if os.path.basename(out) in ("", ".", ".."):  # "newdir/": a folder meant, not newdir.png
+        raise click.BadParameter(f"{quote(out)} names a folder; name the figure file to write "
+                                 f"(such as {quote(os.path.join(out, 'fig3.png'))})",
+                                 param_hint="'--out'")
     path, _ = figure_file(out)
     check_new([path], force)  # before any work
     dt = 0.005

@@ -13,7 +13,10 @@ Writes into DIR ``sizing.csv`` (one row per joint x combination), ``chosen_drive
 sidecar actuator file), ``sized_robot.toml`` (the robot with the drives and their masses, a
 native robot file), ``summary.json`` and ``sizing.html``, and prints one line per joint and the
 verification. Exit 0 when every joint has a drive and every program is ACHIEVABLE on the sized
-robot, 1 when not (a verdict: nothing in the catalogue fits a joint), 2 on bad input.
+robot, 1 when not (a verdict: nothing in the catalogue fits a joint; then no
+``chosen_drives.toml`` or ``sized_robot.toml`` is written, and with ``--force`` those of an
+earlier run in DIR are removed: the folder holds one run's files, never a mixed set), 2 on bad
+input.
 ``--scheduler tcp://HOST:PORT`` judges the combinations on a Dask cluster (as for ``sweep``).
 """
 
@@ -58,7 +61,10 @@ FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json",
 def _write(res, folder: Path, force: bool) -> None:
     """The sizing's files (:func:`mrnea.cli.base.write_files`: a stop request taken before
     each; on a stop the files this run wrote are removed, those they replaced put back, and the
-    command exits 130)."""
+    command exits 130). When no drive fits, chosen_drives.toml and sized_robot.toml are not
+    written, and an earlier run's (``--force``) are removed with the others replaced (side
+    files of the all-or-none block: put back on a stop or an error), so that the folder never
+    holds a sized robot beside a sizing that found none."""
     from mrnea.sizing.html import sizing_html
     from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
 
@@ -68,13 +74,16 @@ def _write(res, folder: Path, force: bool) -> None:
 
     csv, drives, robot, summary, page = (folder / f for f in FILES)
     steps = [(csv, lambda: text(csv, lambda: sizing_table(res).to_csv(index=False)))]
+    stale = []  # an earlier run's sized robot, with no drive chosen now: removed
     if res.sized is not None:
         steps += [(drives, lambda: text(drives, lambda: chosen_toml(res))),
                   (robot, lambda: res.sized.to_toml(robot, overwrite=force))]
+    else:
+        stale = [drives, robot]
     steps += [(summary, lambda: text(summary, lambda: json.dumps(
                   sizing_summary(res), indent=2, allow_nan=False) + "\n")),
               (page, lambda: sizing_html(res, page, overwrite=force))]
-    write_files(steps)
+    write_files(steps, side_files=stale)
 
 
 @main.command()

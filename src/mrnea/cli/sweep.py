@@ -14,7 +14,10 @@ Writes into DIR (the run owns it: :func:`mrnea.io.writer.own_folder`) ``sweep.cs
 ``sweep.html``, then prints one line. The files name each result column with its unit, as
 cycles.csv does (:func:`with_units`). Ctrl-C
 or SIGTERM stops the sweep at its next check (a quarter of a second at most): the rows done are
-written and the command exits 130.
+written and the command exits 130. The files are written all or none
+(:func:`mrnea.cli.base.write_files`): a stop request or an error between two of them removes
+those written and puts back the files they replaced (``--force``), exit 130 (2 on an error);
+never a new sweep.csv beside an earlier run's sweep.html.
 """
 
 from __future__ import annotations
@@ -29,7 +32,15 @@ import click
 import numpy as np
 
 from mrnea.cli import ahead
-from mrnea.cli.base import checkpoint, exit_interrupted, fresh_dir, last_checkpoint, main, one_line
+from mrnea.cli.base import (
+    checkpoint,
+    exit_interrupted,
+    fresh_dir,
+    last_checkpoint,
+    main,
+    one_line,
+    write_files,
+)
 from mrnea.cli.options import FOLDER, force_opt, load_program_arg, quiet_opt, robot_options
 from mrnea.errors import SweepError, quote
 from mrnea.io import (
@@ -208,15 +219,20 @@ def sweep(args: tuple[str, ...], grid_file: str, out: str | None, scheduler: str
             click.echo(f"mrnea: interrupted after {len(df)} of {df.attrs['cases']} rows; "
                        "writing them.", err=True)
         table = with_units(df, robot)
-        with create(folder / CSV, force) as fh:
-            table.to_csv(fh)
-        if PARQUET in files:
-            checkpoint()
+
+        def csv() -> None:
+            with create(folder / CSV, force) as fh:
+                table.to_csv(fh)
+
+        def parquet() -> None:
             with create(folder / PARQUET, force, binary=True) as fh:
                 table.to_parquet(fh)
-        checkpoint()
-        write_sweep_html(df, folder / HTML, robot.name, keys, axes and tuple(axes),
-                         curve and curve[0], overwrite=force)
+
+        steps = [(folder / CSV, csv), *([(folder / PARQUET, parquet)] if PARQUET in files else []),
+                 (folder / HTML, lambda: write_sweep_html(
+                     df, folder / HTML, robot.name, keys, axes and tuple(axes),
+                     curve and curve[0], overwrite=force))]
+        write_files(steps)  # all or none: a stop or an error between them puts the old ones back
     if done:
         last_checkpoint()
     if not quiet:
