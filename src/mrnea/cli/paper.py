@@ -10,7 +10,7 @@ import numpy as np
 from mrnea import robots
 from mrnea.cli.base import checkpoint, compile_notice, last_checkpoint, main, one_line
 from mrnea.cli.options import force_opt
-from mrnea.errors import quote
+from mrnea.errors import OutputError, quote
 from mrnea.io.writer import check_new
 
 
@@ -37,11 +37,12 @@ def fig3(out: str, force: bool) -> None:
         # /dev/null, /dev/stdout, a FIFO: never a NAME.png made next to a device
         raise click.BadParameter(f"{quote(out)} is not a regular file (a device, pipe or socket); "
                                  "name the figure file to write", param_hint="'--out'")
-    if os.path.basename(out) in ("", ".", ".."):  # "newdir/": a folder meant, not newdir.png
-        raise click.BadParameter(f"{quote(out)} names a folder; name the figure file to write "
-                                 f"(such as {quote(os.path.join(out, 'fig3.png'))})",
-                                 param_hint="'--out'")
-    path, _ = figure_file(out)
+    try:
+        path, _ = figure_file(out)
+    except OutputError as exc:  # "newdir/" names a folder: the library's argument path is --out
+        if not str(exc).startswith("path: "):
+            raise
+        raise click.BadParameter(str(exc).removeprefix("path: "), param_hint="'--out'") from None
     check_new([path], force)  # before any work
     dt = 0.005
     t, q = training_profile(dt)

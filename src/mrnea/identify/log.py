@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 import warnings
 from array import array
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from itertools import chain, islice
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import validate
 from mrnea.errors import LogFileError, StateError, listing, quote
-from mrnea.io.source import MAX_CSV_SIZE, float_reads_grammar, parse_number, read_text
+from mrnea.io.source import MAX_CSV_SIZE, float_reads_grammar, line_blocks, parse_number, read_text
 from mrnea.model import Robot
 from mrnea.resources import format_bytes, require_memory
 
@@ -169,11 +171,11 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
                        "log at a lower rate or split the log", LogFileError)
     text = read_text(path, "log", LogFileError, MAX_CSV_SIZE)
     lines = _lines(text)
-    first = next(((k, line, end) for k, line, end in lines if line.strip(" \t")), None)
+    first = next(((k, line) for k, line in lines if line.strip(" \t")), None)
     if first is None:
         raise LogFileError(f"{path}: empty log: expected a header row (time, the joint "
                            "positions and efforts) and the data rows")
-    head_row, head_text, head_end = first
+    head_row, head_text = first
     delimiter = next((d for d in DELIMITERS if d in head_text), ",")
     try:
         header_cells = next(csv.reader([head_text], delimiter=delimiter), [])
@@ -200,7 +202,9 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
                            f"(columns {one + 1} and {header.index(twice, one + 1) + 1})")
     cols = [header.index(c) for c in used]
     _check_units(path, head_row, header_cells, cols, _units(robot, effort, has_rates))
-    strict = not float_reads_grammar(text, head_end)  # else float reads the grammar's numbers
+    head_end = next(islice(re.finditer(r"\r\n?|\n", text), head_row - 1, None), None)
+    # past the header's line end: else float reads the grammar's numbers
+    strict = head_end is not None and not float_reads_grammar(text, head_end.end())
     data, rows = _numbers(path, lines, delimiter, len(header_cells), used, cols, strict)
     if data.shape[0] < MIN_SAMPLES:
         raise LogFileError(f"{path}: {data.shape[0]} data row(s) after the header; a log needs "
@@ -252,19 +256,14 @@ def _steady(path: str | Path, time: NDArray, rows: Sequence[int]) -> None:
                       stacklevel=3)
 
 
-def _lines(text: str) -> Iterator[tuple[int, str, int]]:
-    """(line number, line without its end, offset after it) of every line of ``text``, without
-    a copy of its list (a log may be a GiB)."""
-    start, number = 0, 0
-    while start < len(text):
-        end = text.find("\n", start)
-        end = len(text) if end < 0 else end
-        number += 1
-        yield number, text[start:end].rstrip("\r"), end + 1
-        start = end + 1
+def _lines(text: str) -> Iterator[tuple[int, str]]:
+    """(line number, line without its end) of every line of ``text``, read in blocks without a
+    list of every line (a log may be a GiB). Only LF, CRLF and a lone CR end a line
+    (:func:`~mrnea.io.source.line_blocks`): a lone-CR log was one row, not valid CSV."""
+    return enumerate(chain.from_iterable(line_blocks(text)), start=1)
 
 
-def _numbers(path: str | Path, lines: Iterator[tuple[int, str, int]], delimiter: str,
+def _numbers(path: str | Path, lines: Iterator[tuple[int, str]], delimiter: str,
              width: int, used: list[str], cols: list[int], strict: bool
              ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """(R, len(cols)) numbers of the data rows ``lines`` holds after the header, and each row's
@@ -275,7 +274,7 @@ def _numbers(path: str | Path, lines: Iterator[tuple[int, str, int]], delimiter:
     row = [0]
 
     def data_lines() -> Iterator[str]:
-        for number, line, _ in lines:
+        for number, line in lines:
             if line.strip(" \t"):  # a blank line is skipped
                 row[0] = number
                 yield line

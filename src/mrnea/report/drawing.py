@@ -42,7 +42,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-from mrnea.errors import OutputError, shorten
+from mrnea.errors import OutputError, quote, shorten
 from mrnea.io.writer import create
 from mrnea.model import JOINT_UNITS
 
@@ -254,8 +254,13 @@ def figure_file(path: str | os.PathLike[str]) -> tuple[Path, str]:
     Raises
     ------
     OutputError
-        An unsupported suffix, or ``path`` is a directory.
+        An unsupported suffix, ``path`` is a directory, or it names one (``"new/"``, ``"x/."``,
+        ``"x/.."``: a folder meant, not ``new.png`` beside it).
     """
+    text = os.fspath(path)
+    if isinstance(text, str) and os.path.basename(text) in ("", ".", ".."):
+        raise OutputError(f"path: {quote(text)} names a folder; name the figure file to write "
+                          f"(such as {quote(os.path.join(text, 'figure.png'))})")
     path = Path(path)
     fmt = path.suffix[1:].lower()
     if not fmt:
@@ -282,7 +287,8 @@ def save_figure(fig: Figure, path: str | os.PathLike[str], overwrite: bool = Fal
     Raises
     ------
     OutputError
-        An unsupported suffix, a directory at ``path``, an existing file without ``overwrite``.
+        An unsupported suffix, a directory at or named by ``path``, an existing file without
+        ``overwrite``.
     """
     path, fmt = figure_file(path)
     meta = {"Software": None} if fmt == "png" else None  # no version stamp: reproducible PNGs
