@@ -194,13 +194,17 @@ def test_gradients_equal_central_differences(puma) -> None:
 def test_cli_stop_request_ends_soon_and_writes_nothing(tmp_path, sig) -> None:
     out = tmp_path / "o"
     p = subprocess.Popen([sys.executable, "-m", "mrnea", "excite", "puma560", "--out", str(out),
-                          "--velocity-limit", "2", "--quiet"], env=environment(),
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                          "--velocity-limit", "2", "--harmonics", "10", "--quiet"],
+                         env=environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True)
     deadline = time.monotonic() + 120
     while not out.exists() and time.monotonic() < deadline:  # the run owns its folder
         assert p.poll() is None, p.communicate()
         time.sleep(0.05)
-    time.sleep(3.0)  # into the candidates or the optimisation (about a minute in all)
+    # into the candidates or the optimisation: with 10 harmonics about 15 s in all on a warm
+    # cache (the default 5 take 3 s: a stop 3 s in had found the run finished, exit 0)
+    time.sleep(1.0)
+    assert p.poll() is None, "the run ended before the stop request"
     sent = time.monotonic()
     p.send_signal(sig)
     _, err = p.communicate(timeout=60)
