@@ -101,6 +101,18 @@ class _Folder(click.Path):
 FOLDER = _Folder()
 
 
+class _NonEmpty(click.Path):
+    """A path option (``--actuators``, ``--package-path``) that refuses an empty value: a
+    shell's unset ``"$VAR"`` gave ``--actuators`` an error that did not name the option, and
+    ``--package-path`` the current folder, silently."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+                ) -> Any:
+        if isinstance(value, str) and not value.strip():
+            self.fail("an empty path; give one, or leave the option out", param, ctx)
+        return super().convert(value, param, ctx)
+
+
 class _Payload(click.ParamType):
     """``KG[@X,Y,Z]``, ``KG@LINK[:X,Y,Z]`` or a payload file
     (:func:`mrnea.io.payload.parse_payload`)."""
@@ -140,7 +152,7 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
                                                          package_path or None), **kw)
 
     for option in reversed([
-        click.option("--actuators", type=click.Path(dir_okay=False), metavar="FILE",
+        click.option("--actuators", type=_NonEmpty(dir_okay=False), metavar="FILE",
                      help="Sidecar actuator file (TOML: rotor inertia, gear, friction, "
                           "torque-speed curves per joint; docs/robot-format.md)."),
         click.option("--tip", metavar="LINK", multiple=True,
@@ -154,7 +166,7 @@ def robot_options(command: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--gravity", type=_Gravity(), metavar="GX,GY,GZ",
                      help="Gravity [m/s^2] in base coordinates (ceiling-mounted: 0,0,9.81)."),
         click.option("--package-path", "package_path", multiple=True, metavar="DIR",
-                     type=click.Path(file_okay=False),
+                     type=_NonEmpty(file_okay=False),
                      help="Where the URDF's package:// meshes are: a package's folder or one "
                           "holding it (repeatable; $ROS_PACKAGE_PATH is also searched)."),
     ]):

@@ -172,10 +172,25 @@ class RobotOptions:
     package_path: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
+        # a library caller's wrong type is an error naming the field, never a TypeError from
+        # tuple(); a str is refused (payload: its characters, one payload each) or taken as
+        # one folder (package_path: "abc" searched "a", "b" and "c")
         if isinstance(self.payload, Payload):  # one payload: a tuple of one
             object.__setattr__(self, "payload", (self.payload,))
         elif self.payload is not None:
+            if isinstance(self.payload, (str, bytes)) or not _iterable(self.payload):
+                raise RobotFileError(f"payload: expected a Payload (mrnea.io.parse_payload), "
+                                     f"several or None, got {type(self.payload).__name__} "
+                                     f"{quote(self.payload)}")
             object.__setattr__(self, "payload", tuple(self.payload))
+        if isinstance(self.package_path, (str, os.PathLike)):
+            object.__setattr__(self, "package_path", (self.package_path,))
+        elif self.package_path is not None:
+            if isinstance(self.package_path, bytes) or not _iterable(self.package_path):
+                raise RobotFileError(f"package_path: expected folders (a sequence of paths) or "
+                                     f"None, got {type(self.package_path).__name__} "
+                                     f"{quote(self.package_path)}")
+            object.__setattr__(self, "package_path", tuple(self.package_path))
 
     def over(self, other: RobotOptions) -> RobotOptions:
         """These options where they are set, ``other``'s elsewhere (the command line's over a
@@ -183,6 +198,14 @@ class RobotOptions:
         return dataclasses.replace(other, **{f.name: getattr(self, f.name)
                                              for f in dataclasses.fields(self)
                                              if getattr(self, f.name) is not None})
+
+
+def _iterable(value: Any) -> bool:
+    try:
+        iter(value)
+    except TypeError:
+        return False
+    return True
 
 
 def load_robot_spec(spec: str, base_dir: str | Path | None = None,
@@ -236,11 +259,17 @@ def with_package_path(robot: Robot, folders: Sequence[str | os.PathLike[str]]) -
     (the report draws that link as a capsule, and says so)."""
     dirs = [Path(f) for f in folders]
 
-    def found(visuals: tuple[Visual, ...]) -> tuple[Visual, ...]:
-        return tuple(dataclasses.replace(v, mesh=find_package_file(v.mesh, dirs))
-                     if v.kind == "mesh" and v.mesh else v for v in visuals)
+    def moved(v: Visual) -> Visual:  # the same object when its mesh stays where it was
+        mesh = find_package_file(v.mesh, dirs) if v.kind == "mesh" and v.mesh else v.mesh
+        return v if mesh == v.mesh else dataclasses.replace(v, mesh=mesh)
 
-    links = [dataclasses.replace(lk, visuals=found(lk.visuals)) for lk in robot.links]
+    def found(visuals: tuple[Visual, ...]) -> tuple[Visual, ...]:
+        return tuple(moved(v) for v in visuals)
+
+    # only a link whose visuals change is rebuilt: rebuilding one validates it again, which
+    # warned (ModelWarning) about a built-in robot's curated inertias on every --package-path
+    links = [lk if (v := found(lk.visuals)) == lk.visuals else dataclasses.replace(lk, visuals=v)
+             for lk in robot.links]
     return Robot(robot.joints, links, gravity=robot.gravity, name=robot.name, base=robot.base,
                  base_visuals=found(robot.base_visuals))
 

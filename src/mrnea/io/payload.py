@@ -92,15 +92,23 @@ def parse_payload(spec: str, base_dir: str | Path | None = None,
         if not (math.isfinite(mass) and mass >= 0):
             raise error(f"payload {quote(spec)}: the mass must be a number >= 0 [kg]")
         where, link = m.group(2), None
+        if where is not None and not where.strip():  # "2@": not a link named ""
+            raise error(f"payload {quote(spec)}: nothing after '@' (give X,Y,Z or LINK[:X,Y,Z])")
         if where is not None and (":" in where or "," not in where):  # KG@LINK[:X,Y,Z]
-            link, _, where = where.partition(":")
+            link, colon, where = where.partition(":")
             link, where = link.strip(), where or None
             if not link:
                 raise error(f"payload {quote(spec)}: no link name between '@' and ':'")
+            if colon and where is None:  # "2@hand:": a point forgotten, not the origin
+                raise error(f"payload {quote(spec)}: no point after ':' (give X,Y,Z, or leave "
+                            f"':' out for the link's origin)")
         com = (np.zeros(3) if where is None else
                parse_vector(where, 3, f"payload {quote(spec)}: the point after "
                                       f"'{':' if link else '@'}'", error))
         return Payload(mass, com, np.zeros((3, 3)), link)
+    if not spec.strip():  # Path("") is the current folder: "looked for ." said nothing
+        raise error("payload: an empty value; give KG[@X,Y,Z], KG@LINK[:X,Y,Z] or a payload "
+                    "file's path")
     path = Path(spec).expanduser()
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
