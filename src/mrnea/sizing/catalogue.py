@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from mrnea.actuator_fields import EFFICIENCY_MIN, GEAR_RANGE
-from mrnea.errors import SizingError, quote
-from mrnea.frozen import MAGNITUDES
+from mrnea.errors import ModelError, SizingError, quote
+from mrnea.frozen import MAGNITUDES, check_name
 from mrnea.io.tomlcheck import TomlCheck, read_text
 
 __all__ = ["Catalogue", "Gearbox", "Motor", "Train", "load_catalogue", "loads_catalogue"]
@@ -110,6 +110,13 @@ BOUND = 1e9
 _BOUNDS = {"mass": MAGNITUDES["mass"], "rotor_inertia": MAGNITUDES["rotor_inertia"],
            "inertia": MAGNITUDES["rotor_inertia"]}
 
+#: The most combinations one catalogue may give: each is judged over every cycle of the programs
+#: (about 80 bytes a cycle), so beyond this even a short program needs more memory than a
+#: machine has, and :meth:`Catalogue.combinations` alone took 25 s and 3 GB to list 25 million
+#: (5000 motors x 5000 gearboxes) before the memory check could refuse them; a 16 MiB file could
+#: ask for 6e10.
+MAX_COMBINATIONS = 1_000_000
+
 _MOTOR_KEYS = ("name", "rated_torque", "peak_torque", "max_speed", "rotor_inertia",
                "torque_speed", "mass", "price")
 _GEARBOX_KEYS = ("name", "ratio", "efficiency", "inertia", "rated_torque", "peak_torque",
@@ -143,6 +150,12 @@ def loads_catalogue(text: str, source: str = "catalogue") -> Catalogue:
     if not drives and not (motors and gearboxes):
         raise check.error("", "nothing to combine: give [[motor]] and [[gearbox]] entries, or "
                               "[[drive]] units")
+    count = len(motors) * len(gearboxes) + len(drives)
+    if count > MAX_COMBINATIONS:
+        raise check.error("", f"{len(motors)} motors x {len(gearboxes)} gearboxes + "
+                              f"{len(drives)} drives make {count} combinations, more than "
+                              f"{MAX_COMBINATIONS} mrnea judges (split the catalogue)")
+    _unit_names(check, motors, gearboxes, drives)  # after the cap: it may visit every pair
     return Catalogue(motors, gearboxes, drives, source)
 
 
@@ -153,11 +166,51 @@ def load_catalogue(path: str | Path) -> Catalogue:
 
 
 def _name(check: TomlCheck, e: Mapping[str, Any], where: str, names: set[str]) -> str:
+    """The entry's unique name, held to a robot's joint names' rule (no control characters):
+    it is written into chosen_drives.toml and sized_robot.toml, where a newline in a comment
+    or a table header made the file invalid TOML."""
     name = check.string(check.require(e, "name", where), where, "name")
+    try:
+        check_name(name, "drive")
+    except ModelError:
+        raise check.error(where, f"'name' {quote(name)} holds a control character (a newline, "
+                                 f"a tab...)") from None
     if name in names:
         raise check.error(where, f"duplicate name {quote(name)}")
     names.add(name)
     return name
+
+
+def _unit_names(check: TomlCheck, motors: tuple[Motor, ...], gearboxes: tuple[Gearbox, ...],
+                drives: tuple[Train, ...]) -> None:
+    """Every train's name is its own: a drive unit named like a motor-and-gearbox combination
+    (``'A + B'`` with a motor 'A' and a gearbox 'B'), or two combinations of one name (motors
+    'A' and 'A + B', gearboxes 'B + C' and 'C'), had one name in every table, plot and the
+    summary, so the chosen one could not be told from the other. Only names holding
+    ``' + '`` are looked at, so this costs nothing for usual catalogues."""
+    motor_names, gear_names = {m.name for m in motors}, {g.name for g in gearboxes}
+    sep = " + "
+
+    def splits(name: str) -> list[tuple[str, str]]:
+        """The (motor, gearbox) pairs of the file whose combination is named ``name``."""
+        out, k = [], name.find(sep)
+        while k >= 0:
+            if name[:k] in motor_names and name[k + len(sep):] in gear_names:
+                out.append((name[:k], name[k + len(sep):]))
+            k = name.find(sep, k + 1)
+        return out
+
+    for d in drives:
+        if pair := next(iter(splits(d.name)), None):
+            raise check.error(f"drive {quote(d.name)}", f"its name is also that of motor "
+                                                        f"{quote(pair[0])} with gearbox "
+                                                        f"{quote(pair[1])}: rename it")
+    for m in (m for m in motors if sep in m.name):
+        for g in gearboxes:
+            if len(pair := splits(f"{m.name}{sep}{g.name}")) > 1:
+                raise check.error(f"motor {quote(m.name)}", f"with gearbox {quote(g.name)} it "
+                                  f"is named as motor {quote(pair[0][0])} with gearbox "
+                                  f"{quote(pair[0][1])}: rename one")
 
 
 def _positive(check: TomlCheck, e: Mapping[str, Any], key: str, where: str,
