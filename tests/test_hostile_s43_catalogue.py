@@ -72,6 +72,6 @@ def test_grid_tilde_of_unknown_user(tmp_path, sweep):
     f = tmp_path / "g.toml"
     f.write_text(f'[sweep]\n{sweep}\n[grid]\n"gear_ratio.cab_yaw" = [60]\n')
     key = "programs" if "programs" in sweep else "robot"
-    with pytest.raises(SweepError, match=rf"g\.toml: \[sweep\]: '{key}' '~mrnea_no_such_user/"
-                                         rf"\w\.toml': cannot expand '~'"):
+    with pytest.raises(SweepError, match=rf"g\.toml: \[sweep\]: '{key}': cannot expand '~' in "
+                                         rf"'~mrnea_no_such_user/\w\.toml'"):
         load_grid_file(f)

@@ -23,7 +23,7 @@ from mrnea.io import native, urdf
 from mrnea.io.mesh import find_package_file
 from mrnea.io.payload import Payload
 from mrnea.io.sidecar import apply_actuator_file
-from mrnea.io.source import as_path
+from mrnea.io.source import as_path, expand_home
 from mrnea.model import Robot
 from mrnea.visual import Visual
 
@@ -130,7 +130,7 @@ def resolve_robot(spec: str, base_dir: str | Path | None = None) -> str:
     base = None if base_dir is None else as_path(base_dir, "base_dir", RobotFileError)
     if spec in BUILTIN_ROBOTS:
         return spec
-    p = as_path(spec, "spec", RobotFileError).expanduser()
+    p = expand_home(as_path(spec, "spec", RobotFileError), RobotFileError)
     if base is not None and not p.is_absolute():
         p = base / p
     return str(p)

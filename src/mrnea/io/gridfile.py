@@ -20,14 +20,13 @@ raises :class:`mrnea.errors.SweepError` naming the file and the table and key at
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mrnea.errors import SweepError, quote
 from mrnea.io.dispatch import resolve_robot
-from mrnea.io.source import as_path, read_text
+from mrnea.io.source import as_path, expand_home, read_text
 from mrnea.io.tomlcheck import TomlCheck, type_name
 
 __all__ = ["DEMO_PROGRAM", "GridFile", "load_grid_file"]
@@ -97,23 +96,14 @@ def load_grid_file(path: str | os.PathLike[str]) -> GridFile:
     robot = None
     if "robot" in sweep:
         spec = check.string(sweep["robot"], "[sweep]", "robot")
-        robot = _home(check, "robot", spec, lambda: resolve_robot(spec, p.parent))
+        robot = resolve_robot(str(expand_home(Path(spec), lambda m: check.error(
+            "[sweep]", f"'robot': {m}"))), p.parent)
     programs = sweep.get("programs", [])
     if not isinstance(programs, list) or not all(isinstance(x, str) and x for x in programs):
         raise check.error("[sweep]", f"'programs' must be an array of file names, got "
                                      f"{quote(programs)}")
-    resolved = [x if x == DEMO_PROGRAM else
-                _home(check, "programs", x, lambda x=x: str(p.parent / Path(x).expanduser()))
+    resolved = [x if x == DEMO_PROGRAM else str(p.parent / expand_home(
+                    Path(x), lambda m: check.error("[sweep]", f"'programs': {m}")))
                 for x in programs]
     return GridFile(str(p), dict(grid), zip_, robot, resolved)
 
-
-def _home(check: TomlCheck, key: str, name: str, resolve: Callable[[], str]) -> str:
-    """``resolve()``, a path's ``~`` expanded: ``Path.expanduser`` raises RuntimeError for an
-    unknown ``~user`` (or no home directory), which reached the command line as an internal
-    error."""
-    try:
-        return resolve()
-    except RuntimeError:
-        raise check.error("[sweep]", f"{key!r} {quote(name)}: cannot expand '~' (no such user, "
-                                     f"or no home directory)") from None

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mrnea.errors import RobotFileError
-from mrnea.io.source import read_bytes, refused_prolog
+from mrnea.io.source import expand_home, read_bytes, refused_prolog
 
 __all__ = ["MAX_MESH_FILE", "find_package_file", "mesh_path", "read_mesh"]
 
@@ -53,7 +53,8 @@ def _resolve(filename: str, referrer: Path) -> str:
         filename = filename[len("file://"):]
     elif "://" in filename:
         return filename
-    return str((here / Path(filename).expanduser()).resolve())  # an absolute path stays
+    path = expand_home(Path(filename), lambda m: RobotFileError(f"{referrer}: mesh: {m}"))
+    return str((here / path).resolve())  # an absolute path stays
 
 
 def find_package_file(filename: str, folders: list[Path]) -> str:

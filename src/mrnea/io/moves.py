@@ -23,6 +23,7 @@ from mrnea.errors import quote
 from mrnea.frozen import MAGNITUDES
 from mrnea.io.jointnames import number_table
 from mrnea.io.posecsv import POSE_INTERPOLATIONS, ROTVEC_BOUND, read_poses, resample_poses
+from mrnea.io.source import expand_home
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.rigid import rotation_from_rpy
 
@@ -214,7 +215,8 @@ def _position(check: TomlCheck, table: Mapping[str, Any], key: str, where: str) 
 
 def _poses(check: TomlCheck, index: int, table: Mapping[str, Any], where: str, dwell: float,
            dt: float, base_dir: Path) -> Move:
-    p = Path(check.string(check.require(table, "csv", where), where, "csv")).expanduser()
+    p = expand_home(Path(check.string(check.require(table, "csv", where), where, "csv")),
+                    lambda m: check.error(where, f"'csv': {m}"))
     if "\0" in str(p):  # a TOML "\u0000": name the program file, not only the path
         raise check.error(where, f"'csv' cannot hold a NUL character, got {quote(str(p))}")
     if not p.is_absolute():

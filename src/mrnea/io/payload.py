@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from mrnea.errors import ModelError, MrneaError, RobotFileError, quote
 from mrnea.io.native import _inertia
-from mrnea.io.source import parse_number, read_text
+from mrnea.io.source import expand_home, parse_number, read_text
 from mrnea.io.tomlcheck import TomlCheck
 from mrnea.model import Link
 
@@ -109,7 +109,7 @@ def parse_payload(spec: str, base_dir: str | Path | None = None,
     if not spec.strip():  # Path("") is the current folder: "looked for ." said nothing
         raise error("payload: an empty value; give KG[@X,Y,Z], KG@LINK[:X,Y,Z] or a payload "
                     "file's path")
-    path = Path(spec).expanduser()
+    path = expand_home(Path(spec), lambda m: error(f"payload: {m}"))
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
     try:

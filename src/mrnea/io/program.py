@@ -27,7 +27,7 @@ from mrnea.io.moves import MOVE_KEYS, read_moves
 from mrnea.io.pathcsv import INTERPOLATIONS, read_table, resample
 from mrnea.io.payload import parse_payload
 from mrnea.io.program_value import Program
-from mrnea.io.source import as_path, read_text
+from mrnea.io.source import as_path, expand_home, read_text
 from mrnea.io.tomlcheck import TomlCheck, did_you_mean
 from mrnea.io.wrench import WRENCH_KEYS, LinkWrenches, read_wrenches, wrench_at
 from mrnea.io.writer import create
@@ -62,7 +62,8 @@ def _options(check: TomlCheck, prog: Mapping[str, Any], base_dir: Path) -> Robot
     """The robot options a [program] table sets (paths relative to ``base_dir``)."""
     where, kw = "[program]", {}
     if "actuators" in prog:
-        p = Path(check.string(prog["actuators"], where, "actuators")).expanduser()
+        p = expand_home(Path(check.string(prog["actuators"], where, "actuators")),
+                        lambda m: check.error(where, f"'actuators': {m}"))
         kw["actuators"] = str(p if p.is_absolute() else base_dir / p)
     if "tip" in prog:  # one link, or several (a URDF tree's subtree holding them)
         tip = prog["tip"]
@@ -110,7 +111,8 @@ def _path(check: TomlCheck, table: Mapping[str, Any], dt: float, base_dir: Path
                 raise check.error(where, f"key {quote(key)} cannot be used with 'csv' (a CSV path "
                                          "gives its own positions and times; allowed with csv: "
                                          f"{', '.join(_CSV_KEYS)})")
-        p = Path(check.string(table["csv"], where, "csv")).expanduser()
+        p = expand_home(Path(check.string(table["csv"], where, "csv")),
+                        lambda m: check.error(where, f"'csv': {m}"))
         if "\0" in str(p):  # a TOML "\u0000": name the program file, not only the path
             raise check.error(where, f"'csv' cannot hold a NUL character, got {quote(str(p))}")
         if not p.is_absolute():

@@ -29,14 +29,14 @@ import errno
 import os
 import re
 import stat
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from xml.parsers import expat
 
 from mrnea.errors import MrneaError, quote
 
-__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "line_blocks", "parse_number",
-           "read_bytes", "read_text", "refused_prolog", "text_lines"]
+__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "expand_home", "line_blocks",
+           "parse_number", "read_bytes", "read_text", "refused_prolog", "text_lines"]
 
 MAX_FILE_SIZE = 16 * 2**20
 """Largest robot, sidecar or program file read (16 MiB: a 1000-joint robot in TOML is 0.2 MB)."""
@@ -149,6 +149,18 @@ def read_text(path: str | os.PathLike[str], what: str, error: type[MrneaError],
         line = data.count(b"\n", 0, exc.start) + 1
         raise error(f"{path}: cannot read {what}: not UTF-8 text (byte "
                     f"{quote(data[exc.start:exc.start + 1])} at line {line})") from None
+
+
+def expand_home(path: Path, fail: Callable[[str], MrneaError]) -> Path:
+    """``path`` with a leading ``~`` or ``~user`` expanded (:meth:`pathlib.Path.expanduser`);
+    ``fail(message)`` raised where it cannot be: an unknown user or no home directory, for
+    which ``expanduser`` raises RuntimeError (it reached the command line as an internal
+    error)."""
+    try:
+        return path.expanduser()
+    except RuntimeError:
+        raise fail(f"cannot expand '~' in {quote(str(path))} (no such user, or no home "
+                   f"directory)") from None
 
 
 _LINE_END = re.compile(r"\r\n?|\n")

@@ -163,8 +163,8 @@ def _require_scaled_memory(program: Program, factor: float, error: type[MrneaErr
     """The rows M of ``time_scaled(program, factor)``, once the memory it allocates (about
     8 M (4 n + 8) bytes) is known to be there, else ``error``."""
     K, n = program.q_cmd.shape
-    M = _rows(K, factor)
-    require_memory(8.0 * M * (4 * n + 8), f"time-scaling program {quote(program.name)} by "
-                   f"{factor:g} ({M:.3g} cycles)", "use a smaller time_scale or a coarser dt",
-                   error)
-    return M
+    span = factor * (K - 1)  # inf for a factor near 1e308: refused here, never ceil'd
+    require_memory(8.0 * (span + 2) * (4 * n + 8), f"time-scaling program "
+                   f"{quote(program.name)} by {factor:g} ({span + 1:.3g} cycles)",
+                   "use a smaller time_scale or a coarser dt", error)
+    return _rows(K, factor)
