@@ -21,7 +21,7 @@ from mrnea.model import Robot
 from mrnea.retime.job import Job
 from mrnea.retime.path import grid_points, path_coefficients, piece_spline
 from mrnea.retime.result import PhasePiece, RetimeResult
-from mrnea.retime.rows import Limits, holding_need, static_check
+from mrnea.retime.rows import Limits, holding_need, motion_check, static_check
 from mrnea.retime.scale import retime_scale
 
 METHODS = {"toppra": "toppra", "scale": "scale"}
@@ -142,6 +142,7 @@ def retime(
         if method == "scale" and value is not None:
             raise StateError(f"{name}: only method 'toppra' takes it")
     job.checkpoint()
+    motion_check(robot, np.diff(job.q, axis=0), job.clock[:-1])
     _check_holds(job, margin if method == "toppra" else 1.0)
     job.checkpoint()
     if not job.moving:
