@@ -51,3 +51,12 @@ def test_a_time_scale_near_the_largest_float_is_refused_by_memory(tmp_path: Path
                     'time_scale = [1e308]\n')
     res = mrnea_cli("sweep", "--grid", grid, "--out", tmp_path / "o", cwd=tmp_path)
     one_error_line(res, "time_scale", "memory")
+
+
+def test_a_payload_key_of_the_wrong_type_names_the_file_once(tmp_path: Path) -> None:
+    prog = tmp_path / "p.toml"
+    prog.write_text('[program]\nrobot = "puma560"\ndt = 0.01\npayload = 5\n[path]\n'
+                    'csv = "x.csv"\n')
+    with pytest.raises(ProgramFileError) as err:
+        load_program(prog)
+    assert str(err.value).count(str(prog)) == 1 and "'payload'" in str(err.value)

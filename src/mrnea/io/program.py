@@ -71,10 +71,10 @@ def _options(check: TomlCheck, prog: Mapping[str, Any], base_dir: Path) -> Robot
                      if isinstance(tip, list) and tip else check.string(tip, where, "tip"))
     if "payload" in prog:  # one, or a list: several, each on its own link
         given = prog["payload"]
-        specs = given if isinstance(given, list) and given else [given]
+        specs = [check.string(s, where, "payload")  # its own error names the file once
+                 for s in (given if isinstance(given, list) and given else [given])]
         try:
-            kw["payload"] = tuple(parse_payload(check.string(s, where, "payload"), base_dir,
-                                                ProgramFileError) for s in specs)
+            kw["payload"] = tuple(parse_payload(s, base_dir, ProgramFileError) for s in specs)
         except MrneaError as exc:
             raise check.error(where, str(exc)) from None
     if "gravity" in prog:
