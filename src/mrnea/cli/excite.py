@@ -52,7 +52,7 @@ from mrnea.cli.retime import PAYLOAD, _payload_specs, _program_keys, _robot_spec
 from mrnea.errors import StateError, quote
 from mrnea.io import RobotOptions, is_program_file, load_program
 from mrnea.io.source import parse_number
-from mrnea.io.writer import check_new, create, own_folder
+from mrnea.io.writer import check_new, own_folder, write_file
 
 CSV, PROGRAM, SUMMARY = "excitation.csv", "excitation.toml", "summary.json"
 #: the library's argument names as the command line spells them
@@ -172,18 +172,15 @@ def excite(robot: str, out: str | None, base_frequency: float, harmonics: int,
                 raise StateError(as_option(str(err), OPTION)) from None
         checkpoint()  # a stop request during the simulation: nothing written
 
-        def summary() -> None:
-            with create(paths[SUMMARY], force) as fh:
-                json.dump(exc.summary(), fh, indent=2, allow_nan=False)
-                fh.write("\n")
-
         # all or none (as retime's): the payload file, when the program keys write one
         side = [folder / PAYLOAD] if PAYLOAD in _payload_specs(options) else []
         write_files([(paths[CSV], lambda: exc.save_csv(paths[CSV], force)),
                      (paths[PROGRAM], lambda: exc.save_program(
                          paths[PROGRAM], spec, CSV,
                          program_keys=_program_keys(options, folder, force), overwrite=force)),
-                     (paths[SUMMARY], summary)], side_files=side)
+                     (paths[SUMMARY], lambda: write_file(paths[SUMMARY], json.dumps(
+                         exc.summary(), indent=2, allow_nan=False) + "\n", force))],
+                    side_files=side)
     if as_json:
         click.echo(json.dumps(exc.summary(), indent=2, allow_nan=False))
     elif not quiet:

@@ -51,7 +51,7 @@ from mrnea.cli.options import (
 from mrnea.errors import MrneaError, quote
 from mrnea.io import RobotOptions
 from mrnea.io.source import parse_number
-from mrnea.io.writer import check_new, create, own_folder
+from mrnea.io.writer import check_new, own_folder, write_file
 
 #: the library's argument names as the command line spells them
 OPTION = {"cutoff_hz": "--cutoff", "min_speed": "--min-speed", "prior_weight": "--prior-weight",
@@ -152,17 +152,12 @@ def identify(robot: str, log: str, validation: str | None, torque_constant: Any,
         checkpoint()
         summary = identify_summary(res, prior, data, str(log), validation, torque_constant)
         robot_file, drives, summary_file, page = (folder / f for f in FILES)
-
-        def text(path: Path, make) -> None:
-            with create(path, force) as fh:
-                fh.write(make())
-
         # all or none: a stop or an error between two files puts back those they replaced
         write_files([
             (robot_file, lambda: res.robot.to_toml(robot_file, overwrite=force)),
-            (drives, lambda: text(drives, lambda: drives_toml(res, str(log)))),
-            (summary_file, lambda: text(summary_file, lambda: json.dumps(
-                summary, indent=2, allow_nan=False) + "\n")),
+            (drives, lambda: write_file(drives, drives_toml(res, str(log)), force)),
+            (summary_file, lambda: write_file(summary_file, json.dumps(
+                summary, indent=2, allow_nan=False) + "\n", force)),
             (page, lambda: identify_html(res, summary, page, overwrite=force))])
     last_checkpoint()
     if not quiet:

@@ -52,7 +52,7 @@ from mrnea.cli.sweep import _is_robot
 from mrnea.errors import SizingError
 from mrnea.io import RobotOptions, load_program
 from mrnea.io.gridfile import DEMO_PROGRAM
-from mrnea.io.writer import check_new, create, own_folder
+from mrnea.io.writer import check_new, own_folder, write_file
 from mrnea.robots.sdt_profile import training_program
 
 FILES = ("sizing.csv", "chosen_drives.toml", "sized_robot.toml", "summary.json", "sizing.html")
@@ -68,20 +68,16 @@ def _write(res, folder: Path, force: bool) -> None:
     from mrnea.sizing.html import sizing_html
     from mrnea.sizing.output import chosen_toml, sizing_summary, sizing_table
 
-    def text(path: Path, make) -> None:
-        with create(path, force) as fh:
-            fh.write(make())
-
     csv, drives, robot, summary, page = (folder / f for f in FILES)
-    steps = [(csv, lambda: text(csv, lambda: sizing_table(res).to_csv(index=False)))]
+    steps = [(csv, lambda: write_file(csv, sizing_table(res).to_csv(index=False), force))]
     stale = []  # an earlier run's sized robot, with no drive chosen now: removed
     if res.sized is not None:
-        steps += [(drives, lambda: text(drives, lambda: chosen_toml(res))),
+        steps += [(drives, lambda: write_file(drives, chosen_toml(res), force)),
                   (robot, lambda: res.sized.to_toml(robot, overwrite=force))]
     else:
         stale = [drives, robot]
-    steps += [(summary, lambda: text(summary, lambda: json.dumps(
-                  sizing_summary(res), indent=2, allow_nan=False) + "\n")),
+    steps += [(summary, lambda: write_file(summary, json.dumps(
+                  sizing_summary(res), indent=2, allow_nan=False) + "\n", force)),
               (page, lambda: sizing_html(res, page, overwrite=force))]
     write_files(steps, side_files=stale)
 

@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import csv
 import os
-import re
 import warnings
 from array import array
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from itertools import chain, islice
+from itertools import chain
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +28,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from mrnea import validate
 from mrnea.errors import LogFileError, StateError, listing, quote
-from mrnea.io.source import MAX_CSV_SIZE, float_reads_grammar, line_blocks, parse_number, read_text
+from mrnea.io.source import (
+    MAX_CSV_SIZE,
+    after_line,
+    float_reads_grammar,
+    line_blocks,
+    parse_number,
+    read_text,
+)
 from mrnea.model import Robot
 from mrnea.resources import format_bytes, require_memory
 
@@ -202,9 +208,9 @@ def read_log(path: str | Path, robot: Robot, torque_constant: ArrayLike | None =
                            f"(columns {one + 1} and {header.index(twice, one + 1) + 1})")
     cols = [header.index(c) for c in used]
     _check_units(path, head_row, header_cells, cols, _units(robot, effort, has_rates))
-    head_end = next(islice(re.finditer(r"\r\n?|\n", text), head_row - 1, None), None)
+    head_end = after_line(text, head_row)
     # past the header's line end: else float reads the grammar's numbers
-    strict = head_end is not None and not float_reads_grammar(text, head_end.end())
+    strict = head_end is not None and not float_reads_grammar(text, head_end)
     data, rows = _numbers(path, lines, delimiter, len(header_cells), used, cols, strict)
     if data.shape[0] < MIN_SAMPLES:
         raise LogFileError(f"{path}: {data.shape[0]} data row(s) after the header; a log needs "

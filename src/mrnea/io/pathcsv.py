@@ -23,7 +23,6 @@ from __future__ import annotations
 import csv
 import io
 import os
-import re
 import warnings
 from array import array
 from collections.abc import Sequence
@@ -37,6 +36,7 @@ from mrnea.errors import PathWarning, ProgramFileError, StateError, quote
 from mrnea.io.jointnames import CsvHeader, column_order
 from mrnea.io.source import (
     MAX_CSV_SIZE,
+    after_line,
     as_path,
     float_reads_grammar,
     line_blocks,
@@ -214,13 +214,13 @@ def _plain_rows(text: str, header_line: int, delimiter: str, columns: int
     ten times faster (a million rows in seconds). Comment lines and line ends of every kind
     (:func:`~mrnea.io.source.text_lines`) are read here too: either sent a million rows row by row
     (18 s, not 6)."""
-    end = next(islice(re.finditer(r"\r\n?|\n", text), header_line - 1, None), None)
-    if end is None or not float_reads_grammar(text, end.end()):  # past the header's line end
+    end = after_line(text, header_line)
+    if end is None or not float_reads_grammar(text, end):  # past the header's line end
         return None
     values = array("d")
     rows = 0
     try:
-        for block in line_blocks(text, end.end()):
+        for block in line_blocks(text, end):
             for line in filter(None, block):  # blank lines at once (a file of them)
                 if (kept := line.strip(" \t")) and not kept.startswith("#"):  # as _rows skips
                     cells = line.split() if delimiter == " " else line.split(delimiter)

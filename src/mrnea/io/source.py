@@ -30,12 +30,13 @@ import os
 import re
 import stat
 from collections.abc import Callable, Iterator
+from itertools import islice
 from pathlib import Path
 from xml.parsers import expat
 
 from mrnea.errors import MrneaError, quote
 
-__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "as_path", "expand_home", "line_blocks",
+__all__ = ["MAX_CSV_SIZE", "MAX_FILE_SIZE", "after_line", "as_path", "expand_home", "line_blocks",
            "parse_number", "read_bytes", "read_text", "refused_prolog", "text_lines"]
 
 MAX_FILE_SIZE = 16 * 2**20
@@ -178,6 +179,13 @@ def text_lines(text: str, pos: int = 0) -> Iterator[str]:
         pos = end.end()
     if pos < len(text):
         yield text[pos:]
+
+
+def after_line(text: str, line: int) -> int | None:
+    """The offset in ``text`` just past line ``line``'s end (1-based; line ends as in
+    :func:`text_lines`), or None where that line has no end (the last line, or beyond)."""
+    end = next(islice(_LINE_END.finditer(text), line - 1, None), None)
+    return None if end is None else end.end()
 
 
 def line_blocks(text: str, pos: int = 0, size: int = 2**20) -> Iterator[list[str]]:

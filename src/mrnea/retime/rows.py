@@ -248,14 +248,20 @@ def static_check(robot: Robot, need: NDArray, t: NDArray, margin: float) -> None
                       f"; pass a margin above {r:.3f}")
 
 
+def speed_limit(robot: Robot) -> NDArray:
+    """Per joint, the fastest it may move [rad/s | m/s]: its velocity limit, or its
+    torque-speed curve's no-load speed where that is lower."""
+    no_load = np.array([np.inf if c is None else c[2] for c in robot.torque_speed])
+    return np.minimum(robot.velocity_limit, no_load)
+
+
 def motion_check(robot: Robot, step: NDArray, t: NDArray) -> None:
     """Raise :class:`~mrnea.errors.NoTimingError` where the path moves a joint whose speed limit
     is 0 (its velocity limit, or its torque-speed curve's no-load speed): no timing makes that
     motion (a velocity limit of 0 had read as "it can be made arbitrarily fast", or the
     time-optimal profile stopping between two grid points). ``step`` (K, n): any measure of the
     path's motion per row (only its nonzero entries matter); ``t`` (K,) [s] its instants."""
-    no_load = np.array([np.inf if c is None else c[2] for c in robot.torque_speed])
-    stuck = (step != 0) & (np.minimum(robot.velocity_limit, no_load) == 0)
+    stuck = (step != 0) & (speed_limit(robot) == 0)
     if stuck.any():
         k, i = np.argwhere(stuck)[0]
         raise NoTimingError(f"joint {robot.joint_names[i]!r} may not move (its speed limit is "

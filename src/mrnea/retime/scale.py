@@ -46,7 +46,7 @@ from mrnea.errors import NoTimingError, RetimeError, StateError
 from mrnea.model import Robot
 from mrnea.retime.job import Job, peak_ratio
 from mrnea.retime.path import friction_pair, piece_rows, piece_spline
-from mrnea.retime.rows import holding_need, motion_check, static_check
+from mrnea.retime.rows import holding_need, motion_check, speed_limit, static_check
 from mrnea.trajectory import require_path_memory
 
 if TYPE_CHECKING:
@@ -141,13 +141,11 @@ def scale_estimate(robot: Robot, q: NDArray, dt: float, f_ext: Any = None,
     f_ext, f_ext_point = validate.program_wrench(robot, f_ext, f_ext_point, K)
     t0 = validate.real(t0, "t0")
     h = hollerbach(robot, q, dt, f_ext, f_ext_point)
-    static_check(robot, holding_need(robot, h.c, h.direction, h.direction != 0),
-                 t0 + np.arange(q.shape[0]) * dt, 1.0)
-    t = t0 + np.arange(q.shape[0]) * dt
+    t = t0 + np.arange(q.shape[0]) * dt  # the program's instants, for messages
+    static_check(robot, holding_need(robot, h.c, h.direction, h.direction != 0), t, 1.0)
     motion_check(robot, h.qd, t)
-    no_load = np.array([np.inf if c is None else c[2] for c in robot.torque_speed])
     speed = np.abs(h.qd)  # a joint at rest has no speed to limit (0/0 was NaN)
-    y_vel = float(np.min(np.divide(np.minimum(robot.velocity_limit, no_load), speed,
+    y_vel = float(np.min(np.divide(speed_limit(robot), speed,
                                    out=np.full(speed.shape, np.inf), where=speed > 0)))
 
     def first_exit(L: NDArray) -> float:
